@@ -1,0 +1,17 @@
+//! volasso: image-centric direct volume rendering (Khan, Ksantini & Guan), on a touch kiosk.
+//!
+//! The pipeline is a chain of plain data types and pure functions, one module per stage of the
+//! paper:
+//!
+//! ```text
+//! volume (load, mmap) -> slices (entropy, §3.1) -> strokes (lassos, §3.2) -> features (§3.3)
+//!   -> classify (SN-SVM, §3.4) -> transfer (harmonic colour, §3.5) -> render (wgpu)
+//! ```
+//!
+//! The command line (`cli`) and, later, the UI and input layers call the pipeline; the pipeline
+//! never knows about them.
+
+pub mod cli;
+pub mod volume;
+
+pub use volume::{Volume, VolumeError, VoxelType};

@@ -1,0 +1,1 @@
+//! placeholder: filled in by the format work of issue 2.

@@ -1,0 +1,546 @@
+//! Volumes: a regular 3-D grid of scalar voxels, memory-mapped from local storage.
+//!
+//! A [`Volume`] knows its dimensions, physical spacing, scalar type and byte order, and where its
+//! voxel bytes live ([`VoxelBytes`]: a memory map of the file whenever the encoding allows it,
+//! owned bytes for generated or decoded data). Voxel order everywhere is x fastest, then y, then
+//! z (`interfaces.md`). Values are read on demand and converted to `f32`/`f64` there, so a 16-bit
+//! big-endian file at an odd offset is as usable as a native `u8` one, and nothing is copied.
+//!
+//! Entry point: [`open`] (any supported file or folder, see [`open::OpenOptions`]).
+//! Readers live beside this file, one per format; [`cache`] turns compressed files and DICOM
+//! series into mappable NRRD files once.
+//!
+//! Never: decides what a voxel means (that is `features`), or writes anywhere but the cache
+//! folder and the paths it is given.
+
+pub mod cache;
+pub mod dicom;
+pub mod error;
+pub mod metaimage;
+pub mod nifti;
+pub mod nrrd;
+pub mod open;
+pub mod raw;
+pub mod storage;
+
+pub use error::VolumeError;
+pub use open::{OpenOptions, open};
+pub use storage::VoxelBytes;
+
+use rayon::prelude::*;
+use std::path::{Path, PathBuf};
+
+/// The scalar type of one voxel, as stored.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum VoxelType {
+    U8,
+    I8,
+    U16,
+    I16,
+    U32,
+    I32,
+    F32,
+    F64,
+}
+
+impl VoxelType {
+    /// Every type, in the order of the Open SciVis names.
+    pub const ALL: [VoxelType; 8] = [
+        VoxelType::U8,
+        VoxelType::I8,
+        VoxelType::U16,
+        VoxelType::I16,
+        VoxelType::U32,
+        VoxelType::I32,
+        VoxelType::F32,
+        VoxelType::F64,
+    ];
+
+    /// Bytes per voxel.
+    pub fn size_bytes(self) -> usize {
+        match self {
+            VoxelType::U8 | VoxelType::I8 => 1,
+            VoxelType::U16 | VoxelType::I16 => 2,
+            VoxelType::U32 | VoxelType::I32 | VoxelType::F32 => 4,
+            VoxelType::F64 => 8,
+        }
+    }
+
+    /// The Open SciVis / NRRD canonical name (`uint8`, `int16`, `float32`, ...).
+    pub fn name(self) -> &'static str {
+        match self {
+            VoxelType::U8 => "uint8",
+            VoxelType::I8 => "int8",
+            VoxelType::U16 => "uint16",
+            VoxelType::I16 => "int16",
+            VoxelType::U32 => "uint32",
+            VoxelType::I32 => "int32",
+            VoxelType::F32 => "float32",
+            VoxelType::F64 => "float64",
+        }
+    }
+
+    /// Parses the Open SciVis names (`uint8` ... `float64`) used in raw file names and `--type`.
+    pub fn from_name(name: &str) -> Option<VoxelType> {
+        VoxelType::ALL.into_iter().find(|t| t.name() == name)
+    }
+
+    /// Floating-point types may hold NaN or infinities; integer types cannot.
+    pub fn is_float(self) -> bool {
+        matches!(self, VoxelType::F32 | VoxelType::F64)
+    }
+}
+
+/// Byte order of multi-byte voxels in storage.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum ByteOrder {
+    Little,
+    Big,
+}
+
+/// A linear map from stored values to physical values (NIfTI `scl_slope`/`scl_inter`, DICOM
+/// rescale). `value = stored * slope + intercept`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValueScale {
+    pub slope: f64,
+    pub intercept: f64,
+}
+
+impl ValueScale {
+    pub const IDENTITY: ValueScale = ValueScale {
+        slope: 1.0,
+        intercept: 0.0,
+    };
+
+    pub fn is_identity(&self) -> bool {
+        self.slope == 1.0 && self.intercept == 0.0
+    }
+}
+
+/// The smallest and largest finite value, and how many voxels were not finite (NaN, inf).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ValueRange {
+    pub min: f64,
+    pub max: f64,
+    pub non_finite_voxels: u64,
+}
+
+/// A regular 3-D scalar volume. Cheap to share behind an `Arc`; reading is `&self` and
+/// thread-safe.
+#[derive(Debug)]
+pub struct Volume {
+    /// Voxels along x, y, z.
+    pub dims: [usize; 3],
+    /// Distance between voxel centres along x, y, z, in millimetres (or the file's unit).
+    pub spacing_mm: [f64; 3],
+    pub voxel_type: VoxelType,
+    pub byte_order: ByteOrder,
+    /// Applied to every stored value on read.
+    pub scale: ValueScale,
+    /// Where the data came from (the file the user named, not the cache file).
+    pub source: PathBuf,
+    bytes: VoxelBytes,
+    range: ValueRange,
+}
+
+impl Volume {
+    /// Builds a volume over `bytes`, checking that they hold exactly `dims` voxels of
+    /// `voxel_type`, and computes the value range (one parallel pass).
+    pub fn new(
+        dims: [usize; 3],
+        spacing_mm: [f64; 3],
+        voxel_type: VoxelType,
+        byte_order: ByteOrder,
+        scale: ValueScale,
+        bytes: VoxelBytes,
+        source: &Path,
+    ) -> Result<Volume, VolumeError> {
+        let voxel_count = checked_voxel_count(dims, voxel_type, source)?;
+        let expected = voxel_count * voxel_type.size_bytes();
+        if bytes.len() != expected {
+            return Err(VolumeError::DataSize {
+                expected,
+                found: bytes.len(),
+                path: source.to_path_buf(),
+            });
+        }
+        for (axis, s) in spacing_mm.iter().enumerate() {
+            if !(s.is_finite() && *s > 0.0) {
+                return Err(VolumeError::BadSpacing {
+                    axis,
+                    value: *s,
+                    path: source.to_path_buf(),
+                });
+            }
+        }
+        if !(scale.slope.is_finite() && scale.intercept.is_finite() && scale.slope != 0.0) {
+            return Err(VolumeError::Header {
+                field: "value scale".into(),
+                problem: format!(
+                    "slope {} and intercept {} must be finite, slope non-zero",
+                    scale.slope, scale.intercept
+                ),
+                path: source.to_path_buf(),
+            });
+        }
+        let mut volume = Volume {
+            dims,
+            spacing_mm,
+            voxel_type,
+            byte_order,
+            scale,
+            source: source.to_path_buf(),
+            bytes,
+            range: ValueRange {
+                min: 0.0,
+                max: 0.0,
+                non_finite_voxels: 0,
+            },
+        };
+        volume.range = volume.compute_range();
+        Ok(volume)
+    }
+
+    /// Builds an in-memory volume from `f32` values (x fastest), stored as `float32`.
+    pub fn from_f32(
+        dims: [usize; 3],
+        spacing_mm: [f64; 3],
+        values: &[f32],
+        source: &Path,
+    ) -> Result<Volume, VolumeError> {
+        let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
+        Volume::new(
+            dims,
+            spacing_mm,
+            VoxelType::F32,
+            ByteOrder::Little,
+            ValueScale::IDENTITY,
+            VoxelBytes::Owned(bytes),
+            source,
+        )
+    }
+
+    /// Number of voxels.
+    pub fn voxel_count(&self) -> usize {
+        self.dims[0] * self.dims[1] * self.dims[2]
+    }
+
+    /// Index of voxel (x, y, z) in x-fastest order.
+    #[inline]
+    pub fn index(&self, x: usize, y: usize, z: usize) -> usize {
+        x + self.dims[0] * (y + self.dims[1] * z)
+    }
+
+    /// The range of physical values, computed once when the volume was opened.
+    pub fn value_range(&self) -> ValueRange {
+        self.range
+    }
+
+    /// True when the bytes are a memory map of a file (not a copy in RAM).
+    pub fn is_memory_mapped(&self) -> bool {
+        self.bytes.is_mapped()
+    }
+
+    /// The stored bytes, as they are in the file.
+    pub fn raw_bytes(&self) -> &[u8] {
+        self.bytes.as_slice()
+    }
+
+    /// The physical value of voxel `index` (x-fastest). Panics when `index` is out of range,
+    /// like slice indexing: callers iterate over `0..voxel_count()`.
+    #[inline]
+    pub fn value(&self, index: usize) -> f64 {
+        let stored = read_stored(
+            self.bytes.as_slice(),
+            self.voxel_type,
+            self.byte_order,
+            index,
+        );
+        stored * self.scale.slope + self.scale.intercept
+    }
+
+    /// The physical value at (x, y, z).
+    #[inline]
+    pub fn value_at(&self, x: usize, y: usize, z: usize) -> f64 {
+        self.value(self.index(x, y, z))
+    }
+
+    /// Converts voxels `start..start + out.len()` to physical `f32` values into `out`.
+    /// This is how whole-volume passes read: a slab at a time, into a reused buffer.
+    pub fn read_f32(&self, start: usize, out: &mut [f32]) {
+        let bytes = self.bytes.as_slice();
+        let (slope, intercept) = (self.scale.slope, self.scale.intercept);
+        let identity = self.scale.is_identity();
+        macro_rules! convert {
+            ($t:ty, $n:expr) => {{
+                let src = &bytes[start * $n..(start + out.len()) * $n];
+                for (o, chunk) in out.iter_mut().zip(src.chunks_exact($n)) {
+                    let mut raw = [0u8; $n];
+                    raw.copy_from_slice(chunk);
+                    let v = match self.byte_order {
+                        ByteOrder::Little => <$t>::from_le_bytes(raw),
+                        ByteOrder::Big => <$t>::from_be_bytes(raw),
+                    } as f64;
+                    *o = if identity {
+                        v as f32
+                    } else {
+                        (v * slope + intercept) as f32
+                    };
+                }
+            }};
+        }
+        match self.voxel_type {
+            VoxelType::U8 => {
+                let src = &bytes[start..start + out.len()];
+                for (o, &b) in out.iter_mut().zip(src) {
+                    *o = if identity {
+                        b as f32
+                    } else {
+                        (b as f64 * slope + intercept) as f32
+                    };
+                }
+            }
+            VoxelType::I8 => convert!(i8, 1),
+            VoxelType::U16 => convert!(u16, 2),
+            VoxelType::I16 => convert!(i16, 2),
+            VoxelType::U32 => convert!(u32, 4),
+            VoxelType::I32 => convert!(i32, 4),
+            VoxelType::F32 => convert!(f32, 4),
+            VoxelType::F64 => convert!(f64, 8),
+        }
+    }
+
+    /// Physical `f32` values of z-slice `z` (dims[0] * dims[1] values).
+    pub fn read_z_slice_f32(&self, z: usize, out: &mut [f32]) {
+        let plane = self.dims[0] * self.dims[1];
+        self.read_f32(z * plane, &mut out[..plane]);
+    }
+
+    fn compute_range(&self) -> ValueRange {
+        let plane = self.dims[0] * self.dims[1];
+        let (min, max, non_finite) = (0..self.dims[2])
+            .into_par_iter()
+            .map_init(
+                || vec![0f32; plane],
+                |buffer, z| {
+                    self.read_z_slice_f32(z, buffer);
+                    let mut min = f64::INFINITY;
+                    let mut max = f64::NEG_INFINITY;
+                    let mut non_finite = 0u64;
+                    if self.voxel_type.is_float() || !self.scale.is_identity() {
+                        for index in z * plane..(z + 1) * plane {
+                            let v = self.value(index);
+                            if v.is_finite() {
+                                min = min.min(v);
+                                max = max.max(v);
+                            } else {
+                                non_finite += 1;
+                            }
+                        }
+                    } else {
+                        // Integer data without scaling converts to f32 exactly up to 2^24 and
+                        // the buffer read is vectorised; the rare wider values are re-read exactly.
+                        for &v in buffer.iter() {
+                            min = min.min(v as f64);
+                            max = max.max(v as f64);
+                        }
+                        if matches!(self.voxel_type, VoxelType::U32 | VoxelType::I32) {
+                            for index in z * plane..(z + 1) * plane {
+                                let v = self.value(index);
+                                min = min.min(v);
+                                max = max.max(v);
+                            }
+                        }
+                    }
+                    (min, max, non_finite)
+                },
+            )
+            .reduce(
+                || (f64::INFINITY, f64::NEG_INFINITY, 0u64),
+                |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
+            );
+        if min > max {
+            // Every voxel was NaN or infinite.
+            ValueRange {
+                min: 0.0,
+                max: 0.0,
+                non_finite_voxels: non_finite,
+            }
+        } else {
+            ValueRange {
+                min,
+                max,
+                non_finite_voxels: non_finite,
+            }
+        }
+    }
+}
+
+/// Reads stored voxel `index` as `f64`, honouring type and byte order; no alignment needed.
+#[inline]
+fn read_stored(bytes: &[u8], voxel_type: VoxelType, order: ByteOrder, index: usize) -> f64 {
+    macro_rules! read {
+        ($t:ty, $n:expr) => {{
+            let mut raw = [0u8; $n];
+            raw.copy_from_slice(&bytes[index * $n..index * $n + $n]);
+            (match order {
+                ByteOrder::Little => <$t>::from_le_bytes(raw),
+                ByteOrder::Big => <$t>::from_be_bytes(raw),
+            }) as f64
+        }};
+    }
+    match voxel_type {
+        VoxelType::U8 => bytes[index] as f64,
+        VoxelType::I8 => bytes[index] as i8 as f64,
+        VoxelType::U16 => read!(u16, 2),
+        VoxelType::I16 => read!(i16, 2),
+        VoxelType::U32 => read!(u32, 4),
+        VoxelType::I32 => read!(i32, 4),
+        VoxelType::F32 => read!(f32, 4),
+        VoxelType::F64 => read!(f64, 8),
+    }
+}
+
+/// The number of voxels, refusing zero and overflowing dimensions.
+pub fn checked_voxel_count(
+    dims: [usize; 3],
+    voxel_type: VoxelType,
+    path: &Path,
+) -> Result<usize, VolumeError> {
+    if dims.contains(&0) {
+        return Err(VolumeError::BadDimensions {
+            dims: dims.map(|d| d as u64),
+            problem: "a dimension is zero",
+            path: path.to_path_buf(),
+        });
+    }
+    dims.iter()
+        .try_fold(1usize, |acc, &d| acc.checked_mul(d))
+        .and_then(|n| n.checked_mul(voxel_type.size_bytes()).map(|_| n))
+        .filter(|&n| n <= isize::MAX as usize / 8)
+        .ok_or_else(|| VolumeError::BadDimensions {
+            dims: dims.map(|d| d as u64),
+            problem: "the voxel count overflows",
+            path: path.to_path_buf(),
+        })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn volume_from(
+        bytes: Vec<u8>,
+        voxel_type: VoxelType,
+        order: ByteOrder,
+        dims: [usize; 3],
+    ) -> Volume {
+        Volume::new(
+            dims,
+            [1.0; 3],
+            voxel_type,
+            order,
+            ValueScale::IDENTITY,
+            VoxelBytes::Owned(bytes),
+            Path::new("test"),
+        )
+        .unwrap()
+    }
+
+    #[test]
+    fn reads_every_type_in_both_byte_orders() {
+        let values = [-3.0f64, 0.0, 7.0, 100.0];
+        for voxel_type in VoxelType::ALL {
+            for order in [ByteOrder::Little, ByteOrder::Big] {
+                let mut bytes = Vec::new();
+                for &v in &values {
+                    let v = if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32)
+                    {
+                        v.abs()
+                    } else {
+                        v
+                    };
+                    let le: Vec<u8> = match voxel_type {
+                        VoxelType::U8 => vec![v as u8],
+                        VoxelType::I8 => vec![v as i8 as u8],
+                        VoxelType::U16 => (v as u16).to_le_bytes().to_vec(),
+                        VoxelType::I16 => (v as i16).to_le_bytes().to_vec(),
+                        VoxelType::U32 => (v as u32).to_le_bytes().to_vec(),
+                        VoxelType::I32 => (v as i32).to_le_bytes().to_vec(),
+                        VoxelType::F32 => (v as f32).to_le_bytes().to_vec(),
+                        VoxelType::F64 => v.to_le_bytes().to_vec(),
+                    };
+                    bytes.extend(if order == ByteOrder::Big {
+                        le.into_iter().rev().collect::<Vec<_>>()
+                    } else {
+                        le
+                    });
+                }
+                let volume = volume_from(bytes, voxel_type, order, [2, 2, 1]);
+                let mut out = [0f32; 4];
+                volume.read_f32(0, &mut out);
+                for (i, &v) in values.iter().enumerate() {
+                    let expected =
+                        if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32) {
+                            v.abs()
+                        } else {
+                            v
+                        };
+                    assert_eq!(volume.value(i), expected, "{voxel_type:?} {order:?}");
+                    assert_eq!(out[i] as f64, expected, "{voxel_type:?} {order:?}");
+                }
+            }
+        }
+    }
+
+    #[test]
+    fn value_range_applies_the_scale_and_skips_non_finite_values() {
+        let bytes: Vec<u8> = [1.0f32, f32::NAN, 5.0, f32::INFINITY]
+            .iter()
+            .flat_map(|v| v.to_le_bytes())
+            .collect();
+        let volume = Volume::new(
+            [4, 1, 1],
+            [1.0; 3],
+            VoxelType::F32,
+            ByteOrder::Little,
+            ValueScale {
+                slope: 2.0,
+                intercept: -1.0,
+            },
+            VoxelBytes::Owned(bytes),
+            Path::new("t"),
+        )
+        .unwrap();
+        let range = volume.value_range();
+        assert_eq!(
+            (range.min, range.max, range.non_finite_voxels),
+            (1.0, 9.0, 2)
+        );
+    }
+
+    #[test]
+    fn refuses_wrong_sizes_zero_and_overflowing_dimensions() {
+        let err = Volume::new(
+            [2, 2, 2],
+            [1.0; 3],
+            VoxelType::U16,
+            ByteOrder::Little,
+            ValueScale::IDENTITY,
+            VoxelBytes::Owned(vec![0; 15]),
+            Path::new("t"),
+        );
+        assert!(matches!(
+            err,
+            Err(VolumeError::DataSize {
+                expected: 16,
+                found: 15,
+                ..
+            })
+        ));
+        assert!(checked_voxel_count([0, 5, 5], VoxelType::U8, Path::new("t")).is_err());
+        assert!(
+            checked_voxel_count([usize::MAX / 2, 4, 1], VoxelType::U8, Path::new("t")).is_err()
+        );
+    }
+}
