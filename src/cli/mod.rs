@@ -1,4 +1,65 @@
-//! placeholder
-pub fn main() -> std::process::ExitCode {
-    std::process::ExitCode::SUCCESS
+//! The `volasso` command line (`interfaces.md`): parse, run one subcommand, report the one error.
+//!
+//! Each subcommand lives in its own file and calls the pipeline; this module only dispatches,
+//! sets up logging and turns an error into one sentence on stderr with a non-zero status.
+
+mod args;
+mod import;
+mod info;
+mod memory;
+
+pub use args::{Cli, Command, VolumeArgs};
+
+use clap::Parser;
+use std::process::ExitCode;
+
+/// Everything a subcommand can fail with, each variant one pipeline stage's error.
+#[derive(Debug, thiserror::Error)]
+pub enum CliError {
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    #[error("{0}")]
+    Usage(String),
+    #[error("cannot write {}: {source}", path.display())]
+    Output { source: std::io::Error, path: std::path::PathBuf },
+}
+
+/// Runs the command line with the process's arguments.
+pub fn main() -> ExitCode {
+    let cli = Cli::parse();
+    init_logging(cli.verbose);
+    match run(cli) {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(error) => {
+            eprintln!("volasso: error: {error}");
+            ExitCode::FAILURE
+        }
+    }
+}
+
+/// Runs one parsed command line.
+pub fn run(cli: Cli) -> Result<(), CliError> {
+    match cli.command {
+        Some(Command::Info(args)) => info::run(&args),
+        Some(Command::Import(args)) => import::run(&args),
+        None => Err(CliError::Usage(
+            "the kiosk UI is not part of this build yet; try `volasso info demo` or `volasso --help`".into(),
+        )),
+    }
+}
+
+fn init_logging(verbose: u8) {
+    let level = match verbose {
+        0 => "warn",
+        1 => "info",
+        _ => "debug",
+    };
+    let _ = env_logger::Builder::from_env(env_logger::Env::default().default_filter_or(level))
+        .format_timestamp(None)
+        .try_init();
+}
+
+/// Opens the volume a subcommand names.
+pub fn open_volume(path: &std::path::Path, args: &VolumeArgs) -> Result<crate::volume::Volume, CliError> {
+    Ok(crate::volume::open(path, &args.open_options())?)
 }

@@ -6,47 +6,21 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
     #[error("cannot read {}: {source}", path.display())]
-    Io {
-        source: std::io::Error,
-        path: PathBuf,
-    },
+    Io { source: std::io::Error, path: PathBuf },
     #[error("header field '{field}' is invalid: {problem}, in {}", path.display())]
-    Header {
-        field: String,
-        problem: String,
-        path: PathBuf,
-    },
+    Header { field: String, problem: String, path: PathBuf },
     #[error("header lacks the required field '{field}', in {}", path.display())]
     MissingField { field: &'static str, path: PathBuf },
     #[error("unsupported {what} '{value}', in {}", path.display())]
-    Unsupported {
-        what: &'static str,
-        value: String,
-        path: PathBuf,
-    },
+    Unsupported { what: &'static str, value: String, path: PathBuf },
     #[error("dimensions {}x{}x{} are invalid: {problem}, in {}", dims[0], dims[1], dims[2], path.display())]
-    BadDimensions {
-        dims: [u64; 3],
-        problem: &'static str,
-        path: PathBuf,
-    },
+    BadDimensions { dims: [u64; 3], problem: &'static str, path: PathBuf },
     #[error("voxel spacing {value} along axis {axis} is not a positive finite number, in {}", path.display())]
-    BadSpacing {
-        axis: usize,
-        value: f64,
-        path: PathBuf,
-    },
+    BadSpacing { axis: usize, value: f64, path: PathBuf },
     #[error("the header promises {expected} bytes of voxel data but {found} are there (truncated or lying file), in {}", path.display())]
-    DataSize {
-        expected: usize,
-        found: usize,
-        path: PathBuf,
-    },
+    DataSize { expected: usize, found: usize, path: PathBuf },
     #[error("gzip data is corrupt or truncated ({source}), in {}", path.display())]
-    Decompress {
-        source: std::io::Error,
-        path: PathBuf,
-    },
+    Decompress { source: std::io::Error, path: PathBuf },
     #[error("cannot tell the format of {}: {hint}", path.display())]
     UnknownFormat { hint: String, path: PathBuf },
     #[error("DICOM: {problem}, in {}", path.display())]
@@ -56,22 +30,11 @@ pub enum VolumeError {
 impl VolumeError {
     /// Wraps an I/O error with the path it happened on.
     pub fn io(source: std::io::Error, path: impl Into<PathBuf>) -> VolumeError {
-        VolumeError::Io {
-            source,
-            path: path.into(),
-        }
+        VolumeError::Io { source, path: path.into() }
     }
 
     /// A header field with a bad value.
-    pub fn header(
-        field: impl Into<String>,
-        problem: impl Into<String>,
-        path: impl Into<PathBuf>,
-    ) -> VolumeError {
-        VolumeError::Header {
-            field: field.into(),
-            problem: problem.into(),
-            path: path.into(),
-        }
+    pub fn header(field: impl Into<String>, problem: impl Into<String>, path: impl Into<PathBuf>) -> VolumeError {
+        VolumeError::Header { field: field.into(), problem: problem.into(), path: path.into() }
     }
 }

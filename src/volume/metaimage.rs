@@ -1,1 +1,262 @@
-//! placeholder: filled in by the format work of issue 2.
+//! MetaImage (ITK): `.mha` (header and data in one file) and `.mhd` (header, data in a file it
+//! names).
+//!
+//! The header is `Key = Value` lines ending with `ElementDataFile`. Raw data is
+//! memory-mapped; `CompressedData = True` (zlib) is decompressed for the caller to cache.
+//!
+//! Never: reads multi-channel images (`ElementNumberOfChannels` > 1) or lists of slice files.
+
+use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
+use std::io::Read;
+use std::path::{Path, PathBuf};
+
+/// A parsed MetaImage header.
+#[derive(Clone, Debug, PartialEq)]
+pub struct MetaImageHeader {
+    pub dims: [usize; 3],
+    pub spacing_mm: [f64; 3],
+    pub voxel_type: VoxelType,
+    pub byte_order: ByteOrder,
+    pub compressed: bool,
+    /// `None` for `LOCAL` (data follows the header in the same file).
+    pub data_file: Option<PathBuf>,
+    /// Bytes to skip in the data file; `None` for `HeaderSize = -1` (the data ends the file).
+    pub header_size: Option<u64>,
+    /// Where the header ends (local data starts here).
+    pub header_length: usize,
+}
+
+/// Parses the MetaImage header at the start of `bytes`.
+pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, VolumeError> {
+    let mut fields: Vec<(String, String)> = Vec::new();
+    let mut position = 0usize;
+    let mut header_length = None;
+    while position < bytes.len() {
+        let end = bytes[position..].iter().position(|&b| b == b'\n').map_or(bytes.len(), |i| position + i);
+        let line = &bytes[position..end];
+        position = (end + 1).min(bytes.len());
+        let Ok(line) = std::str::from_utf8(line) else {
+            return Err(VolumeError::UnknownFormat {
+                hint: "a MetaImage header line is not text".into(),
+                path: path.to_path_buf(),
+            });
+        };
+        let line = line.trim();
+        if line.is_empty() {
+            continue;
+        }
+        let Some((key, value)) = line.split_once('=') else {
+            return Err(VolumeError::header(
+                "header",
+                format!("line '{}' is not 'Key = Value'", line.chars().take(60).collect::<String>()),
+                path,
+            ));
+        };
+        let key = key.trim().to_string();
+        let is_last = key == "ElementDataFile";
+        fields.push((key, value.trim().to_string()));
+        if is_last {
+            header_length = Some(position);
+            break;
+        }
+    }
+    let Some(header_length) = header_length else {
+        return Err(VolumeError::MissingField { field: "ElementDataFile", path: path.to_path_buf() });
+    };
+    let get = |name: &str| fields.iter().find(|(k, _)| k.eq_ignore_ascii_case(name)).map(|(_, v)| v.as_str());
+    let numbers = |name: &'static str| -> Result<Option<Vec<f64>>, VolumeError> {
+        get(name)
+            .map(|v| {
+                v.split_whitespace()
+                    .map(|t| t.parse::<f64>())
+                    .collect::<Result<Vec<_>, _>>()
+                    .map_err(|_| VolumeError::header(name, format!("'{v}' are not numbers"), path))
+            })
+            .transpose()
+    };
+
+    let rank: usize = get("NDims")
+        .ok_or(VolumeError::MissingField { field: "NDims", path: path.to_path_buf() })?
+        .parse()
+        .map_err(|_| VolumeError::header("NDims", "not a whole number", path))?;
+    if !(2..=3).contains(&rank) {
+        return Err(VolumeError::Unsupported {
+            what: "MetaImage NDims (2 or 3 supported)",
+            value: rank.to_string(),
+            path: path.to_path_buf(),
+        });
+    }
+    let sizes = numbers("DimSize")?.ok_or(VolumeError::MissingField { field: "DimSize", path: path.to_path_buf() })?;
+    if sizes.len() != rank || sizes.iter().any(|&s| s.fract() != 0.0 || !(0.0..=1e12).contains(&s)) {
+        return Err(VolumeError::header("DimSize", format!("{sizes:?} are not {rank} whole sizes"), path));
+    }
+    let mut dims = [1usize; 3];
+    for (d, s) in dims.iter_mut().zip(&sizes) {
+        *d = *s as usize;
+    }
+    let element_type =
+        get("ElementType").ok_or(VolumeError::MissingField { field: "ElementType", path: path.to_path_buf() })?;
+    let voxel_type = match element_type {
+        "MET_UCHAR" => VoxelType::U8,
+        "MET_CHAR" => VoxelType::I8,
+        "MET_USHORT" => VoxelType::U16,
+        "MET_SHORT" => VoxelType::I16,
+        "MET_UINT" => VoxelType::U32,
+        "MET_INT" => VoxelType::I32,
+        "MET_FLOAT" => VoxelType::F32,
+        "MET_DOUBLE" => VoxelType::F64,
+        other => {
+            return Err(VolumeError::Unsupported {
+                what: "MetaImage ElementType",
+                value: other.to_string(),
+                path: path.to_path_buf(),
+            });
+        }
+    };
+    checked_voxel_count(dims, voxel_type, path)?;
+    if let Some(channels) = get("ElementNumberOfChannels")
+        && channels != "1"
+    {
+        return Err(VolumeError::Unsupported {
+            what: "MetaImage ElementNumberOfChannels",
+            value: channels.to_string(),
+            path: path.to_path_buf(),
+        });
+    }
+    let mut spacing_mm = [1.0; 3];
+    if let Some(spacing) = numbers("ElementSpacing")?.or(numbers("ElementSize")?) {
+        if spacing.len() != rank {
+            return Err(VolumeError::header(
+                "ElementSpacing",
+                format!("{} values for NDims {rank}", spacing.len()),
+                path,
+            ));
+        }
+        spacing_mm[..rank].copy_from_slice(&spacing);
+    }
+    let msb = get("BinaryDataByteOrderMSB").or(get("ElementByteOrderMSB")).unwrap_or("False");
+    let byte_order = if msb.eq_ignore_ascii_case("true") { ByteOrder::Big } else { ByteOrder::Little };
+    let compressed = get("CompressedData").is_some_and(|v| v.eq_ignore_ascii_case("true"));
+    let data_file = match get("ElementDataFile").unwrap_or("LOCAL") {
+        "LOCAL" | "Local" | "local" => None,
+        value if value.starts_with("LIST") || value.contains('%') || value.split_whitespace().count() > 1 => {
+            return Err(VolumeError::Unsupported {
+                what: "MetaImage ElementDataFile list",
+                value: value.to_string(),
+                path: path.to_path_buf(),
+            });
+        }
+        value => Some(PathBuf::from(value)),
+    };
+    let header_size = match get("HeaderSize") {
+        None => Some(0),
+        Some("-1") => None,
+        Some(v) => Some(
+            v.parse::<u64>()
+                .map_err(|_| VolumeError::header("HeaderSize", format!("'{v}' is not -1 or a whole number"), path))?,
+        ),
+    };
+    Ok(MetaImageHeader { dims, spacing_mm, voxel_type, byte_order, compressed, data_file, header_size, header_length })
+}
+
+/// What reading a MetaImage produced; `decoded` marks compressed data the caller should cache.
+pub struct MetaImageRead {
+    pub volume: Volume,
+    pub decoded: bool,
+}
+
+/// Reads a `.mha` or `.mhd`.
+pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
+    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
+    let mut head = Vec::new();
+    file.take(1 << 16).read_to_end(&mut head).map_err(|e| VolumeError::io(e, path))?;
+    let header = parse_header(&head, path)?;
+    let (data_path, base) = match &header.data_file {
+        Some(name) => (path.parent().unwrap_or(Path::new(".")).join(name), 0u64),
+        None => (path.to_path_buf(), header.header_length as u64),
+    };
+    let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
+    if header.compressed {
+        let mut compressed = Vec::new();
+        let mut file = std::fs::File::open(&data_path).map_err(|e| VolumeError::io(e, &data_path))?;
+        std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(base + header.header_size.unwrap_or(0)))
+            .map_err(|e| VolumeError::io(e, &data_path))?;
+        file.read_to_end(&mut compressed).map_err(|e| VolumeError::io(e, &data_path))?;
+        let mut data = Vec::with_capacity(length);
+        flate2::read::ZlibDecoder::new(&compressed[..])
+            .take(length as u64)
+            .read_to_end(&mut data)
+            .map_err(|e| VolumeError::Decompress { source: e, path: data_path.clone() })?;
+        if data.len() < length {
+            return Err(VolumeError::DataSize { expected: length, found: data.len(), path: data_path });
+        }
+        let volume = Volume::new(
+            header.dims,
+            header.spacing_mm,
+            header.voxel_type,
+            header.byte_order,
+            ValueScale::IDENTITY,
+            VoxelBytes::Owned(data),
+            path,
+        )?;
+        return Ok(MetaImageRead { volume, decoded: true });
+    }
+    let offset = match header.header_size {
+        Some(skip) => base + skip,
+        None => {
+            let file_len = std::fs::metadata(&data_path).map_err(|e| VolumeError::io(e, &data_path))?.len();
+            file_len.checked_sub(length as u64).ok_or(VolumeError::DataSize {
+                expected: length,
+                found: file_len as usize,
+                path: data_path.clone(),
+            })?
+        }
+    };
+    let bytes = VoxelBytes::map_region(&data_path, offset, length)?;
+    let volume = Volume::new(
+        header.dims,
+        header.spacing_mm,
+        header.voxel_type,
+        header.byte_order,
+        ValueScale::IDENTITY,
+        bytes,
+        path,
+    )?;
+    Ok(MetaImageRead { volume, decoded: false })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const HEADER: &str = "ObjectType = Image\nNDims = 3\nDimSize = 4 3 2\nElementType = MET_SHORT\nElementSpacing = 0.5 0.5 2\nBinaryDataByteOrderMSB = True\nElementDataFile = LOCAL\n";
+
+    #[test]
+    fn parses_a_local_big_endian_header() {
+        let header = parse_header(HEADER.as_bytes(), Path::new("t.mha")).unwrap();
+        assert_eq!(header.dims, [4, 3, 2]);
+        assert_eq!(header.voxel_type, VoxelType::I16);
+        assert_eq!(header.spacing_mm, [0.5, 0.5, 2.0]);
+        assert_eq!(header.byte_order, ByteOrder::Big);
+        assert_eq!(header.data_file, None);
+        assert_eq!(header.header_length, HEADER.len());
+    }
+
+    #[test]
+    fn refuses_bad_headers() {
+        for (name, text) in [
+            ("no data file", HEADER.replace("ElementDataFile = LOCAL\n", "")),
+            ("type", HEADER.replace("MET_SHORT", "MET_LONG_LONG")),
+            ("ndims", HEADER.replace("NDims = 3", "NDims = 5")),
+            ("sizes", HEADER.replace("4 3 2", "4 3")),
+            ("fractional size", HEADER.replace("4 3 2", "4 3.5 2")),
+            ("zero size", HEADER.replace("4 3 2", "4 0 2")),
+            ("spacing", HEADER.replace("0.5 0.5 2", "0.5 x 2")),
+            ("channels", HEADER.replace("ElementDataFile", "ElementNumberOfChannels = 3\nElementDataFile")),
+            ("list", HEADER.replace("LOCAL", "LIST 2D")),
+            ("no equals", HEADER.replace("NDims = 3", "NDims 3")),
+        ] {
+            assert!(parse_header(text.as_bytes(), Path::new("t.mha")).is_err(), "{name} accepted");
+        }
+    }
+}

@@ -107,10 +107,7 @@ pub struct ValueScale {
 }
 
 impl ValueScale {
-    pub const IDENTITY: ValueScale = ValueScale {
-        slope: 1.0,
-        intercept: 0.0,
-    };
+    pub const IDENTITY: ValueScale = ValueScale { slope: 1.0, intercept: 0.0 };
 
     pub fn is_identity(&self) -> bool {
         self.slope == 1.0 && self.intercept == 0.0
@@ -158,19 +155,11 @@ impl Volume {
         let voxel_count = checked_voxel_count(dims, voxel_type, source)?;
         let expected = voxel_count * voxel_type.size_bytes();
         if bytes.len() != expected {
-            return Err(VolumeError::DataSize {
-                expected,
-                found: bytes.len(),
-                path: source.to_path_buf(),
-            });
+            return Err(VolumeError::DataSize { expected, found: bytes.len(), path: source.to_path_buf() });
         }
         for (axis, s) in spacing_mm.iter().enumerate() {
             if !(s.is_finite() && *s > 0.0) {
-                return Err(VolumeError::BadSpacing {
-                    axis,
-                    value: *s,
-                    path: source.to_path_buf(),
-                });
+                return Err(VolumeError::BadSpacing { axis, value: *s, path: source.to_path_buf() });
             }
         }
         if !(scale.slope.is_finite() && scale.intercept.is_finite() && scale.slope != 0.0) {
@@ -191,11 +180,7 @@ impl Volume {
             scale,
             source: source.to_path_buf(),
             bytes,
-            range: ValueRange {
-                min: 0.0,
-                max: 0.0,
-                non_finite_voxels: 0,
-            },
+            range: ValueRange { min: 0.0, max: 0.0, non_finite_voxels: 0 },
         };
         volume.range = volume.compute_range();
         Ok(volume)
@@ -250,12 +235,7 @@ impl Volume {
     /// like slice indexing: callers iterate over `0..voxel_count()`.
     #[inline]
     pub fn value(&self, index: usize) -> f64 {
-        let stored = read_stored(
-            self.bytes.as_slice(),
-            self.voxel_type,
-            self.byte_order,
-            index,
-        );
+        let stored = read_stored(self.bytes.as_slice(), self.voxel_type, self.byte_order, index);
         stored * self.scale.slope + self.scale.intercept
     }
 
@@ -281,11 +261,7 @@ impl Volume {
                         ByteOrder::Little => <$t>::from_le_bytes(raw),
                         ByteOrder::Big => <$t>::from_be_bytes(raw),
                     } as f64;
-                    *o = if identity {
-                        v as f32
-                    } else {
-                        (v * slope + intercept) as f32
-                    };
+                    *o = if identity { v as f32 } else { (v * slope + intercept) as f32 };
                 }
             }};
         }
@@ -293,11 +269,7 @@ impl Volume {
             VoxelType::U8 => {
                 let src = &bytes[start..start + out.len()];
                 for (o, &b) in out.iter_mut().zip(src) {
-                    *o = if identity {
-                        b as f32
-                    } else {
-                        (b as f64 * slope + intercept) as f32
-                    };
+                    *o = if identity { b as f32 } else { (b as f64 * slope + intercept) as f32 };
                 }
             }
             VoxelType::I8 => convert!(i8, 1),
@@ -355,23 +327,12 @@ impl Volume {
                     (min, max, non_finite)
                 },
             )
-            .reduce(
-                || (f64::INFINITY, f64::NEG_INFINITY, 0u64),
-                |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2),
-            );
+            .reduce(|| (f64::INFINITY, f64::NEG_INFINITY, 0u64), |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
         if min > max {
             // Every voxel was NaN or infinite.
-            ValueRange {
-                min: 0.0,
-                max: 0.0,
-                non_finite_voxels: non_finite,
-            }
+            ValueRange { min: 0.0, max: 0.0, non_finite_voxels: non_finite }
         } else {
-            ValueRange {
-                min,
-                max,
-                non_finite_voxels: non_finite,
-            }
+            ValueRange { min, max, non_finite_voxels: non_finite }
         }
     }
 }
@@ -402,11 +363,7 @@ fn read_stored(bytes: &[u8], voxel_type: VoxelType, order: ByteOrder, index: usi
 }
 
 /// The number of voxels, refusing zero and overflowing dimensions.
-pub fn checked_voxel_count(
-    dims: [usize; 3],
-    voxel_type: VoxelType,
-    path: &Path,
-) -> Result<usize, VolumeError> {
+pub fn checked_voxel_count(dims: [usize; 3], voxel_type: VoxelType, path: &Path) -> Result<usize, VolumeError> {
     if dims.contains(&0) {
         return Err(VolumeError::BadDimensions {
             dims: dims.map(|d| d as u64),
@@ -429,12 +386,7 @@ pub fn checked_voxel_count(
 mod tests {
     use super::*;
 
-    fn volume_from(
-        bytes: Vec<u8>,
-        voxel_type: VoxelType,
-        order: ByteOrder,
-        dims: [usize; 3],
-    ) -> Volume {
+    fn volume_from(bytes: Vec<u8>, voxel_type: VoxelType, order: ByteOrder, dims: [usize; 3]) -> Volume {
         Volume::new(
             dims,
             [1.0; 3],
@@ -454,12 +406,8 @@ mod tests {
             for order in [ByteOrder::Little, ByteOrder::Big] {
                 let mut bytes = Vec::new();
                 for &v in &values {
-                    let v = if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32)
-                    {
-                        v.abs()
-                    } else {
-                        v
-                    };
+                    let v =
+                        if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32) { v.abs() } else { v };
                     let le: Vec<u8> = match voxel_type {
                         VoxelType::U8 => vec![v as u8],
                         VoxelType::I8 => vec![v as i8 as u8],
@@ -470,22 +418,14 @@ mod tests {
                         VoxelType::F32 => (v as f32).to_le_bytes().to_vec(),
                         VoxelType::F64 => v.to_le_bytes().to_vec(),
                     };
-                    bytes.extend(if order == ByteOrder::Big {
-                        le.into_iter().rev().collect::<Vec<_>>()
-                    } else {
-                        le
-                    });
+                    bytes.extend(if order == ByteOrder::Big { le.into_iter().rev().collect::<Vec<_>>() } else { le });
                 }
                 let volume = volume_from(bytes, voxel_type, order, [2, 2, 1]);
                 let mut out = [0f32; 4];
                 volume.read_f32(0, &mut out);
                 for (i, &v) in values.iter().enumerate() {
                     let expected =
-                        if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32) {
-                            v.abs()
-                        } else {
-                            v
-                        };
+                        if matches!(voxel_type, VoxelType::U8 | VoxelType::U16 | VoxelType::U32) { v.abs() } else { v };
                     assert_eq!(volume.value(i), expected, "{voxel_type:?} {order:?}");
                     assert_eq!(out[i] as f64, expected, "{voxel_type:?} {order:?}");
                 }
@@ -495,28 +435,19 @@ mod tests {
 
     #[test]
     fn value_range_applies_the_scale_and_skips_non_finite_values() {
-        let bytes: Vec<u8> = [1.0f32, f32::NAN, 5.0, f32::INFINITY]
-            .iter()
-            .flat_map(|v| v.to_le_bytes())
-            .collect();
+        let bytes: Vec<u8> = [1.0f32, f32::NAN, 5.0, f32::INFINITY].iter().flat_map(|v| v.to_le_bytes()).collect();
         let volume = Volume::new(
             [4, 1, 1],
             [1.0; 3],
             VoxelType::F32,
             ByteOrder::Little,
-            ValueScale {
-                slope: 2.0,
-                intercept: -1.0,
-            },
+            ValueScale { slope: 2.0, intercept: -1.0 },
             VoxelBytes::Owned(bytes),
             Path::new("t"),
         )
         .unwrap();
         let range = volume.value_range();
-        assert_eq!(
-            (range.min, range.max, range.non_finite_voxels),
-            (1.0, 9.0, 2)
-        );
+        assert_eq!((range.min, range.max, range.non_finite_voxels), (1.0, 9.0, 2));
     }
 
     #[test]
@@ -530,17 +461,8 @@ mod tests {
             VoxelBytes::Owned(vec![0; 15]),
             Path::new("t"),
         );
-        assert!(matches!(
-            err,
-            Err(VolumeError::DataSize {
-                expected: 16,
-                found: 15,
-                ..
-            })
-        ));
+        assert!(matches!(err, Err(VolumeError::DataSize { expected: 16, found: 15, .. })));
         assert!(checked_voxel_count([0, 5, 5], VoxelType::U8, Path::new("t")).is_err());
-        assert!(
-            checked_voxel_count([usize::MAX / 2, 4, 1], VoxelType::U8, Path::new("t")).is_err()
-        );
+        assert!(checked_voxel_count([usize::MAX / 2, 4, 1], VoxelType::U8, Path::new("t")).is_err());
     }
 }

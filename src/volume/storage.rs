@@ -13,11 +13,7 @@ use std::path::Path;
 #[derive(Debug)]
 pub enum VoxelBytes {
     /// `len` bytes at `offset` of a mapped file.
-    Mapped {
-        map: Mmap,
-        offset: usize,
-        len: usize,
-    },
+    Mapped { map: Mmap, offset: usize, len: usize },
     /// Bytes in RAM (generated volumes, small or decoded data).
     Owned(Vec<u8>),
 }
@@ -30,11 +26,7 @@ impl VoxelBytes {
         let file_len = file.metadata().map_err(|e| VolumeError::io(e, path))?.len();
         let available = file_len.saturating_sub(offset);
         if (len as u64) > available {
-            return Err(VolumeError::DataSize {
-                expected: len,
-                found: available as usize,
-                path: path.to_path_buf(),
-            });
+            return Err(VolumeError::DataSize { expected: len, found: available as usize, path: path.to_path_buf() });
         }
         if len == 0 {
             return Ok(VoxelBytes::Owned(Vec::new()));
@@ -52,17 +44,10 @@ impl VoxelBytes {
                     // Whole-volume passes read front to back; tell the kernel.
                     let _ = map.advise(memmap2::Advice::Sequential);
                 }
-                Ok(VoxelBytes::Mapped {
-                    map,
-                    offset: offset as usize,
-                    len,
-                })
+                Ok(VoxelBytes::Mapped { map, offset: offset as usize, len })
             }
             Err(error) => {
-                log::warn!(
-                    "memory map of {} failed ({error}); reading it into memory instead",
-                    path.display()
-                );
+                log::warn!("memory map of {} failed ({error}); reading it into memory instead", path.display());
                 read_region(file, path, offset, len)
             }
         }
@@ -88,17 +73,10 @@ impl VoxelBytes {
     }
 }
 
-fn read_region(
-    mut file: File,
-    path: &Path,
-    offset: u64,
-    len: usize,
-) -> Result<VoxelBytes, VolumeError> {
+fn read_region(mut file: File, path: &Path, offset: u64, len: usize) -> Result<VoxelBytes, VolumeError> {
     use std::io::{Read, Seek, SeekFrom};
-    file.seek(SeekFrom::Start(offset))
-        .map_err(|e| VolumeError::io(e, path))?;
+    file.seek(SeekFrom::Start(offset)).map_err(|e| VolumeError::io(e, path))?;
     let mut bytes = vec![0u8; len];
-    file.read_exact(&mut bytes)
-        .map_err(|e| VolumeError::io(e, path))?;
+    file.read_exact(&mut bytes).map_err(|e| VolumeError::io(e, path))?;
     Ok(VoxelBytes::Owned(bytes))
 }

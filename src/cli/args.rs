@@ -1,0 +1,121 @@
+//! Command-line arguments as clap types: what the user typed, before any file is touched.
+
+use crate::volume::dicom::{DicomOptions, Resample};
+use crate::volume::{OpenOptions, VoxelType};
+use clap::{Args, Parser, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Debug, Parser)]
+#[command(
+    name = "volasso",
+    version,
+    about = "Image-centric direct volume rendering: lassos on slices, SN-SVM, harmonic colours."
+)]
+pub struct Cli {
+    /// More log output (-v info, -vv debug); RUST_LOG overrides.
+    #[arg(short, long, action = clap::ArgAction::Count, global = true)]
+    pub verbose: u8,
+    #[command(subcommand)]
+    pub command: Option<Command>,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum Command {
+    /// Dimensions, type, spacing, value range and memory use of a volume.
+    Info(InfoArgs),
+    /// Import a volume (e.g. a DICOM series) into a memory-mappable NRRD file.
+    Import(ImportArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct InfoArgs {
+    /// A volume file or DICOM folder, or `demo` for the built-in phantom.
+    pub volume: PathBuf,
+    #[command(flatten)]
+    pub open: VolumeArgs,
+    /// Print one JSON object instead of text.
+    #[arg(long)]
+    pub json: bool,
+}
+
+#[derive(Debug, Args)]
+pub struct ImportArgs {
+    /// A volume file or DICOM folder.
+    pub source: PathBuf,
+    #[command(flatten)]
+    pub open: VolumeArgs,
+    /// The NRRD file to write (atomically).
+    #[arg(long)]
+    pub out: PathBuf,
+}
+
+/// How to read a volume that does not describe itself fully.
+#[derive(Debug, Args, Clone, Default)]
+pub struct VolumeArgs {
+    /// Raw data dimensions, e.g. 256,256,128 (with --type).
+    #[arg(long, value_parser = parse_dims, value_name = "X,Y,Z")]
+    pub dims: Option<[usize; 3]>,
+    /// Raw data type: uint8, int8, uint16, int16, uint32, int32, float32, float64.
+    #[arg(long = "type", value_parser = parse_type, value_name = "TYPE")]
+    pub voxel_type: Option<VoxelType>,
+    /// Voxel spacing in mm, e.g. 1,1,1.4 (overrides the file's).
+    #[arg(long, value_parser = parse_spacing, value_name = "X,Y,Z")]
+    pub spacing: Option<[f64; 3]>,
+    /// DICOM: the SeriesInstanceUID to read when a folder holds several series.
+    #[arg(long, value_name = "UID")]
+    pub series: Option<String>,
+    /// DICOM: refuse (instead of resampling) series with gantry tilt or uneven slice gaps.
+    #[arg(long)]
+    pub no_resample: bool,
+    /// DICOM: slice spacing in mm for resampled series.
+    #[arg(long, value_name = "MM")]
+    pub slice_spacing: Option<f64>,
+    /// Folder for imported volumes (default: $VOLASSO_CACHE_DIR, else ~/.cache/volasso).
+    #[arg(long, value_name = "DIR")]
+    pub cache_dir: Option<PathBuf>,
+}
+
+impl VolumeArgs {
+    pub fn open_options(&self) -> OpenOptions {
+        OpenOptions {
+            dims: self.dims,
+            voxel_type: self.voxel_type,
+            spacing_mm: self.spacing,
+            dicom: DicomOptions {
+                series_uid: self.series.clone(),
+                resample: if self.no_resample { Resample::Refuse } else { Resample::Auto },
+                slice_spacing_mm: self.slice_spacing,
+            },
+            cache_dir: self.cache_dir.clone(),
+        }
+    }
+}
+
+fn parse_triple<T: std::str::FromStr>(text: &str) -> Result<[T; 3], String> {
+    let parts: Vec<T> = text
+        .split(',')
+        .map(|p| p.trim().parse::<T>().map_err(|_| format!("'{p}' is not a number")))
+        .collect::<Result<_, _>>()?;
+    parts.try_into().map_err(|_| format!("'{text}' is not three comma-separated numbers"))
+}
+
+fn parse_dims(text: &str) -> Result<[usize; 3], String> {
+    let dims = parse_triple::<usize>(text)?;
+    if dims.contains(&0) {
+        return Err("dimensions must be positive".into());
+    }
+    Ok(dims)
+}
+
+fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
+    let spacing = parse_triple::<f64>(text)?;
+    if spacing.iter().any(|s| !(s.is_finite() && *s > 0.0)) {
+        return Err("spacing must be positive".into());
+    }
+    Ok(spacing)
+}
+
+fn parse_type(text: &str) -> Result<VoxelType, String> {
+    VoxelType::from_name(text)
+        .ok_or_else(|| format!("'{text}' is not one of uint8, int8, uint16, int16, uint32, int32, float32, float64"))
+}
