@@ -1,0 +1,212 @@
+//! Every volume of `../shared/data` opens with the right geometry and values. Expected sums and
+//! probe values were computed independently with numpy from the raw bytes.
+
+use crate::support::data;
+use volasso::volume::{OpenOptions, VoxelType, open};
+
+struct Expected {
+    name: &'static str,
+    dims: [usize; 3],
+    voxel_type: VoxelType,
+    spacing_mm: [f64; 3],
+    range: (f64, f64),
+    sum: f64,
+    /// The value of voxel `voxel_count / 2 + 17`.
+    probe: f64,
+}
+
+const EXPECTED: &[Expected] = &[
+    Expected {
+        name: "tooth.nrrd",
+        dims: [103, 94, 161],
+        voxel_type: VoxelType::U8,
+        spacing_mm: [1.0; 3],
+        range: (0.0, 255.0),
+        sum: 160814065.0,
+        probe: 163.0,
+    },
+    Expected {
+        name: "frog.nrrd",
+        dims: [256, 256, 44],
+        voxel_type: VoxelType::U8,
+        spacing_mm: [1.0; 3],
+        range: (0.0, 255.0),
+        sum: 39364450.0,
+        probe: 1.0,
+    },
+    Expected {
+        name: "anatomical.nii",
+        dims: [33, 41, 25],
+        voxel_type: VoxelType::I16,
+        spacing_mm: [2.0; 3],
+        range: (-610.0, 30393.0),
+        sum: 284166082.0,
+        probe: 9484.0,
+    },
+    Expected {
+        name: "engine_256x256x256_uint8.raw",
+        dims: [256, 256, 256],
+        voxel_type: VoxelType::U8,
+        spacing_mm: [1.0; 3],
+        range: (0.0, 255.0),
+        sum: 187475047.0,
+        probe: 0.0,
+    },
+    Expected {
+        name: "lobster_301x324x56_uint8.raw",
+        dims: [301, 324, 56],
+        voxel_type: VoxelType::U8,
+        spacing_mm: [1.0; 3],
+        range: (0.0, 255.0),
+        sum: 71284695.0,
+        probe: 0.0,
+    },
+    Expected {
+        name: "vismale_128x256x256_uint8.raw",
+        dims: [128, 256, 256],
+        voxel_type: VoxelType::U8,
+        spacing_mm: [1.0; 3],
+        range: (1.0, 254.0),
+        sum: 295695496.0,
+        probe: 1.0,
+    },
+    // The data README says -1024..3033; the file's bytes (numpy) span -1024..2986.
+    Expected {
+        name: "cranium_ct_256x256x108_int16.raw",
+        dims: [256, 256, 108],
+        voxel_type: VoxelType::I16,
+        spacing_mm: [1.0; 3],
+        range: (-1024.0, 2986.0),
+        sum: -4147325847.0,
+        probe: -1001.0,
+    },
+];
+
+#[test]
+fn shared_volumes_open_with_known_geometry_and_values() {
+    for expected in EXPECTED {
+        let volume =
+            open(&data(expected.name), &OpenOptions::default()).unwrap_or_else(|e| panic!("{}: {e}", expected.name));
+        assert_eq!(volume.dims, expected.dims, "{}", expected.name);
+        assert_eq!(volume.voxel_type, expected.voxel_type, "{}", expected.name);
+        assert_eq!(volume.spacing_mm, expected.spacing_mm, "{}", expected.name);
+        let range = volume.value_range();
+        assert_eq!((range.min, range.max), expected.range, "{}", expected.name);
+        let mut values = vec![0f32; volume.voxel_count()];
+        volume.read_f32(0, &mut values);
+        let sum: f64 = values.iter().map(|&v| v as f64).sum();
+        assert_eq!(sum, expected.sum, "{}", expected.name);
+        assert_eq!(volume.value(volume.voxel_count() / 2 + 17), expected.probe, "{}", expected.name);
+        assert!(volume.is_memory_mapped(), "{} was copied into memory", expected.name);
+    }
+}
+
+#[test]
+fn explicit_spacing_overrides_the_raw_default() {
+    let options = OpenOptions { spacing_mm: Some([1.578, 0.996, 1.008]), ..OpenOptions::default() };
+    let volume = open(&data("vismale_128x256x256_uint8.raw"), &options).unwrap();
+    assert_eq!(volume.spacing_mm, [1.578, 0.996, 1.008]);
+}
+
+#[test]
+fn explicit_dims_and_type_read_any_raw_file() {
+    // The lobster read as 301 x 324 x 28 int16 is the same bytes, reinterpreted.
+    let options =
+        OpenOptions { dims: Some([301, 324, 28]), voxel_type: Some(VoxelType::I16), ..OpenOptions::default() };
+    let volume = open(&data("lobster_301x324x56_uint8.raw"), &options).unwrap();
+    assert_eq!(volume.dims, [301, 324, 28]);
+    assert_eq!(volume.voxel_type, VoxelType::I16);
+}
+
+#[test]
+fn gzip_nrrd_is_imported_once_into_the_cache_and_mapped_from_there() {
+    let folder = tempfile::tempdir().unwrap();
+    let cache = folder.path().join("cache");
+    // Re-encode tooth.nrrd as gzip.
+    let source = open(&data("tooth.nrrd"), &OpenOptions::default()).unwrap();
+    let mut compressed = Vec::new();
+    {
+        use std::io::Write;
+        let mut encoder = flate2::write::GzEncoder::new(&mut compressed, flate2::Compression::fast());
+        encoder.write_all(source.raw_bytes()).unwrap();
+        encoder.finish().unwrap();
+    }
+    let path = folder.path().join("tooth-gz.nrrd");
+    let mut file =
+        b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 103 94 161\nspacings: 1 1 1\nencoding: gzip\n\n".to_vec();
+    file.extend(compressed);
+    std::fs::write(&path, file).unwrap();
+
+    let options = OpenOptions { cache_dir: Some(cache.clone()), ..OpenOptions::default() };
+    let first = open(&path, &options).unwrap();
+    assert!(first.is_memory_mapped(), "the imported volume is mapped from the cache file");
+    assert_eq!(first.raw_bytes(), source.raw_bytes());
+    assert_eq!(first.source, path);
+    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    assert_eq!(entries.len(), 1, "one cache entry");
+    let entry = entries[0].as_ref().unwrap().path();
+    let stamp = std::fs::metadata(&entry).unwrap().modified().unwrap();
+
+    let second = open(&path, &options).unwrap();
+    assert_eq!(second.raw_bytes(), source.raw_bytes());
+    assert_eq!(std::fs::metadata(&entry).unwrap().modified().unwrap(), stamp, "the entry was reused, not rewritten");
+
+    // A damaged entry is rebuilt, not trusted.
+    std::fs::write(&entry, b"NRRD0004\ntype: uint8\n").unwrap();
+    let third = open(&path, &options).unwrap();
+    assert_eq!(third.raw_bytes(), source.raw_bytes());
+}
+
+#[test]
+fn detached_header_metaimage_and_nifti_pairs_read_the_same_voxels() {
+    let folder = tempfile::tempdir().unwrap();
+    let source = open(&data("anatomical.nii"), &OpenOptions::default()).unwrap();
+    let bytes = source.raw_bytes(); // big-endian int16
+    std::fs::write(folder.path().join("data.raw"), bytes).unwrap();
+    std::fs::write(
+        folder.path().join("v.nhdr"),
+        "NRRD0004\ntype: int16\ndimension: 3\nsizes: 33 41 25\nspacings: 2 2 2\nendian: big\nencoding: raw\ndata file: data.raw\n",
+    )
+    .unwrap();
+    std::fs::write(
+        folder.path().join("v.mhd"),
+        "ObjectType = Image\nNDims = 3\nDimSize = 33 41 25\nElementSpacing = 2 2 2\nElementType = MET_SHORT\nBinaryDataByteOrderMSB = True\nElementDataFile = data.raw\n",
+    )
+    .unwrap();
+    let mut mha = b"ObjectType = Image\nNDims = 3\nDimSize = 33 41 25\nElementSpacing = 2 2 2\nElementType = MET_SHORT\nElementByteOrderMSB = True\nElementDataFile = LOCAL\n".to_vec();
+    mha.extend_from_slice(bytes);
+    std::fs::write(folder.path().join("v.mha"), mha).unwrap();
+    for name in ["v.nhdr", "v.mhd", "v.mha"] {
+        let volume = open(&folder.path().join(name), &OpenOptions::default()).unwrap();
+        assert_eq!(volume.dims, [33, 41, 25], "{name}");
+        assert_eq!(volume.spacing_mm, [2.0; 3], "{name}");
+        for index in [0, 1000, 33824] {
+            assert_eq!(volume.value(index), source.value(index), "{name} voxel {index}");
+        }
+        assert!(volume.is_memory_mapped(), "{name}");
+    }
+}
+
+#[test]
+fn nifti_scaling_is_applied_and_gzip_nifti_is_cached() {
+    let folder = tempfile::tempdir().unwrap();
+    let mut bytes = std::fs::read(data("anatomical.nii")).unwrap();
+    // scl_slope = 2, scl_inter = -10 (big-endian header).
+    bytes[112..116].copy_from_slice(&2f32.to_be_bytes());
+    bytes[116..120].copy_from_slice(&(-10f32).to_be_bytes());
+    let scaled = folder.path().join("scaled.nii");
+    std::fs::write(&scaled, &bytes).unwrap();
+    let volume = open(&scaled, &OpenOptions::default()).unwrap();
+    assert_eq!(volume.value_range().min, -610.0 * 2.0 - 10.0);
+    assert_eq!(volume.value_range().max, 30393.0 * 2.0 - 10.0);
+
+    let gz = folder.path().join("scaled.nii.gz");
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut encoder, &bytes).unwrap();
+    std::fs::write(&gz, encoder.finish().unwrap()).unwrap();
+    let options = OpenOptions { cache_dir: Some(folder.path().join("cache")), ..OpenOptions::default() };
+    let cached = open(&gz, &options).unwrap();
+    assert!(cached.is_memory_mapped());
+    assert_eq!(cached.value_range().max, 30393.0 * 2.0 - 10.0);
+    assert_eq!(cached.value(1234), volume.value(1234));
+}

@@ -1,0 +1,13 @@
+//! Integration tests, one binary (as ripgrep's `tests/tests.rs`). What belongs where:
+//!
+//! * `formats`: every volume in `../shared/data` opens with the right dimensions, type, spacing
+//!   and values (checked against figures computed independently with numpy).
+//! * `malformed`: broken, truncated and lying files each give one clear error, never a panic.
+//! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
+//!   writes).
+//! * `support`: shared fixtures (paths, running the binary, writing test files).
+
+mod cli;
+mod formats;
+mod malformed;
+mod support;
