@@ -259,4 +259,17 @@ mod tests {
             assert!(parse_header(text.as_bytes(), Path::new("t.mha")).is_err(), "{name} accepted");
         }
     }
+
+    proptest::proptest! {
+        /// Random edits of a valid header parse or fail cleanly, never panic.
+        #[test]
+        fn parse_never_panics(position in 0usize..HEADER.len(), insert in "[ -~\n]{0,12}") {
+            let mut text = HEADER.to_string();
+            let position = (0..=position).rev().find(|&p| text.is_char_boundary(p)).unwrap_or(0);
+            text.insert_str(position, &insert);
+            if let Ok(header) = parse_header(text.as_bytes(), Path::new("t.mha")) {
+                proptest::prop_assert!(checked_voxel_count(header.dims, header.voxel_type, Path::new("t")).is_ok());
+            }
+        }
+    }
 }

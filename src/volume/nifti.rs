@@ -292,4 +292,20 @@ mod tests {
             assert!(parse_header(&bytes, Path::new("t.nii")).is_err(), "{name} accepted");
         }
     }
+
+    proptest::proptest! {
+        /// Any header bytes parse or fail cleanly; an accepted header never promises an
+        /// overflowing voxel count or a data offset inside the header of a single file.
+        #[test]
+        fn parse_never_panics(mut bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 348..400), little in proptest::prelude::any::<bool>()) {
+            if little {
+                bytes[0..4].copy_from_slice(&348i32.to_le_bytes());
+                bytes[344..348].copy_from_slice(b"n+1\0");
+            }
+            if let Ok(header) = parse_header(&bytes, Path::new("t.nii")) {
+                proptest::prop_assert!(checked_voxel_count(header.dims, header.voxel_type, Path::new("t")).is_ok());
+                proptest::prop_assert!(header.separate_image_file || header.data_offset >= HEADER_BYTES as u64);
+            }
+        }
+    }
 }
