@@ -13,6 +13,7 @@
 
 pub mod atomic_file;
 pub mod cli;
+pub mod transfer;
 pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};
