@@ -15,3 +15,5 @@ pub mod cli;
 pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};
+pub mod rng;
+pub mod slices;
