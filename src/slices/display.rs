@@ -58,7 +58,7 @@ impl DisplayWindow {
             range.min
         };
         let span = range.max - low;
-        if !(span > 0.0) {
+        if span.is_nan() || span <= 0.0 {
             return DisplayWindow::from_range(range.min, range.max);
         }
         let bins_per_unit = PERCENTILE_BINS as f64 / span;
