@@ -15,5 +15,6 @@ pub mod cli;
 pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};
+pub mod features;
 pub mod rng;
 pub mod slices;
