@@ -18,3 +18,4 @@ pub use volume::{Volume, VolumeError, VoxelType};
 pub mod features;
 pub mod rng;
 pub mod slices;
+pub mod strokes;
