@@ -17,3 +17,7 @@ pub mod transfer;
 pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};
+pub mod features;
+pub mod rng;
+pub mod slices;
+pub mod strokes;

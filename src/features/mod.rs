@@ -1,0 +1,218 @@
+//! Voxel feature vectors (paper §3.3): what the classifier sees of a voxel.
+//!
+//! [`FeatureSet::Paper5`] is the paper's 5-D set, in this order:
+//! 0. intensity (the physical value, e.g. HU);
+//! 1. 3-D gradient magnitude (eq. 2) from central differences divided by the voxel spacing, so
+//!    it is in value units per millimetre and anisotropic volumes are measured correctly;
+//! 2. the mean of the 8 neighbours in the xy plane through the voxel (z fixed);
+//! 3. the mean of the 8 neighbours in the xz plane (y fixed);
+//! 4. the mean of the 8 neighbours in the yz plane (x fixed).
+//!
+//! Borders clamp to the edge: a neighbour outside the volume reads the nearest voxel inside.
+//! The central difference divides by the distance actually spanned, so a border voxel gets the
+//! one-sided difference (a linear ramp has its exact gradient everywhere) and an axis one
+//! voxel thick contributes 0. (The authors' code used -1 for border voxels, which makes every
+//! border voxel look like an edge.)
+//!
+//! Features are computed on demand, never stored for the whole volume: [`features_of_voxels`]
+//! for training voxels, [`FeatureSlabReader`] (a rolling 3-plane buffer) or [`par_map_slabs`]
+//! for whole-volume prediction, both giving row-major `n x dim` `f32` blocks in voxel order.
+//! Both paths share one arithmetic, so they agree bit for bit. [`Standardiser`] maps features to
+//! zero mean and unit deviation, fitted on the training vectors.
+//!
+//! Never: keeps a feature copy of the volume, knows about classes, or trains anything.
+
+mod slab;
+mod standardise;
+#[cfg(test)]
+mod tests;
+
+pub use slab::{FeatureSlabReader, par_map_slabs, slab_ranges};
+pub use standardise::Standardiser;
+
+use crate::volume::Volume;
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// A choice of per-voxel features. Only the paper's set exists today; multi-scale sets (issue
+/// 9) add variants here.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+pub enum FeatureSet {
+    /// Intensity, gradient magnitude, and the xy, xz, yz 8-neighbour means (§3.3).
+    #[default]
+    Paper5,
+}
+
+impl FeatureSet {
+    /// Features per voxel.
+    pub fn dim(self) -> usize {
+        match self {
+            FeatureSet::Paper5 => 5,
+        }
+    }
+
+    /// A short name for each feature, in order.
+    pub fn names(self) -> &'static [&'static str] {
+        match self {
+            FeatureSet::Paper5 => &[
+                "intensity",
+                "gradient magnitude",
+                "mean xy",
+                "mean xz",
+                "mean yz",
+            ],
+        }
+    }
+}
+
+/// The one error type of the feature stage.
+#[derive(Debug, thiserror::Error, PartialEq)]
+pub enum FeatureError {
+    #[error("voxel index {index} is outside the volume of {voxel_count} voxels")]
+    VoxelOutOfRange { index: usize, voxel_count: usize },
+    #[error("slab z {z_start}..{z_end} is outside the volume's {size_z} z slices")]
+    SlabOutOfRange {
+        z_start: usize,
+        z_end: usize,
+        size_z: usize,
+    },
+    #[error("no training vectors to fit a standardiser on")]
+    NoVectors,
+    #[error("{length} values are not a whole number of {dim}-feature vectors")]
+    Ragged { length: usize, dim: usize },
+    #[error("feature {feature} of training vector {vector} is not a finite number ({value})")]
+    NonFinite {
+        vector: usize,
+        feature: usize,
+        value: f32,
+    },
+    #[error("the standardiser was fitted on {fitted}-feature vectors but got {found}-feature ones")]
+    DimensionMismatch { fitted: usize, found: usize },
+}
+
+/// Paper5 features of voxel `index` (x-fastest). Panics when `index >= volume.voxel_count()`,
+/// like slice indexing; [`features_of_voxels`] checks instead.
+pub fn features_at(volume: &Volume, index: usize) -> [f32; 5] {
+    let [size_x, size_y, _] = volume.dims;
+    let x = index % size_x;
+    let y = (index / size_x) % size_y;
+    let z = index / (size_x * size_y);
+    let [xs, ys, zs] = [[x, 0], [y, 1], [z, 2]].map(|[p, axis]| {
+        let size = volume.dims[axis];
+        [p.saturating_sub(1), p, (p + 1).min(size - 1)]
+    });
+    let at = |i: usize, j: usize, k: usize| volume.value_at(xs[i], ys[j], zs[k]) as f32;
+    let neighbourhood = Neighbourhood {
+        centre: at(1, 1, 1),
+        xy: [
+            at(0, 0, 1),
+            at(1, 0, 1),
+            at(2, 0, 1),
+            at(0, 1, 1),
+            at(2, 1, 1),
+            at(0, 2, 1),
+            at(1, 2, 1),
+            at(2, 2, 1),
+        ],
+        xz: [
+            at(0, 1, 0),
+            at(1, 1, 0),
+            at(2, 1, 0),
+            at(0, 1, 1),
+            at(2, 1, 1),
+            at(0, 1, 2),
+            at(1, 1, 2),
+            at(2, 1, 2),
+        ],
+        yz: [
+            at(1, 0, 0),
+            at(1, 1, 0),
+            at(1, 2, 0),
+            at(1, 0, 1),
+            at(1, 2, 1),
+            at(1, 0, 2),
+            at(1, 1, 2),
+            at(1, 2, 2),
+        ],
+        gradient_scale: [
+            inverse_span_mm(x, volume.dims[0], volume.spacing_mm[0]),
+            inverse_span_mm(y, volume.dims[1], volume.spacing_mm[1]),
+            inverse_span_mm(z, volume.dims[2], volume.spacing_mm[2]),
+        ],
+    };
+    neighbourhood.paper5()
+}
+
+/// Features of the voxels at `indices` (any order), as a row-major `indices.len() x dim` block;
+/// parallel. Fails on an index outside the volume.
+pub fn features_of_voxels(
+    volume: &Volume,
+    feature_set: FeatureSet,
+    indices: &[usize],
+) -> Result<Vec<f32>, FeatureError> {
+    let voxel_count = volume.voxel_count();
+    if let Some(&index) = indices.iter().find(|&&i| i >= voxel_count) {
+        return Err(FeatureError::VoxelOutOfRange { index, voxel_count });
+    }
+    let dim = feature_set.dim();
+    let mut out = vec![0f32; indices.len() * dim];
+    out.par_chunks_exact_mut(dim)
+        .zip(indices.par_iter())
+        .with_min_len(256)
+        .for_each(|(row, &index)| match feature_set {
+            FeatureSet::Paper5 => row.copy_from_slice(&features_at(volume, index)),
+        });
+    Ok(out)
+}
+
+/// The values a Paper5 feature vector is made of, in the order the means are summed (the same
+/// order in every path, so results agree to the bit).
+struct Neighbourhood {
+    centre: f32,
+    /// Rows of the 3x3 plane minus the centre: (-1,-1) (0,-1) (1,-1) (-1,0) (1,0) (-1,1) ...
+    xy: [f32; 8],
+    xz: [f32; 8],
+    yz: [f32; 8],
+    /// 1 / (distance spanned by the central difference in mm) along x, y, z; 0 on a flat axis.
+    gradient_scale: [f32; 3],
+}
+
+impl Neighbourhood {
+    #[inline(always)]
+    fn paper5(&self) -> [f32; 5] {
+        let mean = |values: &[f32; 8]| values.iter().sum::<f32>() * 0.125;
+        let gradient_x = (self.xy[4] - self.xy[3]) * self.gradient_scale[0];
+        let gradient_y = (self.xy[6] - self.xy[1]) * self.gradient_scale[1];
+        let gradient_z = (self.xz[6] - self.xz[1]) * self.gradient_scale[2];
+        [
+            self.centre,
+            (gradient_x * gradient_x + gradient_y * gradient_y + gradient_z * gradient_z).sqrt(),
+            mean(&self.xy),
+            mean(&self.xz),
+            mean(&self.yz),
+        ]
+    }
+}
+
+/// 1 / (millimetres between the clamped neighbours of `position` along an axis of `size`).
+#[inline]
+fn inverse_span_mm(position: usize, size: usize, spacing_mm: f64) -> f32 {
+    let span = (position + 1).min(size - 1) - position.saturating_sub(1);
+    if span == 0 {
+        0.0
+    } else {
+        (1.0 / (span as f64 * spacing_mm)) as f32
+    }
+}
+
+/// The z range of a slab, checked against the volume.
+fn check_slab(volume: &Volume, z_range: &Range<usize>) -> Result<(), FeatureError> {
+    if z_range.start > z_range.end || z_range.end > volume.dims[2] {
+        return Err(FeatureError::SlabOutOfRange {
+            z_start: z_range.start,
+            z_end: z_range.end,
+            size_z: volume.dims[2],
+        });
+    }
+    Ok(())
+}

@@ -1,0 +1,216 @@
+//! Whole-volume feature passes, a z slab at a time.
+//!
+//! A [`FeatureSlabReader`] keeps the three z planes a slice's features need (z-1, z, z+1) as
+//! `f32` buffers and rolls them forward, so a slab reads each plane of the volume once through
+//! [`Volume::read_f32`]. [`par_map_slabs`] runs one reader per worker over consecutive slabs.
+
+use super::{FeatureError, FeatureSet, Neighbourhood, check_slab, inverse_span_mm};
+use crate::volume::Volume;
+use rayon::prelude::*;
+use std::ops::Range;
+
+/// Computes features for z slabs of one volume, reusing its plane buffers between calls.
+pub struct FeatureSlabReader<'v> {
+    volume: &'v Volume,
+    feature_set: FeatureSet,
+    /// Three plane buffers and the z plane each holds (`None`: not loaded).
+    planes: [Vec<f32>; 3],
+    plane_z: [Option<usize>; 3],
+    /// Clamped neighbours x-1, x+1 and y-1, y+1 of each column and row.
+    x_neighbours: Vec<[usize; 2]>,
+    y_neighbours: Vec<[usize; 2]>,
+    x_gradient_scale: Vec<f32>,
+    y_gradient_scale: Vec<f32>,
+}
+
+impl<'v> FeatureSlabReader<'v> {
+    pub fn new(volume: &'v Volume, feature_set: FeatureSet) -> FeatureSlabReader<'v> {
+        let [size_x, size_y, _] = volume.dims;
+        let neighbours = |size: usize| -> Vec<[usize; 2]> {
+            (0..size)
+                .map(|p| [p.saturating_sub(1), (p + 1).min(size - 1)])
+                .collect()
+        };
+        FeatureSlabReader {
+            volume,
+            feature_set,
+            planes: [Vec::new(), Vec::new(), Vec::new()],
+            plane_z: [None; 3],
+            x_neighbours: neighbours(size_x),
+            y_neighbours: neighbours(size_y),
+            x_gradient_scale: (0..size_x)
+                .map(|x| inverse_span_mm(x, size_x, volume.spacing_mm[0]))
+                .collect(),
+            y_gradient_scale: (0..size_y)
+                .map(|y| inverse_span_mm(y, size_y, volume.spacing_mm[1]))
+                .collect(),
+        }
+    }
+
+    pub fn feature_set(&self) -> FeatureSet {
+        self.feature_set
+    }
+
+    /// Features of every voxel of z slices `z_range`, in voxel order, into `out` (cleared and
+    /// resized to `voxels x dim`, row-major).
+    pub fn compute(
+        &mut self,
+        z_range: Range<usize>,
+        out: &mut Vec<f32>,
+    ) -> Result<(), FeatureError> {
+        check_slab(self.volume, &z_range)?;
+        self.fill(z_range, out);
+        Ok(())
+    }
+
+    /// [`compute`](Self::compute) for a range known to be inside the volume.
+    fn fill(&mut self, z_range: Range<usize>, out: &mut Vec<f32>) {
+        let [size_x, size_y, _] = self.volume.dims;
+        let plane = size_x * size_y;
+        let dim = self.feature_set.dim();
+        out.clear();
+        out.resize(z_range.len() * plane * dim, 0.0);
+        for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
+            let [previous, current, next] = self.load_planes_around(z);
+            let previous = &self.planes[previous];
+            let current = &self.planes[current];
+            let next = &self.planes[next];
+            let z_gradient_scale =
+                inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
+            for (y, row_out) in slice_out.chunks_exact_mut(size_x * dim).enumerate() {
+                let [y_minus, y_plus] = self.y_neighbours[y];
+                fn row(values: &[f32], y: usize, size_x: usize) -> &[f32] {
+                    &values[y * size_x..(y + 1) * size_x]
+                }
+                let (current_minus, current_0, current_plus) = (
+                    row(current, y_minus, size_x),
+                    row(current, y, size_x),
+                    row(current, y_plus, size_x),
+                );
+                let (previous_minus, previous_0, previous_plus) = (
+                    row(previous, y_minus, size_x),
+                    row(previous, y, size_x),
+                    row(previous, y_plus, size_x),
+                );
+                let (next_minus, next_0, next_plus) = (
+                    row(next, y_minus, size_x),
+                    row(next, y, size_x),
+                    row(next, y_plus, size_x),
+                );
+                let y_gradient_scale = self.y_gradient_scale[y];
+                for (x, voxel_out) in row_out.chunks_exact_mut(dim).enumerate() {
+                    let [x_minus, x_plus] = self.x_neighbours[x];
+                    let neighbourhood = Neighbourhood {
+                        centre: current_0[x],
+                        xy: [
+                            current_minus[x_minus],
+                            current_minus[x],
+                            current_minus[x_plus],
+                            current_0[x_minus],
+                            current_0[x_plus],
+                            current_plus[x_minus],
+                            current_plus[x],
+                            current_plus[x_plus],
+                        ],
+                        xz: [
+                            previous_0[x_minus],
+                            previous_0[x],
+                            previous_0[x_plus],
+                            current_0[x_minus],
+                            current_0[x_plus],
+                            next_0[x_minus],
+                            next_0[x],
+                            next_0[x_plus],
+                        ],
+                        yz: [
+                            previous_minus[x],
+                            previous_0[x],
+                            previous_plus[x],
+                            current_minus[x],
+                            current_plus[x],
+                            next_minus[x],
+                            next_0[x],
+                            next_plus[x],
+                        ],
+                        gradient_scale: [
+                            self.x_gradient_scale[x],
+                            y_gradient_scale,
+                            z_gradient_scale,
+                        ],
+                    };
+                    match self.feature_set {
+                        FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
+                    }
+                }
+            }
+        }
+    }
+
+    /// Makes the buffers hold planes z-1, z, z+1 (clamped) and returns which buffer holds each.
+    /// Moving forward one plane reads one new plane.
+    fn load_planes_around(&mut self, z: usize) -> [usize; 3] {
+        let size_z = self.volume.dims[2];
+        let wanted = [z.saturating_sub(1), z, (z + 1).min(size_z - 1)];
+        let plane = self.volume.dims[0] * self.volume.dims[1];
+        let mut slots = [usize::MAX; 3];
+        for (k, &wanted_z) in wanted.iter().enumerate() {
+            if let Some(slot) = self.plane_z.iter().position(|&held| held == Some(wanted_z)) {
+                slots[k] = slot;
+            }
+        }
+        for k in 0..3 {
+            if slots[k] != usize::MAX {
+                continue;
+            }
+            // A buffer holding no wanted plane is free (there always is one: 3 buffers, at
+            // most 3 distinct wanted planes, and this one is not held).
+            let free = (0..3).find(|slot| !slots.contains(slot)).unwrap_or(k);
+            self.planes[free].resize(plane, 0.0);
+            self.volume
+                .read_z_slice_f32(wanted[k], &mut self.planes[free]);
+            self.plane_z[free] = Some(wanted[k]);
+            slots[k] = free;
+            // Clamping can ask for the same plane twice (z = 0 or the last slice).
+            for later in k + 1..3 {
+                if wanted[later] == wanted[k] {
+                    slots[later] = free;
+                }
+            }
+        }
+        slots
+    }
+}
+
+/// Consecutive z ranges of at most `depth_z` slices covering `0..size_z` (`depth_z` 0 counts as 1).
+pub fn slab_ranges(size_z: usize, depth_z: usize) -> Vec<Range<usize>> {
+    let depth_z = depth_z.max(1);
+    (0..size_z)
+        .step_by(depth_z)
+        .map(|start| start..(start + depth_z).min(size_z))
+        .collect()
+}
+
+/// Computes the features of the whole volume slab by slab in parallel and calls `work` with
+/// each slab's z range and its `voxels x dim` feature block; returns the results in slab order.
+pub fn par_map_slabs<T, F>(
+    volume: &Volume,
+    feature_set: FeatureSet,
+    depth_z: usize,
+    work: F,
+) -> Vec<T>
+where
+    T: Send,
+    F: Fn(Range<usize>, &[f32]) -> T + Sync,
+{
+    slab_ranges(volume.dims[2], depth_z)
+        .into_par_iter()
+        .map_init(
+            || (FeatureSlabReader::new(volume, feature_set), Vec::new()),
+            |(reader, block), z_range| {
+                // slab_ranges stays inside the volume.
+                reader.fill(z_range.clone(), block);
+                work(z_range, block)
+            },
+        )
+        .collect()
+}

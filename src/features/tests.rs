@@ -1,0 +1,259 @@
+use super::*;
+use crate::rng::SplitMix64;
+use std::path::Path;
+
+fn volume_from(
+    dims: [usize; 3],
+    spacing_mm: [f64; 3],
+    mut f: impl FnMut(usize, usize, usize) -> f32,
+) -> Volume {
+    let mut values = Vec::with_capacity(dims.iter().product());
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                values.push(f(x, y, z));
+            }
+        }
+    }
+    Volume::from_f32(dims, spacing_mm, &values, Path::new("test")).unwrap()
+}
+
+fn random_volume(dims: [usize; 3], seed: u64) -> Volume {
+    let mut rng = SplitMix64::new(seed);
+    volume_from(dims, [0.7, 1.1, 2.5], |_, _, _| {
+        (rng.next_f64() * 2000.0 - 1000.0) as f32
+    })
+}
+
+fn all_slab_features(volume: &Volume) -> Vec<f32> {
+    let mut reader = FeatureSlabReader::new(volume, FeatureSet::Paper5);
+    let mut out = Vec::new();
+    reader.compute(0..volume.dims[2], &mut out).unwrap();
+    out
+}
+
+#[test]
+fn a_constant_volume_has_zero_gradient_and_means_equal_to_the_constant() {
+    let volume = volume_from([5, 4, 3], [0.8, 0.8, 1.2], |_, _, _| 42.5);
+    let features = all_slab_features(&volume);
+    assert_eq!(features.len(), 5 * 60);
+    for row in features.chunks_exact(5) {
+        assert_eq!(row, &[42.5, 0.0, 42.5, 42.5, 42.5]);
+    }
+    for index in 0..volume.voxel_count() {
+        assert_eq!(features_at(&volume, index), [42.5, 0.0, 42.5, 42.5, 42.5]);
+    }
+}
+
+#[test]
+fn a_linear_ramp_has_its_exact_gradient_in_physical_units_everywhere() {
+    let spacing_mm = [0.5, 2.0, 4.0];
+    // Per voxel step: 3 along x, -8 along y, 20 along z: per mm 6, -4, 5.
+    let volume = volume_from([6, 5, 4], spacing_mm, |x, y, z| {
+        3.0 * x as f32 - 8.0 * y as f32 + 20.0 * z as f32
+    });
+    let expected = (36f32 + 16.0 + 25.0).sqrt();
+    let features = all_slab_features(&volume);
+    for (index, row) in features.chunks_exact(5).enumerate() {
+        assert!(
+            (row[1] - expected).abs() < 1e-4,
+            "voxel {index}: {}",
+            row[1]
+        );
+    }
+    // In the interior every plane mean of a linear function is the centre value.
+    let centre = volume.index(2, 2, 1);
+    let row = &features[centre * 5..centre * 5 + 5];
+    assert_eq!(row[0], 6.0 - 16.0 + 20.0);
+    assert_eq!(&row[2..], &[row[0]; 3]);
+}
+
+#[test]
+fn anisotropic_spacing_scales_each_axis_of_the_gradient() {
+    // The same voxel steps along x and z, but z voxels are 3 mm apart: its slope is a third.
+    let volume = volume_from([4, 4, 4], [1.0, 1.0, 3.0], |_, _, z| 30.0 * z as f32);
+    assert!((features_at(&volume, volume.index(1, 1, 1))[1] - 10.0).abs() < 1e-5);
+    let volume = volume_from([4, 4, 4], [1.0, 1.0, 3.0], |x, _, _| 30.0 * x as f32);
+    assert!((features_at(&volume, volume.index(1, 1, 1))[1] - 30.0).abs() < 1e-5);
+}
+
+#[test]
+fn plane_means_take_the_eight_in_plane_neighbours_and_clamp_at_the_edge() {
+    // value = 100 z + 10 y + x on a 3x3x3 grid.
+    let volume = volume_from([3, 3, 3], [1.0; 3], |x, y, z| (100 * z + 10 * y + x) as f32);
+    let centre = features_at(&volume, volume.index(1, 1, 1));
+    assert_eq!(
+        centre,
+        [111.0, (1f32 + 100.0 + 10000.0).sqrt(), 111.0, 111.0, 111.0]
+    );
+    // Corner (0,0,0): xy neighbours clamp to (0|1, 0|1, 0): {0,0,1,0,1,10,10,11} -> 33/8.
+    let corner = features_at(&volume, 0);
+    assert_eq!(corner[2], 33.0 / 8.0);
+    // xz: {0,0,1,0,1,100,100,101} -> 303/8; yz: {0,0,10,0,10,100,100,110} -> 330/8.
+    assert_eq!(corner[3], 303.0 / 8.0);
+    assert_eq!(corner[4], 330.0 / 8.0);
+    // One-sided differences at the corner: 1, 10 and 100 per mm.
+    assert_eq!(corner[1], (1f32 + 100.0 + 10000.0).sqrt());
+}
+
+#[test]
+fn a_flat_axis_contributes_no_gradient_and_does_not_panic() {
+    let volume = volume_from([4, 1, 1], [1.0; 3], |x, _, _| 2.0 * x as f32);
+    let features = all_slab_features(&volume);
+    for row in features.chunks_exact(5) {
+        assert_eq!(row[1], 2.0);
+    }
+}
+
+#[test]
+fn slabs_equal_per_voxel_features_bit_for_bit_in_any_order_of_calls() {
+    let volume = random_volume([9, 7, 8], 5);
+    let dim = 5;
+    let plane = 9 * 7;
+    let per_voxel: Vec<f32> = (0..volume.voxel_count())
+        .flat_map(|index| features_at(&volume, index))
+        .collect();
+    assert_eq!(all_slab_features(&volume), per_voxel);
+    // One reader, slabs forward, backward and overlapping: the rolling buffer must not leak.
+    let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
+    let mut block = Vec::new();
+    for z_range in [0..3, 3..5, 5..8, 1..2, 7..8, 0..1, 2..6, 4..4] {
+        reader.compute(z_range.clone(), &mut block).unwrap();
+        assert_eq!(
+            block,
+            per_voxel[z_range.start * plane * dim..z_range.end * plane * dim],
+            "{z_range:?}"
+        );
+    }
+    let listed = features_of_voxels(&volume, FeatureSet::Paper5, &[17, 0, 503]).unwrap();
+    assert_eq!(&listed[..5], &per_voxel[17 * 5..18 * 5]);
+    assert_eq!(&listed[10..], &per_voxel[503 * 5..504 * 5]);
+}
+
+#[test]
+fn parallel_slabs_cover_the_volume_in_order() {
+    let volume = random_volume([6, 5, 11], 9);
+    let expected = all_slab_features(&volume);
+    for depth in [0, 1, 3, 11, 50] {
+        let blocks = par_map_slabs(&volume, FeatureSet::Paper5, depth, |z_range, block| {
+            assert_eq!(block.len(), z_range.len() * 30 * 5);
+            block.to_vec()
+        });
+        assert_eq!(blocks.concat(), expected, "depth {depth}");
+    }
+    assert_eq!(slab_ranges(7, 3), vec![0..3, 3..6, 6..7]);
+}
+
+#[test]
+fn out_of_range_voxels_and_slabs_are_errors() {
+    let volume = random_volume([3, 3, 3], 1);
+    assert_eq!(
+        features_of_voxels(&volume, FeatureSet::Paper5, &[3, 27]),
+        Err(FeatureError::VoxelOutOfRange {
+            index: 27,
+            voxel_count: 27
+        })
+    );
+    let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
+    assert_eq!(
+        reader.compute(2..4, &mut Vec::new()),
+        Err(FeatureError::SlabOutOfRange {
+            z_start: 2,
+            z_end: 4,
+            size_z: 3
+        })
+    );
+}
+
+#[test]
+fn the_standardiser_centres_and_scales_and_passes_constant_features() {
+    let vectors = [1.0f32, 5.0, 10.0, 3.0, 5.0, 20.0, 5.0, 5.0, 30.0];
+    let standardiser = Standardiser::fit(&vectors, 3).unwrap();
+    assert_eq!(standardiser.mean, vec![3.0, 5.0, 20.0]);
+    assert_eq!(standardiser.std[1], 1.0);
+    let standardised = standardiser.apply(&vectors).unwrap();
+    for feature in [0, 2] {
+        let column: Vec<f64> = standardised
+            .iter()
+            .skip(feature)
+            .step_by(3)
+            .copied()
+            .collect();
+        let mean = column.iter().sum::<f64>() / 3.0;
+        let variance = column.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 3.0;
+        assert!(mean.abs() < 1e-12 && (variance - 1.0).abs() < 1e-12);
+    }
+    assert_eq!(standardised[1], 0.0);
+    let mut block = vectors;
+    standardiser.apply_in_place(&mut block).unwrap();
+    for (a, b) in block.iter().zip(&standardised) {
+        assert!((*a as f64 - b).abs() < 1e-6);
+    }
+}
+
+#[test]
+fn the_standardiser_refuses_bad_training_vectors() {
+    assert_eq!(Standardiser::fit(&[], 5), Err(FeatureError::NoVectors));
+    assert_eq!(
+        Standardiser::fit(&[1.0; 7], 5),
+        Err(FeatureError::Ragged { length: 7, dim: 5 })
+    );
+    assert!(matches!(
+        Standardiser::fit(&[1.0, 2.0, 3.0, f32::NAN], 2),
+        Err(FeatureError::NonFinite {
+            vector: 1,
+            feature: 1,
+            ..
+        })
+    ));
+    let standardiser = Standardiser::fit(&[1.0, 2.0], 2).unwrap();
+    assert!(standardiser.apply(&[1.0, 2.0, 3.0]).is_err());
+}
+
+#[test]
+fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughput() {
+    use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
+    let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
+    let bytes = VoxelBytes::map_region(path, 0, 256 * 256 * 256).unwrap();
+    let volume = Volume::new(
+        [256; 3],
+        [1.0; 3],
+        VoxelType::U8,
+        ByteOrder::Little,
+        ValueScale::IDENTITY,
+        bytes,
+        path,
+    )
+    .unwrap();
+    let probes = [
+        0usize,
+        256 * 256 * 128 + 256 * 100 + 77,
+        256 * 256 * 256 - 1,
+    ];
+    let started = std::time::Instant::now();
+    let slabs = par_map_slabs(&volume, FeatureSet::Paper5, 4, |z_range, block| {
+        let first = z_range.start * 256 * 256;
+        let probed: Vec<(usize, [f32; 5])> = probes
+            .iter()
+            .filter(|&&p| p >= first && p < first + block.len() / 5)
+            .map(|&p| {
+                let row = &block[(p - first) * 5..(p - first + 1) * 5];
+                (p, [row[0], row[1], row[2], row[3], row[4]])
+            })
+            .collect();
+        let gradient_sum: f64 = block.iter().skip(1).step_by(5).map(|&g| g as f64).sum();
+        (probed, gradient_sum)
+    });
+    let seconds = started.elapsed().as_secs_f64();
+    println!(
+        "Paper5 features of 256^3 engine: {seconds:.3} s, {:.0} Mvoxels/s on {} threads",
+        volume.voxel_count() as f64 / seconds / 1e6,
+        rayon::current_num_threads()
+    );
+    let probed: Vec<_> = slabs.iter().flat_map(|(p, _)| p.clone()).collect();
+    assert_eq!(probed.len(), probes.len());
+    for (index, features) in probed {
+        assert_eq!(features, features_at(&volume, index));
+    }
+    assert!(slabs.iter().map(|(_, g)| g).sum::<f64>() > 0.0);
+}

@@ -1,0 +1,390 @@
+//! Training voxels per class from a strokes file, and a stratified cap on their number.
+//!
+//! Within a class a voxel selected by several strokes counts once, for the first of them.
+//! A voxel selected by two or more *classes* is contested: it is dropped from all of them
+//! (counted in [`TrainingSet::contested_voxels`] and logged as a warning), because a sample
+//! labelled twice teaches the classifier nothing and would make its classes overlap. This
+//! rule does not depend on the order of the classes.
+
+use super::{StrokesError, StrokesFile};
+use crate::rng::{SplitMix64, hash64};
+
+/// The training voxels of one class.
+#[derive(Clone, Debug, PartialEq)]
+pub struct ClassSamples {
+    pub name: String,
+    /// Volume indices (x fastest), sorted and unique.
+    pub voxels: Vec<usize>,
+    /// For each of `voxels`, the position in the class's strokes of the stroke it came from.
+    pub stroke_of_voxel: Vec<u32>,
+    /// Voxels kept from each stroke of the class (after contested voxels and any cap).
+    pub stroke_voxel_counts: Vec<usize>,
+    /// Voxels a cap ([`TrainingSet::capped`]) removed from this class.
+    pub dropped_by_cap: usize,
+}
+
+/// Training voxels per class; class id k (1-based, the label the classifier uses) is
+/// `classes[k - 1]`.
+#[derive(Clone, Debug, PartialEq)]
+pub struct TrainingSet {
+    pub classes: Vec<ClassSamples>,
+    /// Voxels selected by more than one class, removed from all of them.
+    pub contested_voxels: usize,
+}
+
+impl TrainingSet {
+    /// The training voxels of `file` in a volume of `dims`. Checks the file against the volume,
+    /// and refuses a class whose lassos select nothing ([`StrokesError::EmptyClass`]).
+    pub fn from_strokes(file: &StrokesFile, dims: [usize; 3]) -> Result<TrainingSet, StrokesError> {
+        let set = TrainingSet::from_strokes_keeping_empty(file, dims)?;
+        set.check_every_class_has_voxels()?;
+        Ok(set)
+    }
+
+    /// As [`from_strokes`](Self::from_strokes), but a class may end up without voxels (a
+    /// caller that builds the set while the user is still drawing).
+    pub fn from_strokes_keeping_empty(
+        file: &StrokesFile,
+        dims: [usize; 3],
+    ) -> Result<TrainingSet, StrokesError> {
+        file.check_for_volume(dims)?;
+        let mut classes: Vec<ClassSamples> = file
+            .classes
+            .iter()
+            .map(|class| {
+                let mut tagged: Vec<(usize, u32)> = Vec::new();
+                for (stroke, lasso) in class.strokes.iter().enumerate() {
+                    tagged.extend(
+                        lasso
+                            .selected_voxels(dims)
+                            .into_iter()
+                            .map(|v| (v, stroke as u32)),
+                    );
+                }
+                // Sorting by (voxel, stroke) and keeping the first of each voxel gives it to
+                // its first stroke.
+                tagged.sort_unstable();
+                tagged.dedup_by_key(|&mut (voxel, _)| voxel);
+                let (voxels, stroke_of_voxel) = tagged.into_iter().unzip();
+                ClassSamples {
+                    name: class.name.clone(),
+                    voxels,
+                    stroke_of_voxel,
+                    stroke_voxel_counts: vec![0; class.strokes.len()],
+                    dropped_by_cap: 0,
+                }
+            })
+            .collect();
+        let contested = contested_voxels(&classes);
+        if !contested.is_empty() {
+            log::warn!(
+                "{} voxels are selected by more than one class; they are left out of training",
+                contested.len()
+            );
+            for class in &mut classes {
+                let (voxels, strokes) = class
+                    .voxels
+                    .iter()
+                    .zip(&class.stroke_of_voxel)
+                    .filter(|(voxel, _)| contested.binary_search(voxel).is_err())
+                    .unzip();
+                class.voxels = voxels;
+                class.stroke_of_voxel = strokes;
+            }
+        }
+        for class in &mut classes {
+            class.count_per_stroke();
+        }
+        Ok(TrainingSet {
+            classes,
+            contested_voxels: contested.len(),
+        })
+    }
+
+    /// `Err(EmptyClass)` naming the first class without voxels.
+    pub fn check_every_class_has_voxels(&self) -> Result<(), StrokesError> {
+        match self.classes.iter().position(|c| c.voxels.is_empty()) {
+            Some(position) => Err(StrokesError::EmptyClass {
+                class: self.classes[position].name.clone(),
+                class_id: position + 1,
+            }),
+            None => Ok(()),
+        }
+    }
+
+    /// Training voxels over all classes.
+    pub fn voxel_count(&self) -> usize {
+        self.classes.iter().map(|c| c.voxels.len()).sum()
+    }
+
+    /// Every training voxel with its class id (1-based), class by class.
+    pub fn labelled_voxels(&self) -> (Vec<usize>, Vec<u8>) {
+        let mut voxels = Vec::with_capacity(self.voxel_count());
+        let mut labels = Vec::with_capacity(self.voxel_count());
+        for (position, class) in self.classes.iter().enumerate() {
+            voxels.extend_from_slice(&class.voxels);
+            // from_strokes refuses more than 255 classes.
+            labels.extend(std::iter::repeat_n(
+                (position + 1) as u8,
+                class.voxels.len(),
+            ));
+        }
+        (voxels, labels)
+    }
+
+    /// At most `max_per_class` voxels per class, drawn at random (seeded, so deterministic)
+    /// and stratified over the class's strokes: each stroke keeps its share of the class,
+    /// rounded by largest remainder so that the class gets exactly `max_per_class`. Classes
+    /// already within the cap are unchanged; `dropped_by_cap` says how many went.
+    pub fn capped(&self, max_per_class: usize, seed: u64) -> TrainingSet {
+        let classes = self
+            .classes
+            .iter()
+            .enumerate()
+            .map(|(position, class)| class.capped(max_per_class, hash64(seed, position as u64)))
+            .collect();
+        TrainingSet {
+            classes,
+            contested_voxels: self.contested_voxels,
+        }
+    }
+}
+
+impl ClassSamples {
+    fn count_per_stroke(&mut self) {
+        self.stroke_voxel_counts.iter_mut().for_each(|c| *c = 0);
+        for &stroke in &self.stroke_of_voxel {
+            self.stroke_voxel_counts[stroke as usize] += 1;
+        }
+    }
+
+    fn capped(&self, max_per_class: usize, seed: u64) -> ClassSamples {
+        let total = self.voxels.len();
+        if total <= max_per_class {
+            return self.clone();
+        }
+        let quotas = largest_remainder_quotas(&self.stroke_voxel_counts, max_per_class);
+        let mut rng = SplitMix64::new(seed);
+        let mut kept: Vec<(usize, u32)> = Vec::with_capacity(max_per_class);
+        for (stroke, &quota) in quotas.iter().enumerate() {
+            let mut members: Vec<usize> = self
+                .voxels
+                .iter()
+                .zip(&self.stroke_of_voxel)
+                .filter(|&(_, &s)| s as usize == stroke)
+                .map(|(&voxel, _)| voxel)
+                .collect();
+            rng.partial_shuffle(&mut members, quota);
+            kept.extend(members[..quota].iter().map(|&voxel| (voxel, stroke as u32)));
+        }
+        kept.sort_unstable();
+        let (voxels, stroke_of_voxel): (Vec<usize>, Vec<u32>) = kept.into_iter().unzip();
+        let mut capped = ClassSamples {
+            name: self.name.clone(),
+            dropped_by_cap: self.dropped_by_cap + total - voxels.len(),
+            voxels,
+            stroke_of_voxel,
+            stroke_voxel_counts: self.stroke_voxel_counts.clone(),
+        };
+        capped.count_per_stroke();
+        capped
+    }
+}
+
+/// Splits `target` (< the sum of `counts`) in proportion to `counts`: floors first, then one
+/// more to the largest fractional parts (ties to the earlier stroke).
+fn largest_remainder_quotas(counts: &[usize], target: usize) -> Vec<usize> {
+    let total: usize = counts.iter().sum();
+    if total == 0 {
+        return vec![0; counts.len()];
+    }
+    // Exact integer arithmetic: share = count * target / total.
+    let mut quotas: Vec<usize> = counts
+        .iter()
+        .map(|&c| ((c as u128 * target as u128) / total as u128) as usize)
+        .collect();
+    let remainders: Vec<u128> = counts
+        .iter()
+        .map(|&c| (c as u128 * target as u128) % total as u128)
+        .collect();
+    let mut order: Vec<usize> = (0..counts.len()).collect();
+    order.sort_by(|&a, &b| remainders[b].cmp(&remainders[a]).then(a.cmp(&b)));
+    let missing = target.saturating_sub(quotas.iter().sum());
+    for &stroke in order.iter().take(missing) {
+        quotas[stroke] += 1;
+    }
+    quotas
+}
+
+/// Voxels that appear in more than one class, sorted.
+fn contested_voxels(classes: &[ClassSamples]) -> Vec<usize> {
+    let mut all: Vec<usize> = classes
+        .iter()
+        .flat_map(|c| c.voxels.iter().copied())
+        .collect();
+    all.sort_unstable();
+    // Each class's voxels are unique, so a repeat means two classes.
+    let mut contested: Vec<usize> = all
+        .windows(2)
+        .filter(|w| w[0] == w[1])
+        .map(|w| w[0])
+        .collect();
+    contested.dedup();
+    contested
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::slices::Axis;
+    use crate::strokes::{ClassStrokes, Lasso};
+
+    const DIMS: [usize; 3] = [40, 30, 20];
+
+    /// An axis-aligned rectangle of centres x0..=x1, y0..=y1 on z slice `z`.
+    fn rectangle(z: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Lasso {
+        let (x0, y0, x1, y1) = (
+            x0 as f64 - 0.5,
+            y0 as f64 - 0.5,
+            x1 as f64 + 0.5,
+            y1 as f64 + 0.5,
+        );
+        Lasso {
+            axis: Axis::Z,
+            slice: z,
+            points: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
+        }
+    }
+
+    fn class(name: &str, strokes: Vec<Lasso>) -> ClassStrokes {
+        ClassStrokes {
+            name: name.into(),
+            strokes,
+        }
+    }
+
+    #[test]
+    fn voxels_claimed_by_two_classes_are_dropped_from_both() {
+        let file = StrokesFile {
+            classes: vec![
+                // 10 x 10 (x, y 0..=9) and 5 x 10 (x 5..=9, y 2..=11): 110 voxels in all.
+                class("bone", vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)]),
+                // x 8..=11, y 0..=9: its columns 8 and 9 overlap bone's first stroke.
+                class("soft tissue", vec![rectangle(5, 8, 0, 11, 9)]),
+            ],
+        };
+        let set = TrainingSet::from_strokes(&file, DIMS).unwrap();
+        assert_eq!(set.contested_voxels, 20);
+        let bone = &set.classes[0];
+        assert_eq!(bone.voxels.len(), 110 - 20);
+        // The second stroke keeps only rows 10 and 11; the rest went to the first stroke.
+        assert_eq!(bone.stroke_voxel_counts, vec![80, 10]);
+        assert!(bone.voxels.windows(2).all(|w| w[0] < w[1]));
+        let soft = &set.classes[1];
+        assert_eq!(soft.voxels.len(), 40 - 20);
+        for voxel in &soft.voxels {
+            assert!(bone.voxels.binary_search(voxel).is_err());
+            assert!([10, 11].contains(&(voxel % 40)));
+        }
+        // Within a class, an overlap counts once, for the first stroke.
+        let first_stroke_voxel = 6 + 40 * (3 + 30 * 5);
+        let position = bone.voxels.binary_search(&first_stroke_voxel).unwrap();
+        assert_eq!(bone.stroke_of_voxel[position], 0);
+        let (voxels, labels) = set.labelled_voxels();
+        assert_eq!(voxels.len(), 110);
+        assert_eq!(labels.iter().filter(|&&l| l == 2).count(), 20);
+        assert_eq!(labels[0], 1);
+    }
+
+    #[test]
+    fn a_class_whose_lassos_select_nothing_is_an_error_naming_it() {
+        let file = StrokesFile {
+            classes: vec![
+                class("bone", vec![rectangle(1, 0, 0, 3, 3)]),
+                class(
+                    "joint",
+                    vec![Lasso {
+                        axis: Axis::Y,
+                        slice: 2,
+                        points: vec![[1.0, 1.0], [2.0, 2.0]],
+                    }],
+                ),
+            ],
+        };
+        let error = TrainingSet::from_strokes(&file, DIMS).unwrap_err();
+        assert!(
+            matches!(&error, StrokesError::EmptyClass { class, class_id: 2 } if class == "joint")
+        );
+        assert!(error.to_string().contains("'joint'"));
+        let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
+        assert!(kept.classes[1].voxels.is_empty());
+        assert_eq!(kept.classes[1].stroke_voxel_counts, vec![0]);
+    }
+
+    #[test]
+    fn slices_outside_the_volume_and_too_many_classes_are_refused() {
+        let file = StrokesFile {
+            classes: vec![class("a", vec![rectangle(20, 0, 0, 3, 3)])],
+        };
+        assert!(matches!(
+            TrainingSet::from_strokes(&file, DIMS),
+            Err(StrokesError::SliceOutOfRange {
+                slice: 20,
+                slice_count: 20,
+                ..
+            })
+        ));
+        let many = StrokesFile {
+            classes: (0..256).map(|k| class(&k.to_string(), vec![])).collect(),
+        };
+        assert!(matches!(
+            TrainingSet::from_strokes(&many, DIMS),
+            Err(StrokesError::TooManyClasses { count: 256 })
+        ));
+    }
+
+    #[test]
+    fn a_cap_keeps_each_strokes_share_and_is_deterministic() {
+        let file = StrokesFile {
+            classes: vec![
+                // 300 and 100 voxels on different slices, and a small class under the cap.
+                class(
+                    "bone",
+                    vec![rectangle(1, 0, 0, 29, 9), rectangle(2, 0, 0, 9, 9)],
+                ),
+                class("air", vec![rectangle(3, 0, 0, 4, 4)]),
+            ],
+        };
+        let set = TrainingSet::from_strokes(&file, DIMS).unwrap();
+        let capped = set.capped(101, 7);
+        let bone = &capped.classes[0];
+        assert_eq!(bone.voxels.len(), 101);
+        // 101 * 3/4 = 75.75, 101 / 4 = 25.25: the larger remainder gets the extra voxel.
+        assert_eq!(bone.stroke_voxel_counts, vec![76, 25]);
+        assert_eq!(bone.dropped_by_cap, 299);
+        assert!(bone.voxels.windows(2).all(|w| w[0] < w[1]));
+        assert!(
+            bone.voxels
+                .iter()
+                .all(|v| set.classes[0].voxels.binary_search(v).is_ok())
+        );
+        for (voxel, &stroke) in bone.voxels.iter().zip(&bone.stroke_of_voxel) {
+            assert_eq!(voxel / (40 * 30), stroke as usize + 1);
+        }
+        assert_eq!(capped.classes[1], set.classes[1]);
+        assert_eq!(set.capped(101, 7), capped);
+        assert_ne!(set.capped(101, 8).classes[0].voxels, bone.voxels);
+        assert_eq!(set.capped(1000, 7), set);
+    }
+
+    #[test]
+    fn largest_remainder_quotas_add_up_to_the_target() {
+        assert_eq!(largest_remainder_quotas(&[1, 1, 1], 2), vec![1, 1, 0]);
+        assert_eq!(largest_remainder_quotas(&[0, 10, 5], 6), vec![0, 4, 2]);
+        assert_eq!(largest_remainder_quotas(&[0, 0], 3), vec![0, 0]);
+        for target in 0..50 {
+            let quotas = largest_remainder_quotas(&[7, 13, 29, 1], target);
+            assert_eq!(quotas.iter().sum::<usize>(), target);
+        }
+    }
+}
