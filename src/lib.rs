@@ -18,6 +18,7 @@ pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};
 pub mod features;
+pub mod phantom;
 pub mod rng;
 pub mod slices;
 pub mod strokes;

@@ -268,7 +268,10 @@ mod tests {
         let file = StrokesFile {
             classes: vec![
                 // 10 x 10 (x, y 0..=9) and 5 x 10 (x 5..=9, y 2..=11): 110 voxels in all.
-                class("bone", vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)]),
+                class(
+                    "bone",
+                    vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)],
+                ),
                 // x 8..=11, y 0..=9: its columns 8 and 9 overlap bone's first stroke.
                 class("soft tissue", vec![rectangle(5, 8, 0, 11, 9)]),
             ],
