@@ -17,6 +17,8 @@ pub struct VolumeInfo {
     pub value_max: f64,
     pub non_finite_voxels: u64,
     pub memory_mapped: bool,
+    /// The highest-entropy slice along x, y and z (paper §3.1, eq. 1).
+    pub top_slices: [usize; 3],
     pub resident_memory: Option<memory::ResidentMemory>,
 }
 
@@ -32,6 +34,7 @@ impl VolumeInfo {
             value_max: range.max,
             non_finite_voxels: range.non_finite_voxels,
             memory_mapped: volume.is_memory_mapped(),
+            top_slices: crate::slices::slice_entropies(volume).top_slices(),
             resident_memory: memory::resident_memory(),
         }
     }
@@ -61,6 +64,10 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     if info.non_finite_voxels > 0 {
         println!("non-finite:  {} voxels (NaN or infinite)", info.non_finite_voxels);
     }
+    println!(
+        "top slices:  x {}, y {}, z {} (highest entropy)",
+        info.top_slices[0], info.top_slices[1], info.top_slices[2]
+    );
     println!("storage:     {}", if info.memory_mapped { "memory-mapped" } else { "in memory" });
     if let Some(memory) = info.resident_memory {
         println!(

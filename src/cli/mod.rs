@@ -59,7 +59,13 @@ fn init_logging(verbose: u8) {
         .try_init();
 }
 
-/// Opens the volume a subcommand names.
+/// The volume name that means the built-in demo phantom (unless a file of that name exists).
+pub const DEMO_VOLUME: &str = "demo";
+
+/// Opens the volume a subcommand names: a file or folder, or [`DEMO_VOLUME`].
 pub fn open_volume(path: &std::path::Path, args: &VolumeArgs) -> Result<crate::volume::Volume, CliError> {
+    if path.as_os_str() == DEMO_VOLUME && !path.exists() {
+        return Ok(crate::phantom::demo_foot().volume);
+    }
     Ok(crate::volume::open(path, &args.open_options())?)
 }

@@ -54,13 +54,7 @@ impl FeatureSet {
     /// A short name for each feature, in order.
     pub fn names(self) -> &'static [&'static str] {
         match self {
-            FeatureSet::Paper5 => &[
-                "intensity",
-                "gradient magnitude",
-                "mean xy",
-                "mean xz",
-                "mean yz",
-            ],
+            FeatureSet::Paper5 => &["intensity", "gradient magnitude", "mean xy", "mean xz", "mean yz"],
         }
     }
 }
@@ -71,21 +65,13 @@ pub enum FeatureError {
     #[error("voxel index {index} is outside the volume of {voxel_count} voxels")]
     VoxelOutOfRange { index: usize, voxel_count: usize },
     #[error("slab z {z_start}..{z_end} is outside the volume's {size_z} z slices")]
-    SlabOutOfRange {
-        z_start: usize,
-        z_end: usize,
-        size_z: usize,
-    },
+    SlabOutOfRange { z_start: usize, z_end: usize, size_z: usize },
     #[error("no training vectors to fit a standardiser on")]
     NoVectors,
     #[error("{length} values are not a whole number of {dim}-feature vectors")]
     Ragged { length: usize, dim: usize },
     #[error("feature {feature} of training vector {vector} is not a finite number ({value})")]
-    NonFinite {
-        vector: usize,
-        feature: usize,
-        value: f32,
-    },
+    NonFinite { vector: usize, feature: usize, value: f32 },
     #[error("the standardiser was fitted on {fitted}-feature vectors but got {found}-feature ones")]
     DimensionMismatch { fitted: usize, found: usize },
 }
@@ -104,36 +90,9 @@ pub fn features_at(volume: &Volume, index: usize) -> [f32; 5] {
     let at = |i: usize, j: usize, k: usize| volume.value_at(xs[i], ys[j], zs[k]) as f32;
     let neighbourhood = Neighbourhood {
         centre: at(1, 1, 1),
-        xy: [
-            at(0, 0, 1),
-            at(1, 0, 1),
-            at(2, 0, 1),
-            at(0, 1, 1),
-            at(2, 1, 1),
-            at(0, 2, 1),
-            at(1, 2, 1),
-            at(2, 2, 1),
-        ],
-        xz: [
-            at(0, 1, 0),
-            at(1, 1, 0),
-            at(2, 1, 0),
-            at(0, 1, 1),
-            at(2, 1, 1),
-            at(0, 1, 2),
-            at(1, 1, 2),
-            at(2, 1, 2),
-        ],
-        yz: [
-            at(1, 0, 0),
-            at(1, 1, 0),
-            at(1, 2, 0),
-            at(1, 0, 1),
-            at(1, 2, 1),
-            at(1, 0, 2),
-            at(1, 1, 2),
-            at(1, 2, 2),
-        ],
+        xy: [at(0, 0, 1), at(1, 0, 1), at(2, 0, 1), at(0, 1, 1), at(2, 1, 1), at(0, 2, 1), at(1, 2, 1), at(2, 2, 1)],
+        xz: [at(0, 1, 0), at(1, 1, 0), at(2, 1, 0), at(0, 1, 1), at(2, 1, 1), at(0, 1, 2), at(1, 1, 2), at(2, 1, 2)],
+        yz: [at(1, 0, 0), at(1, 1, 0), at(1, 2, 0), at(1, 0, 1), at(1, 2, 1), at(1, 0, 2), at(1, 1, 2), at(1, 2, 2)],
         gradient_scale: [
             inverse_span_mm(x, volume.dims[0], volume.spacing_mm[0]),
             inverse_span_mm(y, volume.dims[1], volume.spacing_mm[1]),
@@ -156,12 +115,11 @@ pub fn features_of_voxels(
     }
     let dim = feature_set.dim();
     let mut out = vec![0f32; indices.len() * dim];
-    out.par_chunks_exact_mut(dim)
-        .zip(indices.par_iter())
-        .with_min_len(256)
-        .for_each(|(row, &index)| match feature_set {
+    out.par_chunks_exact_mut(dim).zip(indices.par_iter()).with_min_len(256).for_each(
+        |(row, &index)| match feature_set {
             FeatureSet::Paper5 => row.copy_from_slice(&features_at(volume, index)),
-        });
+        },
+    );
     Ok(out)
 }
 
@@ -198,11 +156,7 @@ impl Neighbourhood {
 #[inline]
 fn inverse_span_mm(position: usize, size: usize, spacing_mm: f64) -> f32 {
     let span = (position + 1).min(size - 1) - position.saturating_sub(1);
-    if span == 0 {
-        0.0
-    } else {
-        (1.0 / (span as f64 * spacing_mm)) as f32
-    }
+    if span == 0 { 0.0 } else { (1.0 / (span as f64 * spacing_mm)) as f32 }
 }
 
 /// The z range of a slab, checked against the volume.

@@ -27,9 +27,7 @@ impl<'v> FeatureSlabReader<'v> {
     pub fn new(volume: &'v Volume, feature_set: FeatureSet) -> FeatureSlabReader<'v> {
         let [size_x, size_y, _] = volume.dims;
         let neighbours = |size: usize| -> Vec<[usize; 2]> {
-            (0..size)
-                .map(|p| [p.saturating_sub(1), (p + 1).min(size - 1)])
-                .collect()
+            (0..size).map(|p| [p.saturating_sub(1), (p + 1).min(size - 1)]).collect()
         };
         FeatureSlabReader {
             volume,
@@ -38,12 +36,8 @@ impl<'v> FeatureSlabReader<'v> {
             plane_z: [None; 3],
             x_neighbours: neighbours(size_x),
             y_neighbours: neighbours(size_y),
-            x_gradient_scale: (0..size_x)
-                .map(|x| inverse_span_mm(x, size_x, volume.spacing_mm[0]))
-                .collect(),
-            y_gradient_scale: (0..size_y)
-                .map(|y| inverse_span_mm(y, size_y, volume.spacing_mm[1]))
-                .collect(),
+            x_gradient_scale: (0..size_x).map(|x| inverse_span_mm(x, size_x, volume.spacing_mm[0])).collect(),
+            y_gradient_scale: (0..size_y).map(|y| inverse_span_mm(y, size_y, volume.spacing_mm[1])).collect(),
         }
     }
 
@@ -53,11 +47,7 @@ impl<'v> FeatureSlabReader<'v> {
 
     /// Features of every voxel of z slices `z_range`, in voxel order, into `out` (cleared and
     /// resized to `voxels x dim`, row-major).
-    pub fn compute(
-        &mut self,
-        z_range: Range<usize>,
-        out: &mut Vec<f32>,
-    ) -> Result<(), FeatureError> {
+    pub fn compute(&mut self, z_range: Range<usize>, out: &mut Vec<f32>) -> Result<(), FeatureError> {
         check_slab(self.volume, &z_range)?;
         self.fill(z_range, out);
         Ok(())
@@ -75,28 +65,18 @@ impl<'v> FeatureSlabReader<'v> {
             let previous = &self.planes[previous];
             let current = &self.planes[current];
             let next = &self.planes[next];
-            let z_gradient_scale =
-                inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
+            let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
             for (y, row_out) in slice_out.chunks_exact_mut(size_x * dim).enumerate() {
                 let [y_minus, y_plus] = self.y_neighbours[y];
                 fn row(values: &[f32], y: usize, size_x: usize) -> &[f32] {
                     &values[y * size_x..(y + 1) * size_x]
                 }
-                let (current_minus, current_0, current_plus) = (
-                    row(current, y_minus, size_x),
-                    row(current, y, size_x),
-                    row(current, y_plus, size_x),
-                );
-                let (previous_minus, previous_0, previous_plus) = (
-                    row(previous, y_minus, size_x),
-                    row(previous, y, size_x),
-                    row(previous, y_plus, size_x),
-                );
-                let (next_minus, next_0, next_plus) = (
-                    row(next, y_minus, size_x),
-                    row(next, y, size_x),
-                    row(next, y_plus, size_x),
-                );
+                let (current_minus, current_0, current_plus) =
+                    (row(current, y_minus, size_x), row(current, y, size_x), row(current, y_plus, size_x));
+                let (previous_minus, previous_0, previous_plus) =
+                    (row(previous, y_minus, size_x), row(previous, y, size_x), row(previous, y_plus, size_x));
+                let (next_minus, next_0, next_plus) =
+                    (row(next, y_minus, size_x), row(next, y, size_x), row(next, y_plus, size_x));
                 let y_gradient_scale = self.y_gradient_scale[y];
                 for (x, voxel_out) in row_out.chunks_exact_mut(dim).enumerate() {
                     let [x_minus, x_plus] = self.x_neighbours[x];
@@ -132,11 +112,7 @@ impl<'v> FeatureSlabReader<'v> {
                             next_0[x],
                             next_plus[x],
                         ],
-                        gradient_scale: [
-                            self.x_gradient_scale[x],
-                            y_gradient_scale,
-                            z_gradient_scale,
-                        ],
+                        gradient_scale: [self.x_gradient_scale[x], y_gradient_scale, z_gradient_scale],
                     };
                     match self.feature_set {
                         FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
@@ -144,6 +120,71 @@ impl<'v> FeatureSlabReader<'v> {
                 }
             }
         }
+    }
+
+    /// Features of selected voxels of z slice `z`, given by their index within the slice
+    /// (`x + size_x * y`), into `out` (cleared and resized to `selected.len() x dim`). This is
+    /// the path for sparse work (foreground voxels only, coarse-to-fine refinement); it gives
+    /// the same values as [`compute`](Self::compute) for the same voxels.
+    pub fn compute_selected(&mut self, z: usize, selected: &[usize], out: &mut Vec<f32>) -> Result<(), FeatureError> {
+        check_slab(self.volume, &(z..z + 1))?;
+        let [size_x, size_y, _] = self.volume.dims;
+        if let Some(&index) = selected.iter().find(|&&i| i >= size_x * size_y) {
+            return Err(FeatureError::VoxelOutOfRange { index, voxel_count: size_x * size_y });
+        }
+        let dim = self.feature_set.dim();
+        out.clear();
+        out.resize(selected.len() * dim, 0.0);
+        if selected.is_empty() {
+            return Ok(());
+        }
+        let [previous, current, next] = self.load_planes_around(z);
+        let (previous, current, next) = (&self.planes[previous], &self.planes[current], &self.planes[next]);
+        let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
+        for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(dim)) {
+            let (x, y) = (index % size_x, index / size_x);
+            let [x_minus, x_plus] = self.x_neighbours[x];
+            let [y_minus, y_plus] = self.y_neighbours[y];
+            let at = |plane: &[f32], x: usize, y: usize| plane[x + size_x * y];
+            let neighbourhood = Neighbourhood {
+                centre: at(current, x, y),
+                xy: [
+                    at(current, x_minus, y_minus),
+                    at(current, x, y_minus),
+                    at(current, x_plus, y_minus),
+                    at(current, x_minus, y),
+                    at(current, x_plus, y),
+                    at(current, x_minus, y_plus),
+                    at(current, x, y_plus),
+                    at(current, x_plus, y_plus),
+                ],
+                xz: [
+                    at(previous, x_minus, y),
+                    at(previous, x, y),
+                    at(previous, x_plus, y),
+                    at(current, x_minus, y),
+                    at(current, x_plus, y),
+                    at(next, x_minus, y),
+                    at(next, x, y),
+                    at(next, x_plus, y),
+                ],
+                yz: [
+                    at(previous, x, y_minus),
+                    at(previous, x, y),
+                    at(previous, x, y_plus),
+                    at(current, x, y_minus),
+                    at(current, x, y_plus),
+                    at(next, x, y_minus),
+                    at(next, x, y),
+                    at(next, x, y_plus),
+                ],
+                gradient_scale: [self.x_gradient_scale[x], self.y_gradient_scale[y], z_gradient_scale],
+            };
+            match self.feature_set {
+                FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
+            }
+        }
+        Ok(())
     }
 
     /// Makes the buffers hold planes z-1, z, z+1 (clamped) and returns which buffer holds each.
@@ -166,8 +207,7 @@ impl<'v> FeatureSlabReader<'v> {
             // most 3 distinct wanted planes, and this one is not held).
             let free = (0..3).find(|slot| !slots.contains(slot)).unwrap_or(k);
             self.planes[free].resize(plane, 0.0);
-            self.volume
-                .read_z_slice_f32(wanted[k], &mut self.planes[free]);
+            self.volume.read_z_slice_f32(wanted[k], &mut self.planes[free]);
             self.plane_z[free] = Some(wanted[k]);
             slots[k] = free;
             // Clamping can ask for the same plane twice (z = 0 or the last slice).
@@ -184,20 +224,12 @@ impl<'v> FeatureSlabReader<'v> {
 /// Consecutive z ranges of at most `depth_z` slices covering `0..size_z` (`depth_z` 0 counts as 1).
 pub fn slab_ranges(size_z: usize, depth_z: usize) -> Vec<Range<usize>> {
     let depth_z = depth_z.max(1);
-    (0..size_z)
-        .step_by(depth_z)
-        .map(|start| start..(start + depth_z).min(size_z))
-        .collect()
+    (0..size_z).step_by(depth_z).map(|start| start..(start + depth_z).min(size_z)).collect()
 }
 
 /// Computes the features of the whole volume slab by slab in parallel and calls `work` with
 /// each slab's z range and its `voxels x dim` feature block; returns the results in slab order.
-pub fn par_map_slabs<T, F>(
-    volume: &Volume,
-    feature_set: FeatureSet,
-    depth_z: usize,
-    work: F,
-) -> Vec<T>
+pub fn par_map_slabs<T, F>(volume: &Volume, feature_set: FeatureSet, depth_z: usize, work: F) -> Vec<T>
 where
     T: Send,
     F: Fn(Range<usize>, &[f32]) -> T + Sync,

@@ -20,10 +20,7 @@ impl Standardiser {
             return Err(FeatureError::NoVectors);
         }
         if vectors.len() % dim != 0 {
-            return Err(FeatureError::Ragged {
-                length: vectors.len(),
-                dim,
-            });
+            return Err(FeatureError::Ragged { length: vectors.len(), dim });
         }
         if let Some(position) = vectors.iter().position(|v| !v.is_finite()) {
             return Err(FeatureError::NonFinite {
@@ -67,12 +64,7 @@ impl Standardiser {
         self.check(vectors)?;
         Ok(vectors
             .chunks_exact(self.dim())
-            .flat_map(|row| {
-                row.iter()
-                    .zip(&self.mean)
-                    .zip(&self.std)
-                    .map(|((&v, m), s)| (v as f64 - m) / s)
-            })
+            .flat_map(|row| row.iter().zip(&self.mean).zip(&self.std).map(|((&v, m), s)| (v as f64 - m) / s))
             .collect())
     }
 
@@ -93,10 +85,7 @@ impl Standardiser {
     fn check(&self, vectors: &[f32]) -> Result<(), FeatureError> {
         let dim = self.dim();
         if dim == 0 || vectors.len() % dim != 0 {
-            return Err(FeatureError::Ragged {
-                length: vectors.len(),
-                dim,
-            });
+            return Err(FeatureError::Ragged { length: vectors.len(), dim });
         }
         Ok(())
     }

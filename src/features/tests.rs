@@ -2,11 +2,7 @@ use super::*;
 use crate::rng::SplitMix64;
 use std::path::Path;
 
-fn volume_from(
-    dims: [usize; 3],
-    spacing_mm: [f64; 3],
-    mut f: impl FnMut(usize, usize, usize) -> f32,
-) -> Volume {
+fn volume_from(dims: [usize; 3], spacing_mm: [f64; 3], mut f: impl FnMut(usize, usize, usize) -> f32) -> Volume {
     let mut values = Vec::with_capacity(dims.iter().product());
     for z in 0..dims[2] {
         for y in 0..dims[1] {
@@ -20,9 +16,7 @@ fn volume_from(
 
 fn random_volume(dims: [usize; 3], seed: u64) -> Volume {
     let mut rng = SplitMix64::new(seed);
-    volume_from(dims, [0.7, 1.1, 2.5], |_, _, _| {
-        (rng.next_f64() * 2000.0 - 1000.0) as f32
-    })
+    volume_from(dims, [0.7, 1.1, 2.5], |_, _, _| (rng.next_f64() * 2000.0 - 1000.0) as f32)
 }
 
 fn all_slab_features(volume: &Volume) -> Vec<f32> {
@@ -49,17 +43,11 @@ fn a_constant_volume_has_zero_gradient_and_means_equal_to_the_constant() {
 fn a_linear_ramp_has_its_exact_gradient_in_physical_units_everywhere() {
     let spacing_mm = [0.5, 2.0, 4.0];
     // Per voxel step: 3 along x, -8 along y, 20 along z: per mm 6, -4, 5.
-    let volume = volume_from([6, 5, 4], spacing_mm, |x, y, z| {
-        3.0 * x as f32 - 8.0 * y as f32 + 20.0 * z as f32
-    });
+    let volume = volume_from([6, 5, 4], spacing_mm, |x, y, z| 3.0 * x as f32 - 8.0 * y as f32 + 20.0 * z as f32);
     let expected = (36f32 + 16.0 + 25.0).sqrt();
     let features = all_slab_features(&volume);
     for (index, row) in features.chunks_exact(5).enumerate() {
-        assert!(
-            (row[1] - expected).abs() < 1e-4,
-            "voxel {index}: {}",
-            row[1]
-        );
+        assert!((row[1] - expected).abs() < 1e-4, "voxel {index}: {}", row[1]);
     }
     // In the interior every plane mean of a linear function is the centre value.
     let centre = volume.index(2, 2, 1);
@@ -82,10 +70,7 @@ fn plane_means_take_the_eight_in_plane_neighbours_and_clamp_at_the_edge() {
     // value = 100 z + 10 y + x on a 3x3x3 grid.
     let volume = volume_from([3, 3, 3], [1.0; 3], |x, y, z| (100 * z + 10 * y + x) as f32);
     let centre = features_at(&volume, volume.index(1, 1, 1));
-    assert_eq!(
-        centre,
-        [111.0, (1f32 + 100.0 + 10000.0).sqrt(), 111.0, 111.0, 111.0]
-    );
+    assert_eq!(centre, [111.0, (1f32 + 100.0 + 10000.0).sqrt(), 111.0, 111.0, 111.0]);
     // Corner (0,0,0): xy neighbours clamp to (0|1, 0|1, 0): {0,0,1,0,1,10,10,11} -> 33/8.
     let corner = features_at(&volume, 0);
     assert_eq!(corner[2], 33.0 / 8.0);
@@ -110,24 +95,33 @@ fn slabs_equal_per_voxel_features_bit_for_bit_in_any_order_of_calls() {
     let volume = random_volume([9, 7, 8], 5);
     let dim = 5;
     let plane = 9 * 7;
-    let per_voxel: Vec<f32> = (0..volume.voxel_count())
-        .flat_map(|index| features_at(&volume, index))
-        .collect();
+    let per_voxel: Vec<f32> = (0..volume.voxel_count()).flat_map(|index| features_at(&volume, index)).collect();
     assert_eq!(all_slab_features(&volume), per_voxel);
     // One reader, slabs forward, backward and overlapping: the rolling buffer must not leak.
     let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
     let mut block = Vec::new();
     for z_range in [0..3, 3..5, 5..8, 1..2, 7..8, 0..1, 2..6, 4..4] {
         reader.compute(z_range.clone(), &mut block).unwrap();
-        assert_eq!(
-            block,
-            per_voxel[z_range.start * plane * dim..z_range.end * plane * dim],
-            "{z_range:?}"
-        );
+        assert_eq!(block, per_voxel[z_range.start * plane * dim..z_range.end * plane * dim], "{z_range:?}");
     }
     let listed = features_of_voxels(&volume, FeatureSet::Paper5, &[17, 0, 503]).unwrap();
     assert_eq!(&listed[..5], &per_voxel[17 * 5..18 * 5]);
     assert_eq!(&listed[10..], &per_voxel[503 * 5..504 * 5]);
+}
+
+#[test]
+fn selected_voxels_of_a_slice_equal_per_voxel_features() {
+    let volume = random_volume([9, 7, 8], 11);
+    let plane = 9 * 7;
+    let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
+    let mut block = Vec::new();
+    for (z, selected) in [(0usize, vec![0usize, 8, 62]), (7, vec![5, 30]), (3, vec![]), (4, (0..plane).collect())] {
+        reader.compute_selected(z, &selected, &mut block).unwrap();
+        let expected: Vec<f32> = selected.iter().flat_map(|&i| features_at(&volume, z * plane + i)).collect();
+        assert_eq!(block, expected, "z {z}");
+    }
+    assert!(reader.compute_selected(8, &[0], &mut block).is_err());
+    assert!(reader.compute_selected(2, &[plane], &mut block).is_err());
 }
 
 #[test]
@@ -149,19 +143,12 @@ fn out_of_range_voxels_and_slabs_are_errors() {
     let volume = random_volume([3, 3, 3], 1);
     assert_eq!(
         features_of_voxels(&volume, FeatureSet::Paper5, &[3, 27]),
-        Err(FeatureError::VoxelOutOfRange {
-            index: 27,
-            voxel_count: 27
-        })
+        Err(FeatureError::VoxelOutOfRange { index: 27, voxel_count: 27 })
     );
     let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
     assert_eq!(
         reader.compute(2..4, &mut Vec::new()),
-        Err(FeatureError::SlabOutOfRange {
-            z_start: 2,
-            z_end: 4,
-            size_z: 3
-        })
+        Err(FeatureError::SlabOutOfRange { z_start: 2, z_end: 4, size_z: 3 })
     );
 }
 
@@ -173,12 +160,7 @@ fn the_standardiser_centres_and_scales_and_passes_constant_features() {
     assert_eq!(standardiser.std[1], 1.0);
     let standardised = standardiser.apply(&vectors).unwrap();
     for feature in [0, 2] {
-        let column: Vec<f64> = standardised
-            .iter()
-            .skip(feature)
-            .step_by(3)
-            .copied()
-            .collect();
+        let column: Vec<f64> = standardised.iter().skip(feature).step_by(3).copied().collect();
         let mean = column.iter().sum::<f64>() / 3.0;
         let variance = column.iter().map(|v| (v - mean).powi(2)).sum::<f64>() / 3.0;
         assert!(mean.abs() < 1e-12 && (variance - 1.0).abs() < 1e-12);
@@ -194,17 +176,10 @@ fn the_standardiser_centres_and_scales_and_passes_constant_features() {
 #[test]
 fn the_standardiser_refuses_bad_training_vectors() {
     assert_eq!(Standardiser::fit(&[], 5), Err(FeatureError::NoVectors));
-    assert_eq!(
-        Standardiser::fit(&[1.0; 7], 5),
-        Err(FeatureError::Ragged { length: 7, dim: 5 })
-    );
+    assert_eq!(Standardiser::fit(&[1.0; 7], 5), Err(FeatureError::Ragged { length: 7, dim: 5 }));
     assert!(matches!(
         Standardiser::fit(&[1.0, 2.0, 3.0, f32::NAN], 2),
-        Err(FeatureError::NonFinite {
-            vector: 1,
-            feature: 1,
-            ..
-        })
+        Err(FeatureError::NonFinite { vector: 1, feature: 1, .. })
     ));
     let standardiser = Standardiser::fit(&[1.0, 2.0], 2).unwrap();
     assert!(standardiser.apply(&[1.0, 2.0, 3.0]).is_err());
@@ -215,21 +190,9 @@ fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughpu
     use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
     let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
     let bytes = VoxelBytes::map_region(path, 0, 256 * 256 * 256).unwrap();
-    let volume = Volume::new(
-        [256; 3],
-        [1.0; 3],
-        VoxelType::U8,
-        ByteOrder::Little,
-        ValueScale::IDENTITY,
-        bytes,
-        path,
-    )
-    .unwrap();
-    let probes = [
-        0usize,
-        256 * 256 * 128 + 256 * 100 + 77,
-        256 * 256 * 256 - 1,
-    ];
+    let volume =
+        Volume::new([256; 3], [1.0; 3], VoxelType::U8, ByteOrder::Little, ValueScale::IDENTITY, bytes, path).unwrap();
+    let probes = [0usize, 256 * 256 * 128 + 256 * 100 + 77, 256 * 256 * 256 - 1];
     let started = std::time::Instant::now();
     let slabs = par_map_slabs(&volume, FeatureSet::Paper5, 4, |z_range, block| {
         let first = z_range.start * 256 * 256;

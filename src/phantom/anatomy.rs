@@ -34,11 +34,7 @@ pub const JOINT_HU: f32 = 105.0;
 #[derive(Clone, Copy, Debug)]
 pub enum Shape {
     /// Points within `radius` of the segment `from`-`to`.
-    Capsule {
-        from: [f64; 3],
-        to: [f64; 3],
-        radius: f64,
-    },
+    Capsule { from: [f64; 3], to: [f64; 3], radius: f64 },
     /// Axis-aligned ellipsoid (distance approximated, exact on the axes).
     Ellipsoid { centre: [f64; 3], radii: [f64; 3] },
 }
@@ -50,28 +46,16 @@ impl Shape {
                 let axis = sub(to, from);
                 let offset = sub(p, from);
                 let t = (dot(offset, axis) / dot(axis, axis)).clamp(0.0, 1.0);
-                let closest = [
-                    from[0] + t * axis[0],
-                    from[1] + t * axis[1],
-                    from[2] + t * axis[2],
-                ];
+                let closest = [from[0] + t * axis[0], from[1] + t * axis[1], from[2] + t * axis[2]];
                 norm(sub(p, closest)) - radius
             }
             Shape::Ellipsoid { centre, radii } => {
                 let q = sub(p, centre);
                 let scaled = [q[0] / radii[0], q[1] / radii[1], q[2] / radii[2]];
-                let scaled2 = [
-                    scaled[0] / radii[0],
-                    scaled[1] / radii[1],
-                    scaled[2] / radii[2],
-                ];
+                let scaled2 = [scaled[0] / radii[0], scaled[1] / radii[1], scaled[2] / radii[2]];
                 let k0 = norm(scaled);
                 let k1 = norm(scaled2);
-                if k1 < 1e-12 {
-                    -radii[0].min(radii[1]).min(radii[2])
-                } else {
-                    k0 * (k0 - 1.0) / k1
-                }
+                if k1 < 1e-12 { -radii[0].min(radii[1]).min(radii[2]) } else { k0 * (k0 - 1.0) / k1 }
             }
         }
     }
@@ -109,20 +93,8 @@ const fn ellipsoid(centre: [f64; 3], radii: [f64; 3]) -> Shape {
     Shape::Ellipsoid { centre, radii }
 }
 
-const fn bone(
-    name: &'static str,
-    shape: Shape,
-    cortex_mm: f64,
-    cortex_hu: f32,
-    marrow_hu: f32,
-) -> Bone {
-    Bone {
-        name,
-        shape,
-        cortex_mm,
-        cortex_hu,
-        marrow_hu,
-    }
+const fn bone(name: &'static str, shape: Shape, cortex_mm: f64, cortex_hu: f32, marrow_hu: f32) -> Bone {
+    Bone { name, shape, cortex_mm, cortex_hu, marrow_hu }
 }
 
 /// The skin: blobs blended by a smooth union.
@@ -140,160 +112,28 @@ pub const SKIN: [Shape; 9] = [
 
 /// The bones (a simplified right foot and the distal leg).
 pub const BONES: [Bone; 22] = [
-    bone(
-        "tibia",
-        capsule([42.0, 54.0, 60.0], [42.0, 54.0, 200.0], 12.0),
-        2.6,
-        1450.0,
-        300.0,
-    ),
-    bone(
-        "fibula",
-        capsule([40.0, 75.0, 50.0], [38.0, 74.0, 200.0], 5.5),
-        1.8,
-        1400.0,
-        320.0,
-    ),
-    bone(
-        "talus",
-        ellipsoid([46.0, 54.0, 44.0], [17.0, 14.0, 10.0]),
-        1.4,
-        1250.0,
-        280.0,
-    ),
-    bone(
-        "calcaneus",
-        ellipsoid([32.0, 56.0, 28.0], [26.0, 14.0, 11.0]),
-        1.4,
-        1200.0,
-        250.0,
-    ),
-    bone(
-        "navicular",
-        ellipsoid([66.0, 46.0, 42.0], [6.5, 12.0, 8.0]),
-        1.2,
-        1250.0,
-        300.0,
-    ),
-    bone(
-        "cuboid",
-        ellipsoid([62.0, 62.0, 28.0], [9.0, 9.0, 8.0]),
-        1.2,
-        1200.0,
-        290.0,
-    ),
-    bone(
-        "medial cuneiform",
-        ellipsoid([78.0, 36.0, 38.0], [7.0, 6.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "intermediate cuneiform",
-        ellipsoid([78.0, 47.0, 38.0], [7.0, 5.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "lateral cuneiform",
-        ellipsoid([77.0, 57.0, 35.0], [7.0, 5.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "metatarsal 1",
-        capsule([88.0, 34.0, 33.0], [118.0, 29.0, 20.0], 5.5),
-        1.6,
-        1350.0,
-        330.0,
-    ),
-    bone(
-        "metatarsal 2",
-        capsule([89.0, 46.0, 33.0], [122.0, 42.0, 18.0], 4.0),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 3",
-        capsule([88.0, 56.0, 31.0], [119.0, 52.0, 17.0], 3.8),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 4",
-        capsule([84.0, 64.0, 29.0], [115.0, 61.0, 16.0], 3.8),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 5",
-        capsule([74.0, 70.0, 26.0], [109.0, 71.0, 14.0], 4.0),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "proximal phalanx 1",
-        capsule([127.0, 28.0, 18.5], [134.0, 27.0, 17.0], 4.6),
-        1.3,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "distal phalanx 1",
-        capsule([140.0, 26.5, 16.0], [144.0, 26.0, 15.5], 4.0),
-        1.3,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 2",
-        capsule([128.0, 41.5, 16.0], [134.0, 41.0, 15.0], 3.2),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 3",
-        capsule([125.0, 51.8, 15.0], [131.0, 51.8, 14.0], 3.0),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 4",
-        capsule([121.0, 61.2, 14.0], [127.0, 61.6, 13.0], 3.0),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 5",
-        capsule([115.0, 71.6, 13.0], [120.0, 72.4, 12.0], 2.9),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "sesamoid medial",
-        ellipsoid([116.0, 25.0, 12.5], [3.0, 2.5, 2.5]),
-        1.0,
-        1300.0,
-        350.0,
-    ),
-    bone(
-        "sesamoid lateral",
-        ellipsoid([116.0, 32.0, 12.5], [3.0, 2.5, 2.5]),
-        1.0,
-        1300.0,
-        350.0,
-    ),
+    bone("tibia", capsule([42.0, 54.0, 60.0], [42.0, 54.0, 200.0], 12.0), 2.6, 1450.0, 300.0),
+    bone("fibula", capsule([40.0, 75.0, 50.0], [38.0, 74.0, 200.0], 5.5), 1.8, 1400.0, 320.0),
+    bone("talus", ellipsoid([46.0, 54.0, 44.0], [17.0, 14.0, 10.0]), 1.4, 1250.0, 280.0),
+    bone("calcaneus", ellipsoid([32.0, 56.0, 28.0], [26.0, 14.0, 11.0]), 1.4, 1200.0, 250.0),
+    bone("navicular", ellipsoid([66.0, 46.0, 42.0], [6.5, 12.0, 8.0]), 1.2, 1250.0, 300.0),
+    bone("cuboid", ellipsoid([62.0, 62.0, 28.0], [9.0, 9.0, 8.0]), 1.2, 1200.0, 290.0),
+    bone("medial cuneiform", ellipsoid([78.0, 36.0, 38.0], [7.0, 6.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("intermediate cuneiform", ellipsoid([78.0, 47.0, 38.0], [7.0, 5.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("lateral cuneiform", ellipsoid([77.0, 57.0, 35.0], [7.0, 5.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("metatarsal 1", capsule([88.0, 34.0, 33.0], [118.0, 29.0, 20.0], 5.5), 1.6, 1350.0, 330.0),
+    bone("metatarsal 2", capsule([89.0, 46.0, 33.0], [122.0, 42.0, 18.0], 4.0), 1.5, 1350.0, 340.0),
+    bone("metatarsal 3", capsule([88.0, 56.0, 31.0], [119.0, 52.0, 17.0], 3.8), 1.5, 1350.0, 340.0),
+    bone("metatarsal 4", capsule([84.0, 64.0, 29.0], [115.0, 61.0, 16.0], 3.8), 1.5, 1350.0, 340.0),
+    bone("metatarsal 5", capsule([74.0, 70.0, 26.0], [109.0, 71.0, 14.0], 4.0), 1.5, 1350.0, 340.0),
+    bone("proximal phalanx 1", capsule([127.0, 28.0, 18.5], [134.0, 27.0, 17.0], 4.6), 1.3, 1300.0, 330.0),
+    bone("distal phalanx 1", capsule([140.0, 26.5, 16.0], [144.0, 26.0, 15.5], 4.0), 1.3, 1300.0, 330.0),
+    bone("proximal phalanx 2", capsule([128.0, 41.5, 16.0], [134.0, 41.0, 15.0], 3.2), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 3", capsule([125.0, 51.8, 15.0], [131.0, 51.8, 14.0], 3.0), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 4", capsule([121.0, 61.2, 14.0], [127.0, 61.6, 13.0], 3.0), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 5", capsule([115.0, 71.6, 13.0], [120.0, 72.4, 12.0], 2.9), 1.2, 1300.0, 330.0),
+    bone("sesamoid medial", ellipsoid([116.0, 25.0, 12.5], [3.0, 2.5, 2.5]), 1.0, 1300.0, 350.0),
+    bone("sesamoid lateral", ellipsoid([116.0, 32.0, 12.5], [3.0, 2.5, 2.5]), 1.0, 1300.0, 350.0),
 ];
 
 /// Polynomial smooth minimum (blends within `k`).
@@ -319,8 +159,7 @@ impl RowShapes {
     pub fn for_row(y_mm: f64, z_mm: f64) -> RowShapes {
         let meets = |shape: &Shape, margin: f64| {
             let (low, high) = shape.bounds_mm(margin);
-            (low[1] <= y_mm && y_mm <= high[1] && low[2] <= z_mm && z_mm <= high[2])
-                .then_some((low[0], high[0]))
+            (low[1] <= y_mm && y_mm <= high[1] && low[2] <= z_mm && z_mm <= high[2]).then_some((low[0], high[0]))
         };
         RowShapes {
             skin: SKIN
@@ -389,11 +228,7 @@ impl RowShapes {
             return Tissue::Air;
         }
         let (nearest, bone, second) = self.bone_distances_mm(p);
-        if nearest < 0.0 {
-            bone_tissue(nearest, bone, second)
-        } else {
-            soft_tissue(skin)
-        }
+        if nearest < 0.0 { bone_tissue(nearest, bone, second) } else { soft_tissue(skin) }
     }
 
     /// Signed distance to the skin (smooth union of the blobs whose bounds hold `p`); infinite
@@ -403,11 +238,7 @@ impl RowShapes {
         for &(k, low, high) in &self.skin {
             if low <= p[0] && p[0] <= high {
                 let d = SKIN[k].signed_distance_mm(p);
-                skin = if skin.is_finite() {
-                    smooth_min(skin, d, SKIN_BLEND_MM)
-                } else {
-                    d
-                };
+                skin = if skin.is_finite() { smooth_min(skin, d, SKIN_BLEND_MM) } else { d };
             }
         }
         skin
@@ -415,8 +246,7 @@ impl RowShapes {
 
     /// The nearest bone's distance and index, and the second-nearest bone's distance.
     fn bone_distances_mm(&self, p: [f64; 3]) -> (f64, usize, f64) {
-        let (mut nearest, mut nearest_bone, mut second) =
-            (f64::INFINITY, usize::MAX, f64::INFINITY);
+        let (mut nearest, mut nearest_bone, mut second) = (f64::INFINITY, usize::MAX, f64::INFINITY);
         for &(k, low, high) in &self.bones {
             if low <= p[0] && p[0] <= high {
                 let d = BONES[k].shape.signed_distance_mm(p);
@@ -442,20 +272,12 @@ fn bone_tissue(nearest: f64, bone: usize, second: f64) -> Tissue {
     // Depth below the nearer of the outer surface and the joint surface; the depth from the
     // joint surface grows at half the rate of the distance difference.
     let depth = (-nearest).min((to_neighbour - JOINT_GAP_MM) / 2.0);
-    if depth < BONES[bone].cortex_mm {
-        Tissue::Cortex(bone)
-    } else {
-        Tissue::Marrow(bone)
-    }
+    if depth < BONES[bone].cortex_mm { Tissue::Cortex(bone) } else { Tissue::Marrow(bone) }
 }
 
 /// Inside the skin, outside bone.
 fn soft_tissue(skin: f64) -> Tissue {
-    if skin > -FAT_THICKNESS_MM {
-        Tissue::Fat
-    } else {
-        Tissue::Muscle
-    }
+    if skin > -FAT_THICKNESS_MM { Tissue::Fat } else { Tissue::Muscle }
 }
 
 /// What a point is made of.

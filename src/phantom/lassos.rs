@@ -10,21 +10,13 @@ use std::collections::VecDeque;
 /// octagons of `radius_pixels` around the points deepest inside that class (never reaching
 /// another class), at least 4 radii apart. Class k of the file is `classes[k - 1]`, named
 /// after the phantom's class. A class with no room for a lasso gets no strokes.
-pub fn lassos_inside(
-    phantom: &Phantom,
-    classes: &[u8],
-    per_slice: usize,
-    radius_pixels: f64,
-) -> StrokesFile {
+pub fn lassos_inside(phantom: &Phantom, classes: &[u8], per_slice: usize, radius_pixels: f64) -> StrokesFile {
     let entropies = slice_entropies(&phantom.volume);
     let dims = phantom.volume.dims;
     let mut file = StrokesFile {
         classes: classes
             .iter()
-            .map(|&class| ClassStrokes {
-                name: phantom.class_names[class as usize].to_string(),
-                strokes: Vec::new(),
-            })
+            .map(|&class| ClassStrokes { name: phantom.class_names[class as usize].to_string(), strokes: Vec::new() })
             .collect(),
     };
     // City-block depth that keeps the whole octagon inside the class.
@@ -61,17 +53,10 @@ pub fn lassos_inside(
                 let points = (0..8)
                     .map(|k| {
                         let angle = std::f64::consts::FRAC_PI_4 * (k as f64 + 0.5);
-                        [
-                            x + radius_pixels * angle.cos(),
-                            y + radius_pixels * angle.sin(),
-                        ]
+                        [x + radius_pixels * angle.cos(), y + radius_pixels * angle.sin()]
                     })
                     .collect();
-                file.classes[position].strokes.push(Lasso {
-                    axis,
-                    slice,
-                    points,
-                });
+                file.classes[position].strokes.push(Lasso { axis, slice, points });
             }
         }
     }
@@ -102,12 +87,7 @@ fn depth_inside_class(geometry: &SliceGeometry, class_at: impl Fn(usize, usize) 
     while let Some((i, j)) = queue.pop_front() {
         let next = depth[j * width + i] + 1;
         let class = class_at(i, j);
-        let neighbours = [
-            (i.wrapping_sub(1), j),
-            (i + 1, j),
-            (i, j.wrapping_sub(1)),
-            (i, j + 1),
-        ];
+        let neighbours = [(i.wrapping_sub(1), j), (i + 1, j), (i, j.wrapping_sub(1)), (i, j + 1)];
         for (a, b) in neighbours {
             if a < width && b < height && class_at(a, b) == class && depth[b * width + a] > next {
                 depth[b * width + a] = next;

@@ -97,20 +97,16 @@ pub fn demo_foot_with(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeErro
     let source = Path::new("<demo foot phantom>");
     let voxel_count = crate::volume::checked_voxel_count(dims, VoxelType::I16, source)?;
     // Scaled from the standard spacing, so the standard size gets exactly 0.8 x 0.8 x 1.2 mm.
-    let spacing_mm: [f64; 3] = std::array::from_fn(|a| {
-        DEMO_FOOT_SPACING_MM[a] * (DEMO_FOOT_DIMS[a] as f64 / dims[a] as f64)
-    });
+    let spacing_mm: [f64; 3] =
+        std::array::from_fn(|a| DEMO_FOOT_SPACING_MM[a] * (DEMO_FOOT_DIMS[a] as f64 / dims[a] as f64));
     let plane = dims[0] * dims[1];
     let muscle = MuscleVariation::new(seed);
 
     // 1. Tissue at every voxel centre, base HU with texture, blurred in-plane.
     let mut hounsfield = vec![0f32; voxel_count];
     let mut truth = vec![0u8; voxel_count];
-    hounsfield
-        .par_chunks_mut(plane)
-        .zip(truth.par_chunks_mut(plane))
-        .enumerate()
-        .for_each(|(z, (slice, slice_truth))| {
+    hounsfield.par_chunks_mut(plane).zip(truth.par_chunks_mut(plane)).enumerate().for_each(
+        |(z, (slice, slice_truth))| {
             let z_mm = z as f64 * spacing_mm[2];
             for y in 0..dims[1] {
                 let y_mm = y as f64 * spacing_mm[1];
@@ -130,26 +126,23 @@ pub fn demo_foot_with(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeErro
             }
             blur_rows(slice, dims[0], 1);
             blur_rows(slice, dims[0] * dims[1], dims[0]);
-        });
+        },
+    );
 
     // 2. Blur along z, add noise, round to int16 (little-endian bytes).
     let mut bytes = vec![0u8; voxel_count * 2];
     let noise_seed = hash64(seed, 0x004E_015E);
-    bytes
-        .par_chunks_mut(plane * 2)
-        .enumerate()
-        .for_each(|(z, out)| {
-            let below = &hounsfield[z.saturating_sub(1) * plane..][..plane];
-            let here = &hounsfield[z * plane..][..plane];
-            let above = &hounsfield[(z + 1).min(dims[2] - 1) * plane..][..plane];
-            for k in 0..plane {
-                let blurred = (below[k] + 6.0 * here[k] + above[k]) * 0.125;
-                let noise =
-                    NOISE_HU * gaussian_from_bits(hash64(noise_seed, (z * plane + k) as u64));
-                let value = (blurred + noise).round().clamp(-1024.0, 3071.0) as i16;
-                out[2 * k..2 * k + 2].copy_from_slice(&value.to_le_bytes());
-            }
-        });
+    bytes.par_chunks_mut(plane * 2).enumerate().for_each(|(z, out)| {
+        let below = &hounsfield[z.saturating_sub(1) * plane..][..plane];
+        let here = &hounsfield[z * plane..][..plane];
+        let above = &hounsfield[(z + 1).min(dims[2] - 1) * plane..][..plane];
+        for k in 0..plane {
+            let blurred = (below[k] + 6.0 * here[k] + above[k]) * 0.125;
+            let noise = NOISE_HU * gaussian_from_bits(hash64(noise_seed, (z * plane + k) as u64));
+            let value = (blurred + noise).round().clamp(-1024.0, 3071.0) as i16;
+            out[2 * k..2 * k + 2].copy_from_slice(&value.to_le_bytes());
+        }
+    });
     drop(hounsfield);
 
     let volume = Volume::new(
@@ -161,21 +154,11 @@ pub fn demo_foot_with(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeErro
         VoxelBytes::Owned(bytes),
         source,
     )?;
-    Ok(Phantom {
-        volume,
-        truth,
-        class_names: anatomy::CLASS_NAMES.to_vec(),
-    })
+    Ok(Phantom { volume, truth, class_names: anatomy::CLASS_NAMES.to_vec() })
 }
 
 /// HU of `tissue` at `p` before blur and noise, with per-voxel texture from `(seed, index)`.
-fn base_hounsfield(
-    tissue: Tissue,
-    p: [f64; 3],
-    index: usize,
-    seed: u64,
-    muscle: &MuscleVariation,
-) -> f32 {
+fn base_hounsfield(tissue: Tissue, p: [f64; 3], index: usize, seed: u64, muscle: &MuscleVariation) -> f32 {
     let texture = || gaussian_from_bits(hash64(seed, index as u64));
     match tissue {
         Tissue::Air => anatomy::AIR_HU,
@@ -213,13 +196,10 @@ struct MuscleVariation {
 
 impl MuscleVariation {
     fn new(seed: u64) -> MuscleVariation {
-        let size: [usize; 3] =
-            std::array::from_fn(|a| (FIELD_OF_VIEW_MM[a] / MUSCLE_LATTICE_MM).ceil() as usize + 2);
+        let size: [usize; 3] = std::array::from_fn(|a| (FIELD_OF_VIEW_MM[a] / MUSCLE_LATTICE_MM).ceil() as usize + 2);
         let lattice_seed = hash64(seed, 0x03A7_71CE);
         let values = (0..size[0] * size[1] * size[2])
-            .map(|k| {
-                MUSCLE_VARIATION_HU * (2.0 * unit_f64(hash64(lattice_seed, k as u64)) as f32 - 1.0)
-            })
+            .map(|k| MUSCLE_VARIATION_HU * (2.0 * unit_f64(hash64(lattice_seed, k as u64)) as f32 - 1.0))
             .collect();
         MuscleVariation { size, values }
     }
@@ -233,8 +213,7 @@ impl MuscleVariation {
             fraction[a] = (position - cell[a] as f64) as f32;
         }
         let at = |dx: usize, dy: usize, dz: usize| {
-            self.values
-                [(cell[0] + dx) + self.size[0] * ((cell[1] + dy) + self.size[1] * (cell[2] + dz))]
+            self.values[(cell[0] + dx) + self.size[0] * ((cell[1] + dy) + self.size[1] * (cell[2] + dz))]
         };
         let lerp = |a: f32, b: f32, t: f32| a + (b - a) * t;
         let [fx, fy, fz] = fraction;
@@ -256,9 +235,5 @@ pub fn dice(truth: &[u8], labels: &[u8], class: u8) -> f64 {
         in_truth += t as u64;
         in_labels += l as u64;
     }
-    if in_truth + in_labels == 0 {
-        1.0
-    } else {
-        2.0 * both as f64 / (in_truth + in_labels) as f64
-    }
+    if in_truth + in_labels == 0 { 1.0 } else { 2.0 * both as f64 / (in_truth + in_labels) as f64 }
 }

@@ -29,10 +29,8 @@ fn demo_foot_is_deterministic_and_has_every_class() {
 
 /// The median HU of the voxels of `class` (after blur and noise).
 fn median_hounsfield(phantom: &Phantom, class: u8) -> f64 {
-    let mut values: Vec<f64> = (0..phantom.truth.len())
-        .filter(|&i| phantom.truth[i] == class)
-        .map(|i| phantom.volume.value(i))
-        .collect();
+    let mut values: Vec<f64> =
+        (0..phantom.truth.len()).filter(|&i| phantom.truth[i] == class).map(|i| phantom.volume.value(i)).collect();
     values.sort_by(f64::total_cmp);
     values[values.len() / 2]
 }
@@ -48,20 +46,12 @@ fn tissues_have_ct_like_values_and_the_seed_changes_only_the_noise() {
     let soft_tissue = median_hounsfield(&phantom, SOFT_TISSUE);
     let bone = median_hounsfield(&phantom, BONE);
     assert!((-1010.0..=-990.0).contains(&air), "air {air}");
-    assert!(
-        (-20.0..=60.0).contains(&soft_tissue),
-        "soft tissue {soft_tissue}"
-    );
+    assert!((-20.0..=60.0).contains(&soft_tissue), "soft tissue {soft_tissue}");
     assert!((250.0..=1000.0).contains(&bone), "bone {bone}");
     let range = phantom.volume.value_range();
-    assert!(
-        range.min >= -1100.0 && range.max >= 1000.0 && range.max <= 1800.0,
-        "{range:?}"
-    );
+    assert!(range.min >= -1100.0 && range.max >= 1000.0 && range.max <= 1800.0, "{range:?}");
     // Noise: neighbouring air voxels differ, by about sqrt(2) x 12 HU.
-    let differences: Vec<f64> = (0..2000)
-        .map(|i| phantom.volume.value(i + 1) - phantom.volume.value(i))
-        .collect();
+    let differences: Vec<f64> = (0..2000).map(|i| phantom.volume.value(i + 1) - phantom.volume.value(i)).collect();
     let deviation = (differences.iter().map(|d| d * d).sum::<f64>() / 2000.0).sqrt();
     assert!((12.0..=22.0).contains(&deviation), "air noise {deviation}");
 }
@@ -97,10 +87,7 @@ fn joint_space_lies_between_bones() {
             }
         }
     }
-    assert!(
-        between as f64 > 0.8 * joints as f64,
-        "{between} of {joints}"
-    );
+    assert!(between as f64 > 0.8 * joints as f64, "{between} of {joints}");
 }
 
 #[test]
@@ -116,10 +103,7 @@ fn blur_keeps_constants_and_spreads_a_spike_by_one_sixth_eighth() {
     values[3] = 8.0;
     values[11] = 8.0; // the edge is clamped: 1/8 (8 + 6 x 8 + 0) = 7
     blur_rows(&mut values, 6, 1);
-    assert_eq!(
-        values,
-        [0.0, 0.0, 1.0, 6.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 7.0]
-    );
+    assert_eq!(values, [0.0, 0.0, 1.0, 6.0, 1.0, 0.0, 0.0, 0.0, 0.0, 0.0, 1.0, 7.0]);
     let mut plane = vec![3f32; 12];
     blur_rows(&mut plane, 12, 4);
     assert_eq!(plane, vec![3f32; 12]);
@@ -141,12 +125,7 @@ fn dice_counts_overlap() {
 /// Labels of the voxels `evaluated` by the `k` nearest standardised training vectors
 /// (majority, ties to the lower class): a stand-in classifier that needs no training, to check
 /// that the phantom's classes are within reach of the paper's features.
-fn nearest_neighbour_labels(
-    phantom: &Phantom,
-    training: &TrainingSet,
-    evaluated: &[usize],
-    k: usize,
-) -> Vec<u8> {
+fn nearest_neighbour_labels(phantom: &Phantom, training: &TrainingSet, evaluated: &[usize], k: usize) -> Vec<u8> {
     let (voxels, labels) = training.labelled_voxels();
     let mut train = features_of_voxels(&phantom.volume, FeatureSet::Paper5, &voxels).unwrap();
     let standardiser = Standardiser::fit(&train, 5).unwrap();
@@ -166,31 +145,17 @@ fn nearest_neighbour_labels(
                 }
             }
             let mut votes = vec![0usize; classes + 1];
-            best.iter()
-                .for_each(|&(_, label)| votes[label as usize] += 1);
-            (1..=classes)
-                .max_by_key(|&c| (votes[c], std::cmp::Reverse(c)))
-                .unwrap_or(1) as u8
+            best.iter().for_each(|&(_, label)| votes[label as usize] += 1);
+            (1..=classes).max_by_key(|&c| (votes[c], std::cmp::Reverse(c))).unwrap_or(1) as u8
         })
         .collect()
 }
 
 /// Dice of each of `classes` over the voxels `evaluated`, when label k means `classes[k - 1]`.
-fn dice_per_class(
-    phantom: &Phantom,
-    classes: &[u8],
-    evaluated: &[usize],
-    predicted: &[u8],
-) -> Vec<f64> {
+fn dice_per_class(phantom: &Phantom, classes: &[u8], evaluated: &[usize], predicted: &[u8]) -> Vec<f64> {
     let truth: Vec<u8> = evaluated.iter().map(|&v| phantom.truth[v]).collect();
-    let mapped: Vec<u8> = predicted
-        .iter()
-        .map(|&label| classes[label as usize - 1])
-        .collect();
-    classes
-        .iter()
-        .map(|&class| dice(&truth, &mapped, class))
-        .collect()
+    let mapped: Vec<u8> = predicted.iter().map(|&label| classes[label as usize - 1]).collect();
+    classes.iter().map(|&class| dice(&truth, &mapped, class)).collect()
 }
 
 /// Trains the stand-in classifier on lassos inside each of `classes` on the top-entropy
@@ -203,9 +168,7 @@ fn separability(phantom: &Phantom, classes: &[u8], stride: usize) -> Vec<f64> {
         let thin = lassos_inside(phantom, &[JOINT], 40, 0.6);
         strokes.classes[position] = thin.classes[0].clone();
     }
-    let training = TrainingSet::from_strokes(&strokes, phantom.volume.dims)
-        .unwrap()
-        .capped(150, 11);
+    let training = TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap().capped(150, 11);
     let evaluated: Vec<usize> = (0..phantom.truth.len()).step_by(stride).collect();
     let predicted = nearest_neighbour_labels(phantom, &training, &evaluated, 5);
     dice_per_class(phantom, classes, &evaluated, &predicted)
@@ -238,17 +201,11 @@ fn walking_a_row_with_distance_skips_equals_evaluating_every_voxel() {
         for y in (0..DEMO_FOOT_DIMS[1]).step_by(4) {
             let (y_mm, z_mm) = (y as f64 * spacing_mm[1], z as f64 * spacing_mm[2]);
             let shapes = RowShapes::for_row(y_mm, z_mm);
-            shapes.walk(
-                y_mm,
-                z_mm,
-                spacing_mm[0],
-                DEMO_FOOT_DIMS[0],
-                |x, p, tissue| {
-                    assert_eq!(p[0], x as f64 * spacing_mm[0]);
-                    inside += (tissue != anatomy::Tissue::Air) as usize;
-                    differences += (shapes.tissue_at(p) != tissue) as usize;
-                },
-            );
+            shapes.walk(y_mm, z_mm, spacing_mm[0], DEMO_FOOT_DIMS[0], |x, p, tissue| {
+                assert_eq!(p[0], x as f64 * spacing_mm[0]);
+                inside += (tissue != anatomy::Tissue::Air) as usize;
+                differences += (shapes.tissue_at(p) != tissue) as usize;
+            });
         }
     }
     assert!(inside > 10_000);

@@ -31,15 +31,9 @@ impl DisplayWindow {
     pub fn from_range(black: f64, white: f64) -> DisplayWindow {
         let width = white - black;
         if width > 0.0 && width.is_finite() {
-            DisplayWindow {
-                center: black + width / 2.0,
-                width,
-            }
+            DisplayWindow { center: black + width / 2.0, width }
         } else {
-            DisplayWindow {
-                center: if black.is_finite() { black } else { 0.0 },
-                width: 1.0,
-            }
+            DisplayWindow { center: if black.is_finite() { black } else { 0.0 }, width: 1.0 }
         }
     }
 
@@ -52,11 +46,7 @@ impl DisplayWindow {
     pub fn automatic(volume: &Volume) -> DisplayWindow {
         let range = volume.value_range();
         let looks_like_ct = range.min <= CT_AIR_AT_MOST_HU && range.max >= CT_DENSE_AT_LEAST_HU;
-        let low = if looks_like_ct {
-            CT_TISSUE_ABOVE_HU
-        } else {
-            range.min
-        };
+        let low = if looks_like_ct { CT_TISSUE_ABOVE_HU } else { range.min };
         let span = range.max - low;
         if span.is_nan() || span <= 0.0 {
             return DisplayWindow::from_range(range.min, range.max);
@@ -126,18 +116,12 @@ pub struct GreyImage {
 
 /// The grey image of slice `slice` along `axis` through `window` (image axes as in the module
 /// doc: z -> (x, y), y -> (x, z), x -> (y, z)).
-pub fn slice_image(
-    volume: &Volume,
-    axis: Axis,
-    slice: usize,
-    window: DisplayWindow,
-) -> Result<GreyImage, SliceError> {
-    let geometry =
-        SliceGeometry::new(volume.dims, axis, slice).ok_or(SliceError::SliceOutOfRange {
-            axis,
-            slice,
-            slice_count: volume.dims[axis.position()],
-        })?;
+pub fn slice_image(volume: &Volume, axis: Axis, slice: usize, window: DisplayWindow) -> Result<GreyImage, SliceError> {
+    let geometry = SliceGeometry::new(volume.dims, axis, slice).ok_or(SliceError::SliceOutOfRange {
+        axis,
+        slice,
+        slice_count: volume.dims[axis.position()],
+    })?;
     let mut pixels = vec![0u8; geometry.width * geometry.height];
     match axis {
         // Rows of z and y slices are contiguous runs of x in the volume.
@@ -158,11 +142,7 @@ pub fn slice_image(
             }
         }
     }
-    Ok(GreyImage {
-        width: geometry.width,
-        height: geometry.height,
-        pixels,
-    })
+    Ok(GreyImage { width: geometry.width, height: geometry.height, pixels })
 }
 
 #[cfg(test)]
@@ -188,9 +168,7 @@ mod tests {
     fn slice_images_follow_the_axis_conventions() {
         // value = 100 z + 10 y + x, dims 3 x 4 x 5.
         let dims = [3, 4, 5];
-        let values: Vec<f32> = (0..60)
-            .map(|i| (100 * (i / 12) + 10 * ((i / 3) % 4) + i % 3) as f32)
-            .collect();
+        let values: Vec<f32> = (0..60).map(|i| (100 * (i / 12) + 10 * ((i / 3) % 4) + i % 3) as f32).collect();
         let volume = Volume::from_f32(dims, [1.0; 3], &values, Path::new("t")).unwrap();
         let window = DisplayWindow::from_range(0.0, 255.0);
         let z = slice_image(&volume, Axis::Z, 2, window).unwrap();
@@ -204,11 +182,7 @@ mod tests {
         assert_eq!(x.pixels[4 * 2 + 3], 232); // y 3, z 2, x 2
         assert!(matches!(
             slice_image(&volume, Axis::X, 3, window),
-            Err(SliceError::SliceOutOfRange {
-                axis: Axis::X,
-                slice: 3,
-                slice_count: 3
-            })
+            Err(SliceError::SliceOutOfRange { axis: Axis::X, slice: 3, slice_count: 3 })
         ));
     }
 
@@ -240,9 +214,7 @@ mod tests {
         assert!((black - 40.0).abs() < 2.0, "black {black}");
         assert!((white - 1200.0).abs() < 2.0, "white {white}");
         // 8-bit data: every voxel counts, so background sets black.
-        let bytes: Vec<u8> = (0..1000)
-            .map(|i| if i % 2 == 0 { 0 } else { 200 })
-            .collect();
+        let bytes: Vec<u8> = (0..1000).map(|i| if i % 2 == 0 { 0 } else { 200 }).collect();
         let volume = Volume::new(
             [10, 10, 10],
             [1.0; 3],

@@ -29,16 +29,8 @@ impl EntropyBinning {
     /// Bins over `[min, max]`; a flat range puts every value in bin 0.
     pub fn new(min: f64, max: f64) -> EntropyBinning {
         let span = max - min;
-        let bins_per_unit = if span > 0.0 && span.is_finite() {
-            ENTROPY_BINS as f64 / span
-        } else {
-            0.0
-        };
-        EntropyBinning {
-            min,
-            max,
-            bins_per_unit,
-        }
+        let bins_per_unit = if span > 0.0 && span.is_finite() { ENTROPY_BINS as f64 / span } else { 0.0 };
+        EntropyBinning { min, max, bins_per_unit }
     }
 
     /// The bins of `volume`'s value range.
@@ -68,11 +60,7 @@ pub fn entropy_nats(counts: &[u32]) -> f64 {
     }
     let total = total as f64;
     // H = -sum (c/N) ln(c/N) = ln N - (1/N) sum c ln c
-    let sum_c_ln_c: f64 = counts
-        .iter()
-        .filter(|&&c| c > 0)
-        .map(|&c| c as f64 * (c as f64).ln())
-        .sum();
+    let sum_c_ln_c: f64 = counts.iter().filter(|&&c| c > 0).map(|&c| c as f64 * (c as f64).ln()).sum();
     (total.ln() - sum_c_ln_c / total).max(0.0)
 }
 
@@ -90,16 +78,8 @@ impl RankedSlices {
     /// Ranks `entropies_nats` (one per slice, by index).
     pub fn new(axis: Axis, entropies_nats: Vec<f64>) -> RankedSlices {
         let mut order: Vec<usize> = (0..entropies_nats.len()).collect();
-        order.sort_by(|&a, &b| {
-            entropies_nats[b]
-                .total_cmp(&entropies_nats[a])
-                .then(a.cmp(&b))
-        });
-        RankedSlices {
-            axis,
-            entropies_nats,
-            order,
-        }
+        order.sort_by(|&a, &b| entropies_nats[b].total_cmp(&entropies_nats[a]).then(a.cmp(&b)));
+        RankedSlices { axis, entropies_nats, order }
     }
 
     /// The most informative slice (every volume has at least one slice per axis).
@@ -153,9 +133,8 @@ pub fn slice_entropies(volume: &Volume) -> SliceEntropies {
     let plane = size_x * size_y;
     let binning = EntropyBinning::for_volume(volume);
     // 8-bit data without scaling bins through a table straight from the stored bytes.
-    let byte_table: Option<[u8; 256]> = (volume.voxel_type == VoxelType::U8
-        && volume.scale.is_identity())
-    .then(|| std::array::from_fn(|value| binning.bin(value as f64).unwrap_or(0) as u8));
+    let byte_table: Option<[u8; 256]> = (volume.voxel_type == VoxelType::U8 && volume.scale.is_identity())
+        .then(|| std::array::from_fn(|value| binning.bin(value as f64).unwrap_or(0) as u8));
     let new_partial = || Partial {
         x_counts: vec![0; size_x * ENTROPY_BINS],
         y_counts: vec![0; size_y * ENTROPY_BINS],
@@ -220,16 +199,8 @@ pub fn slice_entropies(volume: &Volume) -> SliceEntropies {
                 z_entropies[z] = entropy;
             }
             (
-                partial
-                    .x_counts
-                    .chunks_exact(ENTROPY_BINS)
-                    .map(entropy_nats)
-                    .collect(),
-                partial
-                    .y_counts
-                    .chunks_exact(ENTROPY_BINS)
-                    .map(entropy_nats)
-                    .collect(),
+                partial.x_counts.chunks_exact(ENTROPY_BINS).map(entropy_nats).collect(),
+                partial.y_counts.chunks_exact(ENTROPY_BINS).map(entropy_nats).collect(),
             )
         }
         None => (vec![0.0; size_x], vec![0.0; size_y]),
@@ -316,16 +287,10 @@ mod tests {
         let dims = [13, 7, 9];
         let count = dims.iter().product::<usize>();
         // Smooth-ish data so slices differ in entropy.
-        let bytes: Vec<u8> = (0..count)
-            .map(|i| ((i % 13) * 9 + rng.below(40) as usize) as u8)
-            .collect();
-        let words: Vec<u8> = (0..count)
-            .flat_map(|i| ((i as i16 % 91) * 30 - 1024 + rng.below(300) as i16).to_le_bytes())
-            .collect();
-        for volume in [
-            volume_of(dims, VoxelType::U8, bytes),
-            volume_of(dims, VoxelType::I16, words),
-        ] {
+        let bytes: Vec<u8> = (0..count).map(|i| ((i % 13) * 9 + rng.below(40) as usize) as u8).collect();
+        let words: Vec<u8> =
+            (0..count).flat_map(|i| ((i as i16 % 91) * 30 - 1024 + rng.below(300) as i16).to_le_bytes()).collect();
+        for volume in [volume_of(dims, VoxelType::U8, bytes), volume_of(dims, VoxelType::I16, words)] {
             let entropies = slice_entropies(&volume);
             for axis in Axis::ALL {
                 let ranked = entropies.axis(axis);
@@ -361,10 +326,7 @@ mod tests {
         let volume = volume_of(dims, VoxelType::I16, words);
         let entropy = slice_entropies(&volume).z.entropies_nats[0];
         // 1000 values in 256 bins of width 999/256: nearly uniform, just under ln 256.
-        assert!(
-            entropy > 256f64.ln() - 0.01 && entropy < 256f64.ln(),
-            "{entropy}"
-        );
+        assert!(entropy > 256f64.ln() - 0.01 && entropy < 256f64.ln(), "{entropy}");
     }
 
     #[test]
@@ -382,16 +344,9 @@ mod tests {
         let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
         let length = 256 * 256 * 256;
         let bytes = VoxelBytes::map_region(path, 0, length).unwrap();
-        let volume = Volume::new(
-            [256; 3],
-            [1.0; 3],
-            VoxelType::U8,
-            ByteOrder::Little,
-            ValueScale::IDENTITY,
-            bytes,
-            path,
-        )
-        .unwrap();
+        let volume =
+            Volume::new([256; 3], [1.0; 3], VoxelType::U8, ByteOrder::Little, ValueScale::IDENTITY, bytes, path)
+                .unwrap();
         let started = std::time::Instant::now();
         let entropies = slice_entropies(&volume);
         let seconds = started.elapsed().as_secs_f64();
@@ -407,11 +362,7 @@ mod tests {
                 assert!((ranked.entropies_nats[slice] - expected).abs() < 1e-9);
             }
             // The engine fills the middle of the volume; its best slice is not at the border.
-            assert!(
-                (32..224).contains(&ranked.top()),
-                "{axis}: {}",
-                ranked.top()
-            );
+            assert!((32..224).contains(&ranked.top()), "{axis}: {}", ranked.top());
             assert!(ranked.entropies_nats[ranked.top()] > 1.0);
         }
     }

@@ -15,9 +15,7 @@ mod display;
 mod entropy;
 
 pub use display::{DisplayWindow, GreyImage, slice_image};
-pub use entropy::{
-    ENTROPY_BINS, EntropyBinning, RankedSlices, SliceEntropies, entropy_nats, slice_entropies,
-};
+pub use entropy::{ENTROPY_BINS, EntropyBinning, RankedSlices, SliceEntropies, entropy_nats, slice_entropies};
 
 use serde::{Deserialize, Serialize};
 
@@ -112,12 +110,7 @@ impl SliceGeometry {
     }
 
     /// The volume indices of row `j`, pixels `i_start..i_end`, in increasing order.
-    pub fn row_indices(
-        &self,
-        j: usize,
-        i_start: usize,
-        i_end: usize,
-    ) -> impl Iterator<Item = usize> {
+    pub fn row_indices(&self, j: usize, i_start: usize, i_end: usize) -> impl Iterator<Item = usize> {
         let base = self.origin_index + j * self.step_j;
         let step = self.step_i;
         (i_start..i_end).map(move |i| base + i * step)
@@ -127,14 +120,8 @@ impl SliceGeometry {
 /// The one error type of the slice stage.
 #[derive(Debug, thiserror::Error)]
 pub enum SliceError {
-    #[error(
-        "slice {slice} along {axis} is outside the volume, which has {slice_count} slices along {axis}"
-    )]
-    SliceOutOfRange {
-        axis: Axis,
-        slice: usize,
-        slice_count: usize,
-    },
+    #[error("slice {slice} along {axis} is outside the volume, which has {slice_count} slices along {axis}")]
+    SliceOutOfRange { axis: Axis, slice: usize, slice_count: usize },
 }
 
 /// Number of slices along `axis`.
@@ -171,10 +158,7 @@ mod tests {
         let x = SliceGeometry::new(dims, Axis::X, 1).unwrap();
         assert_eq!((x.width, x.height), (5, 6));
         assert_eq!(x.voxel_index(4, 2), index(1, 4, 2));
-        assert_eq!(
-            x.row_indices(2, 1, 3).collect::<Vec<_>>(),
-            vec![index(1, 1, 2), index(1, 2, 2)]
-        );
+        assert_eq!(x.row_indices(2, 1, 3).collect::<Vec<_>>(), vec![index(1, 1, 2), index(1, 2, 2)]);
         assert!(SliceGeometry::new(dims, Axis::X, 4).is_none());
         assert!(SliceGeometry::new(dims, Axis::Z, 5).is_some());
     }

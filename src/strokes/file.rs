@@ -51,52 +51,37 @@ struct FileOut<'a> {
 impl StrokesFile {
     /// Parses the JSON text of a strokes file; checks format, axes, slice signs and points.
     pub fn parse(text: &str) -> Result<StrokesFile, StrokesError> {
-        let format: FormatOnly =
-            serde_json::from_str(text).map_err(|source| StrokesError::Json { source })?;
+        let format: FormatOnly = serde_json::from_str(text).map_err(|source| StrokesError::Json { source })?;
         match format.format {
             Some(serde_json::Value::String(found)) if found == FORMAT => {}
             Some(serde_json::Value::String(found)) => {
                 return Err(StrokesError::WrongFormat { found });
             }
             Some(other) => {
-                return Err(StrokesError::WrongFormat {
-                    found: other.to_string(),
-                });
+                return Err(StrokesError::WrongFormat { found: other.to_string() });
             }
             None => {
-                return Err(StrokesError::WrongFormat {
-                    found: "(no format field)".into(),
-                });
+                return Err(StrokesError::WrongFormat { found: "(no format field)".into() });
             }
         }
-        let raw: RawFile =
-            serde_json::from_str(text).map_err(|source| StrokesError::Json { source })?;
+        let raw: RawFile = serde_json::from_str(text).map_err(|source| StrokesError::Json { source })?;
         let mut classes = Vec::with_capacity(raw.classes.len());
         for raw_class in raw.classes {
             let mut strokes = Vec::with_capacity(raw_class.strokes.len());
             for (stroke, raw_stroke) in raw_class.strokes.into_iter().enumerate() {
-                let axis =
-                    Axis::from_name(&raw_stroke.axis).ok_or_else(|| StrokesError::BadAxis {
-                        class: raw_class.name.clone(),
-                        stroke,
-                        found: raw_stroke.axis.clone(),
-                    })?;
-                let slice =
-                    usize::try_from(raw_stroke.slice).map_err(|_| StrokesError::NegativeSlice {
-                        class: raw_class.name.clone(),
-                        stroke,
-                        slice: raw_stroke.slice,
-                    })?;
-                strokes.push(Lasso {
-                    axis,
-                    slice,
-                    points: raw_stroke.points,
-                });
+                let axis = Axis::from_name(&raw_stroke.axis).ok_or_else(|| StrokesError::BadAxis {
+                    class: raw_class.name.clone(),
+                    stroke,
+                    found: raw_stroke.axis.clone(),
+                })?;
+                let slice = usize::try_from(raw_stroke.slice).map_err(|_| StrokesError::NegativeSlice {
+                    class: raw_class.name.clone(),
+                    stroke,
+                    slice: raw_stroke.slice,
+                })?;
+                strokes.push(Lasso { axis, slice, points: raw_stroke.points });
             }
-            classes.push(ClassStrokes {
-                name: raw_class.name,
-                strokes,
-            });
+            classes.push(ClassStrokes { name: raw_class.name, strokes });
         }
         let file = StrokesFile { classes };
         file.check_points()?;
@@ -105,10 +90,8 @@ impl StrokesFile {
 
     /// Reads and parses the strokes file at `path`; errors name the path.
     pub fn read(path: &Path) -> Result<StrokesFile, StrokesError> {
-        let text = std::fs::read_to_string(path).map_err(|source| StrokesError::Io {
-            source,
-            path: path.to_path_buf(),
-        })?;
+        let text =
+            std::fs::read_to_string(path).map_err(|source| StrokesError::Io { source, path: path.to_path_buf() })?;
         StrokesFile::parse(&text).map_err(|e| e.with_path(path))
     }
 
@@ -123,16 +106,8 @@ impl StrokesFile {
     pub fn check_points(&self) -> Result<(), StrokesError> {
         for class in &self.classes {
             for (stroke, lasso) in class.strokes.iter().enumerate() {
-                if let Some(point) = lasso
-                    .points
-                    .iter()
-                    .position(|p| !(p[0].is_finite() && p[1].is_finite()))
-                {
-                    return Err(StrokesError::NonFinitePoint {
-                        class: class.name.clone(),
-                        stroke,
-                        point,
-                    });
+                if let Some(point) = lasso.points.iter().position(|p| !(p[0].is_finite() && p[1].is_finite())) {
+                    return Err(StrokesError::NonFinitePoint { class: class.name.clone(), stroke, point });
                 }
             }
         }
@@ -143,9 +118,7 @@ impl StrokesFile {
     /// and the classes fit in a `u8` label.
     pub fn check_for_volume(&self, dims: [usize; 3]) -> Result<(), StrokesError> {
         if self.classes.len() > u8::MAX as usize {
-            return Err(StrokesError::TooManyClasses {
-                count: self.classes.len(),
-            });
+            return Err(StrokesError::TooManyClasses { count: self.classes.len() });
         }
         self.check_points()?;
         for class in &self.classes {
@@ -168,10 +141,7 @@ impl StrokesFile {
     /// The file's JSON text (pretty-printed, one point pair per line is not promised).
     pub fn to_json(&self) -> Result<String, StrokesError> {
         self.check_points()?;
-        let out = FileOut {
-            format: FORMAT,
-            classes: &self.classes,
-        };
+        let out = FileOut { format: FORMAT, classes: &self.classes };
         serde_json::to_string_pretty(&out).map_err(|source| StrokesError::Json { source })
     }
 
@@ -186,15 +156,9 @@ impl StrokesFile {
 
 /// Writes `bytes` to `path` by way of a temporary sibling file and a rename.
 fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StrokesError> {
-    let io_error = |source, at: &Path| StrokesError::Io {
-        source,
-        path: at.to_path_buf(),
-    };
+    let io_error = |source, at: &Path| StrokesError::Io { source, path: at.to_path_buf() };
     let file_name = path.file_name().ok_or_else(|| {
-        io_error(
-            std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path names no file"),
-            path,
-        )
+        io_error(std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path names no file"), path)
     })?;
     let folder = match path.parent() {
         Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
@@ -241,11 +205,7 @@ mod tests {
         assert_eq!(file.classes[0].name, "bone");
         assert_eq!(
             file.classes[0].strokes[0],
-            Lasso {
-                axis: Axis::Z,
-                slice: 87,
-                points: vec![[10.0, 12.5], [40.0, 12.0], [38.5, 50.0]],
-            }
+            Lasso { axis: Axis::Z, slice: 87, points: vec![[10.0, 12.5], [40.0, 12.0], [38.5, 50.0]] }
         );
         assert_eq!(file.classes[1].strokes[0].axis, Axis::X);
         assert!(file.classes[1].strokes[1].points.is_empty());
@@ -291,14 +251,9 @@ mod tests {
     #[test]
     fn refuses_a_wrong_or_missing_format_string() {
         let wrong = GOOD.replace("volasso-strokes/1", "volasso-strokes/2");
-        assert!(
-            matches!(error_of(&wrong), StrokesError::WrongFormat { found } if found == "volasso-strokes/2")
-        );
+        assert!(matches!(error_of(&wrong), StrokesError::WrongFormat { found } if found == "volasso-strokes/2"));
         let missing = r#"{"classes": []}"#;
-        assert!(matches!(
-            error_of(missing),
-            StrokesError::WrongFormat { .. }
-        ));
+        assert!(matches!(error_of(missing), StrokesError::WrongFormat { .. }));
         let number = r#"{"format": 1, "classes": []}"#;
         assert!(matches!(error_of(number), StrokesError::WrongFormat { found } if found == "1"));
         // Another JSON file is refused for its format, not for a missing "classes".
@@ -316,14 +271,7 @@ mod tests {
         );
         assert!(error.to_string().contains("soft tissue"));
         let negative = GOOD.replace(r#""slice": 87"#, r#""slice": -2"#);
-        assert!(matches!(
-            error_of(&negative),
-            StrokesError::NegativeSlice {
-                slice: -2,
-                stroke: 0,
-                ..
-            }
-        ));
+        assert!(matches!(error_of(&negative), StrokesError::NegativeSlice { slice: -2, stroke: 0, .. }));
     }
 
     #[test]
@@ -332,23 +280,11 @@ mod tests {
         let error = file.check_for_volume([100, 100, 87]).unwrap_err();
         assert!(matches!(
             error,
-            StrokesError::SliceOutOfRange {
-                axis: Axis::Z,
-                slice: 87,
-                slice_count: 87,
-                stroke: 0,
-                ..
-            }
+            StrokesError::SliceOutOfRange { axis: Axis::Z, slice: 87, slice_count: 87, stroke: 0, .. }
         ));
-        assert!(matches!(
-            error_of("{\"format\": "),
-            StrokesError::Json { .. }
-        ));
+        assert!(matches!(error_of("{\"format\": "), StrokesError::Json { .. }));
         let three_numbers = GOOD.replace("[38.5, 50.0]", "[38.5, 50.0, 1.0]");
-        assert!(matches!(
-            error_of(&three_numbers),
-            StrokesError::Json { .. }
-        ));
+        assert!(matches!(error_of(&three_numbers), StrokesError::Json { .. }));
         let huge = GOOD.replace("38.5", "1e999");
         assert!(matches!(error_of(&huge), StrokesError::Json { .. }));
     }
@@ -360,14 +296,8 @@ mod tests {
         std::fs::write(&path, GOOD).unwrap();
         let error = StrokesFile::read_for_volume(&path, [4, 4, 4]).unwrap_err();
         let message = error.to_string();
-        assert!(
-            message.ends_with(&format!("in {}", path.display())),
-            "{message}"
-        );
-        assert!(matches!(
-            error.innermost(),
-            StrokesError::SliceOutOfRange { .. }
-        ));
+        assert!(message.ends_with(&format!("in {}", path.display())), "{message}");
+        assert!(matches!(error.innermost(), StrokesError::SliceOutOfRange { .. }));
         let missing = StrokesFile::read(&folder.path().join("none.json")).unwrap_err();
         assert!(matches!(missing, StrokesError::Io { .. }));
     }

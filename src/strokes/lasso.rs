@@ -29,14 +29,9 @@ impl Lasso {
             return Vec::new();
         };
         let mut voxels = Vec::new();
-        polygon_rows(
-            &self.points,
-            geometry.width,
-            geometry.height,
-            |j, i_start, i_end| {
-                voxels.extend(geometry.row_indices(j, i_start, i_end));
-            },
-        );
+        polygon_rows(&self.points, geometry.width, geometry.height, |j, i_start, i_end| {
+            voxels.extend(geometry.row_indices(j, i_start, i_end));
+        });
         voxels
     }
 }
@@ -44,25 +39,14 @@ impl Lasso {
 /// Calls `run(j, i_start, i_end)` for each run of pixels `i_start..i_end` of row `j` whose centres
 /// lie inside the closed polygon `points` (even-odd rule), in a `width x height` image; rows in
 /// increasing order, runs left to right, never empty, never outside the image.
-pub fn polygon_rows(
-    points: &[[f64; 2]],
-    width: usize,
-    height: usize,
-    mut run: impl FnMut(usize, usize, usize),
-) {
+pub fn polygon_rows(points: &[[f64; 2]], width: usize, height: usize, mut run: impl FnMut(usize, usize, usize)) {
     if points.len() < 3 || width == 0 || height == 0 {
         return;
     }
-    if points
-        .iter()
-        .any(|p| !(p[0].is_finite() && p[1].is_finite()))
-    {
+    if points.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
         return;
     }
-    let largest_coordinate = points
-        .iter()
-        .flat_map(|p| [p[0].abs(), p[1].abs()])
-        .fold(1.0f64, f64::max);
+    let largest_coordinate = points.iter().flat_map(|p| [p[0].abs(), p[1].abs()]).fold(1.0f64, f64::max);
     let tolerance = RELATIVE_RUN_TOLERANCE * largest_coordinate;
     // (row, x) of every crossing inside the image's rows.
     let mut crossings: Vec<(usize, f64)> = Vec::new();
@@ -111,11 +95,7 @@ mod tests {
     use proptest::prelude::*;
 
     fn lasso(axis: Axis, slice: usize, points: &[[f64; 2]]) -> Lasso {
-        Lasso {
-            axis,
-            slice,
-            points: points.to_vec(),
-        }
+        Lasso { axis, slice, points: points.to_vec() }
     }
 
     /// The pixels (i, j) selected in a `width x height` image, by brute force: the textbook
@@ -131,8 +111,7 @@ mod tests {
                     let b = points[(k + 1) % points.len()];
                     if (a[1] > y) != (b[1] > y) {
                         let (low, high) = if a[1] < b[1] { (a, b) } else { (b, a) };
-                        let crossing =
-                            low[0] + (y - low[1]) * (high[0] - low[0]) / (high[1] - low[1]);
+                        let crossing = low[0] + (y - low[1]) * (high[0] - low[0]) / (high[1] - low[1]);
                         if x >= crossing {
                             odd = !odd;
                         }
@@ -148,9 +127,7 @@ mod tests {
 
     fn scanline(points: &[[f64; 2]], width: usize, height: usize) -> Vec<(usize, usize)> {
         let mut pixels = Vec::new();
-        polygon_rows(points, width, height, |j, start, end| {
-            pixels.extend((start..end).map(|i| (i, j)))
-        });
+        polygon_rows(points, width, height, |j, start, end| pixels.extend((start..end).map(|i| (i, j))));
         pixels.sort_by_key(|&(i, j)| (j, i));
         pixels
     }
@@ -158,11 +135,7 @@ mod tests {
     #[test]
     fn a_square_selects_exactly_the_centres_inside() {
         // Square [1.5, 4.5] x [2.5, 5.5] on z slice 1 of a 8 x 8 x 3 volume: x 2..=4, y 3..=5.
-        let square = lasso(
-            Axis::Z,
-            1,
-            &[[1.5, 2.5], [4.5, 2.5], [4.5, 5.5], [1.5, 5.5]],
-        );
+        let square = lasso(Axis::Z, 1, &[[1.5, 2.5], [4.5, 2.5], [4.5, 5.5], [1.5, 5.5]]);
         let mut expected = Vec::new();
         for y in 3..=5 {
             for x in 2..=4 {
@@ -171,15 +144,8 @@ mod tests {
         }
         assert_eq!(square.selected_voxels([8, 8, 3]), expected);
         // Edges through centres: the half-open rule takes the low side, not the high side.
-        let on_centres = lasso(
-            Axis::Z,
-            0,
-            &[[1.0, 1.0], [3.0, 1.0], [3.0, 3.0], [1.0, 3.0]],
-        );
-        let expected: Vec<usize> = [(1, 1), (2, 1), (1, 2), (2, 2)]
-            .iter()
-            .map(|&(x, y)| x + 8 * y)
-            .collect();
+        let on_centres = lasso(Axis::Z, 0, &[[1.0, 1.0], [3.0, 1.0], [3.0, 3.0], [1.0, 3.0]]);
+        let expected: Vec<usize> = [(1, 1), (2, 1), (1, 2), (2, 2)].iter().map(|&(x, y)| x + 8 * y).collect();
         assert_eq!(on_centres.selected_voxels([8, 8, 3]), expected);
     }
 
@@ -187,17 +153,9 @@ mod tests {
     fn squares_on_x_and_y_slices_map_to_the_right_voxels() {
         let dims = [5, 6, 7];
         let index = |x: usize, y: usize, z: usize| x + 5 * (y + 6 * z);
-        let on_y = lasso(
-            Axis::Y,
-            4,
-            &[[0.5, 1.5], [1.5, 1.5], [1.5, 2.5], [0.5, 2.5]],
-        );
+        let on_y = lasso(Axis::Y, 4, &[[0.5, 1.5], [1.5, 1.5], [1.5, 2.5], [0.5, 2.5]]);
         assert_eq!(on_y.selected_voxels(dims), vec![index(1, 4, 2)]);
-        let on_x = lasso(
-            Axis::X,
-            3,
-            &[[4.5, 5.5], [5.5, 5.5], [5.5, 6.5], [4.5, 6.5]],
-        );
+        let on_x = lasso(Axis::X, 3, &[[4.5, 5.5], [5.5, 5.5], [5.5, 6.5], [4.5, 6.5]]);
         assert_eq!(on_x.selected_voxels(dims), vec![index(3, 5, 6)]);
     }
 
@@ -237,10 +195,7 @@ mod tests {
             vec![[1.0, f64::NAN], [8.0, 8.0], [1.0, 8.0]],
             vec![[1.0, f64::INFINITY], [8.0, 8.0], [1.0, 8.0]],
         ] {
-            assert!(
-                lasso(Axis::Z, 2, &points).selected_voxels(dims).is_empty(),
-                "{points:?}"
-            );
+            assert!(lasso(Axis::Z, 2, &points).selected_voxels(dims).is_empty(), "{points:?}");
         }
         let square = [[1.5, 1.5], [4.5, 1.5], [4.5, 4.5], [1.5, 4.5]];
         assert!(lasso(Axis::Z, 10, &square).selected_voxels(dims).is_empty());
@@ -249,11 +204,7 @@ mod tests {
     #[test]
     fn points_off_the_slice_are_clipped_to_it() {
         let dims = [6, 4, 2];
-        let everything = lasso(
-            Axis::Z,
-            1,
-            &[[-100.0, -50.0], [1e6, -50.0], [1e6, 1e9], [-100.0, 1e9]],
-        );
+        let everything = lasso(Axis::Z, 1, &[[-100.0, -50.0], [1e6, -50.0], [1e6, 1e9], [-100.0, 1e9]]);
         let expected: Vec<usize> = (24..48).collect();
         assert_eq!(everything.selected_voxels(dims), expected);
         let outside = lasso(Axis::Z, 0, &[[-9.0, -9.0], [-1.0, -9.0], [-1.0, -1.0]]);

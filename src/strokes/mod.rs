@@ -48,53 +48,27 @@ pub struct ClassStrokes {
 #[derive(Debug, thiserror::Error)]
 pub enum StrokesError {
     #[error("cannot access the strokes file: {source}, in {}", path.display())]
-    Io {
-        source: std::io::Error,
-        path: PathBuf,
-    },
+    Io { source: std::io::Error, path: PathBuf },
     #[error("not a valid strokes file: {source}")]
     Json { source: serde_json::Error },
     #[error("the format is '{found}' but '{}' was expected", FORMAT)]
     WrongFormat { found: String },
-    #[error(
-        "stroke {stroke} of class '{class}' has axis '{found}'; it must be \"x\", \"y\" or \"z\""
-    )]
-    BadAxis {
-        class: String,
-        stroke: usize,
-        found: String,
-    },
+    #[error("stroke {stroke} of class '{class}' has axis '{found}'; it must be \"x\", \"y\" or \"z\"")]
+    BadAxis { class: String, stroke: usize, found: String },
     #[error("stroke {stroke} of class '{class}' has the negative slice index {slice}")]
-    NegativeSlice {
-        class: String,
-        stroke: usize,
-        slice: i64,
-    },
+    NegativeSlice { class: String, stroke: usize, slice: i64 },
     #[error(
         "stroke {stroke} of class '{class}' is on slice {slice} along {axis}, but the volume has {slice_count} slices along {axis}"
     )]
-    SliceOutOfRange {
-        class: String,
-        stroke: usize,
-        axis: Axis,
-        slice: usize,
-        slice_count: usize,
-    },
+    SliceOutOfRange { class: String, stroke: usize, axis: Axis, slice: usize, slice_count: usize },
     #[error("point {point} of stroke {stroke} of class '{class}' is not a finite number")]
-    NonFinitePoint {
-        class: String,
-        stroke: usize,
-        point: usize,
-    },
+    NonFinitePoint { class: String, stroke: usize, point: usize },
     #[error("the lassos of class {class_id} '{class}' select no voxel inside the volume")]
     EmptyClass { class: String, class_id: usize },
     #[error("{count} classes is more than the 255 a label volume can hold")]
     TooManyClasses { count: usize },
     #[error("{source}, in {}", path.display())]
-    WithPath {
-        path: PathBuf,
-        source: Box<StrokesError>,
-    },
+    WithPath { path: PathBuf, source: Box<StrokesError> },
 }
 
 impl StrokesError {
@@ -103,10 +77,7 @@ impl StrokesError {
         match self {
             // These already name their path.
             StrokesError::Io { .. } | StrokesError::WithPath { .. } => self,
-            other => StrokesError::WithPath {
-                path: path.into(),
-                source: Box::new(other),
-            },
+            other => StrokesError::WithPath { path: path.into(), source: Box::new(other) },
         }
     }
 

@@ -43,10 +43,7 @@ impl TrainingSet {
 
     /// As [`from_strokes`](Self::from_strokes), but a class may end up without voxels (a
     /// caller that builds the set while the user is still drawing).
-    pub fn from_strokes_keeping_empty(
-        file: &StrokesFile,
-        dims: [usize; 3],
-    ) -> Result<TrainingSet, StrokesError> {
+    pub fn from_strokes_keeping_empty(file: &StrokesFile, dims: [usize; 3]) -> Result<TrainingSet, StrokesError> {
         file.check_for_volume(dims)?;
         let mut classes: Vec<ClassSamples> = file
             .classes
@@ -54,12 +51,7 @@ impl TrainingSet {
             .map(|class| {
                 let mut tagged: Vec<(usize, u32)> = Vec::new();
                 for (stroke, lasso) in class.strokes.iter().enumerate() {
-                    tagged.extend(
-                        lasso
-                            .selected_voxels(dims)
-                            .into_iter()
-                            .map(|v| (v, stroke as u32)),
-                    );
+                    tagged.extend(lasso.selected_voxels(dims).into_iter().map(|v| (v, stroke as u32)));
                 }
                 // Sorting by (voxel, stroke) and keeping the first of each voxel gives it to
                 // its first stroke.
@@ -77,10 +69,7 @@ impl TrainingSet {
             .collect();
         let contested = contested_voxels(&classes);
         if !contested.is_empty() {
-            log::warn!(
-                "{} voxels are selected by more than one class; they are left out of training",
-                contested.len()
-            );
+            log::warn!("{} voxels are selected by more than one class; they are left out of training", contested.len());
             for class in &mut classes {
                 let (voxels, strokes) = class
                     .voxels
@@ -95,19 +84,15 @@ impl TrainingSet {
         for class in &mut classes {
             class.count_per_stroke();
         }
-        Ok(TrainingSet {
-            classes,
-            contested_voxels: contested.len(),
-        })
+        Ok(TrainingSet { classes, contested_voxels: contested.len() })
     }
 
     /// `Err(EmptyClass)` naming the first class without voxels.
     pub fn check_every_class_has_voxels(&self) -> Result<(), StrokesError> {
         match self.classes.iter().position(|c| c.voxels.is_empty()) {
-            Some(position) => Err(StrokesError::EmptyClass {
-                class: self.classes[position].name.clone(),
-                class_id: position + 1,
-            }),
+            Some(position) => {
+                Err(StrokesError::EmptyClass { class: self.classes[position].name.clone(), class_id: position + 1 })
+            }
             None => Ok(()),
         }
     }
@@ -124,10 +109,7 @@ impl TrainingSet {
         for (position, class) in self.classes.iter().enumerate() {
             voxels.extend_from_slice(&class.voxels);
             // from_strokes refuses more than 255 classes.
-            labels.extend(std::iter::repeat_n(
-                (position + 1) as u8,
-                class.voxels.len(),
-            ));
+            labels.extend(std::iter::repeat_n((position + 1) as u8, class.voxels.len()));
         }
         (voxels, labels)
     }
@@ -143,10 +125,7 @@ impl TrainingSet {
             .enumerate()
             .map(|(position, class)| class.capped(max_per_class, hash64(seed, position as u64)))
             .collect();
-        TrainingSet {
-            classes,
-            contested_voxels: self.contested_voxels,
-        }
+        TrainingSet { classes, contested_voxels: self.contested_voxels }
     }
 }
 
@@ -199,14 +178,9 @@ fn largest_remainder_quotas(counts: &[usize], target: usize) -> Vec<usize> {
         return vec![0; counts.len()];
     }
     // Exact integer arithmetic: share = count * target / total.
-    let mut quotas: Vec<usize> = counts
-        .iter()
-        .map(|&c| ((c as u128 * target as u128) / total as u128) as usize)
-        .collect();
-    let remainders: Vec<u128> = counts
-        .iter()
-        .map(|&c| (c as u128 * target as u128) % total as u128)
-        .collect();
+    let mut quotas: Vec<usize> =
+        counts.iter().map(|&c| ((c as u128 * target as u128) / total as u128) as usize).collect();
+    let remainders: Vec<u128> = counts.iter().map(|&c| (c as u128 * target as u128) % total as u128).collect();
     let mut order: Vec<usize> = (0..counts.len()).collect();
     order.sort_by(|&a, &b| remainders[b].cmp(&remainders[a]).then(a.cmp(&b)));
     let missing = target.saturating_sub(quotas.iter().sum());
@@ -218,17 +192,10 @@ fn largest_remainder_quotas(counts: &[usize], target: usize) -> Vec<usize> {
 
 /// Voxels that appear in more than one class, sorted.
 fn contested_voxels(classes: &[ClassSamples]) -> Vec<usize> {
-    let mut all: Vec<usize> = classes
-        .iter()
-        .flat_map(|c| c.voxels.iter().copied())
-        .collect();
+    let mut all: Vec<usize> = classes.iter().flat_map(|c| c.voxels.iter().copied()).collect();
     all.sort_unstable();
     // Each class's voxels are unique, so a repeat means two classes.
-    let mut contested: Vec<usize> = all
-        .windows(2)
-        .filter(|w| w[0] == w[1])
-        .map(|w| w[0])
-        .collect();
+    let mut contested: Vec<usize> = all.windows(2).filter(|w| w[0] == w[1]).map(|w| w[0]).collect();
     contested.dedup();
     contested
 }
@@ -243,24 +210,12 @@ mod tests {
 
     /// An axis-aligned rectangle of centres x0..=x1, y0..=y1 on z slice `z`.
     fn rectangle(z: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Lasso {
-        let (x0, y0, x1, y1) = (
-            x0 as f64 - 0.5,
-            y0 as f64 - 0.5,
-            x1 as f64 + 0.5,
-            y1 as f64 + 0.5,
-        );
-        Lasso {
-            axis: Axis::Z,
-            slice: z,
-            points: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]],
-        }
+        let (x0, y0, x1, y1) = (x0 as f64 - 0.5, y0 as f64 - 0.5, x1 as f64 + 0.5, y1 as f64 + 0.5);
+        Lasso { axis: Axis::Z, slice: z, points: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]] }
     }
 
     fn class(name: &str, strokes: Vec<Lasso>) -> ClassStrokes {
-        ClassStrokes {
-            name: name.into(),
-            strokes,
-        }
+        ClassStrokes { name: name.into(), strokes }
     }
 
     #[test]
@@ -268,10 +223,7 @@ mod tests {
         let file = StrokesFile {
             classes: vec![
                 // 10 x 10 (x, y 0..=9) and 5 x 10 (x 5..=9, y 2..=11): 110 voxels in all.
-                class(
-                    "bone",
-                    vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)],
-                ),
+                class("bone", vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)]),
                 // x 8..=11, y 0..=9: its columns 8 and 9 overlap bone's first stroke.
                 class("soft tissue", vec![rectangle(5, 8, 0, 11, 9)]),
             ],
@@ -304,20 +256,11 @@ mod tests {
         let file = StrokesFile {
             classes: vec![
                 class("bone", vec![rectangle(1, 0, 0, 3, 3)]),
-                class(
-                    "joint",
-                    vec![Lasso {
-                        axis: Axis::Y,
-                        slice: 2,
-                        points: vec![[1.0, 1.0], [2.0, 2.0]],
-                    }],
-                ),
+                class("joint", vec![Lasso { axis: Axis::Y, slice: 2, points: vec![[1.0, 1.0], [2.0, 2.0]] }]),
             ],
         };
         let error = TrainingSet::from_strokes(&file, DIMS).unwrap_err();
-        assert!(
-            matches!(&error, StrokesError::EmptyClass { class, class_id: 2 } if class == "joint")
-        );
+        assert!(matches!(&error, StrokesError::EmptyClass { class, class_id: 2 } if class == "joint"));
         assert!(error.to_string().contains("'joint'"));
         let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
         assert!(kept.classes[1].voxels.is_empty());
@@ -326,24 +269,13 @@ mod tests {
 
     #[test]
     fn slices_outside_the_volume_and_too_many_classes_are_refused() {
-        let file = StrokesFile {
-            classes: vec![class("a", vec![rectangle(20, 0, 0, 3, 3)])],
-        };
+        let file = StrokesFile { classes: vec![class("a", vec![rectangle(20, 0, 0, 3, 3)])] };
         assert!(matches!(
             TrainingSet::from_strokes(&file, DIMS),
-            Err(StrokesError::SliceOutOfRange {
-                slice: 20,
-                slice_count: 20,
-                ..
-            })
+            Err(StrokesError::SliceOutOfRange { slice: 20, slice_count: 20, .. })
         ));
-        let many = StrokesFile {
-            classes: (0..256).map(|k| class(&k.to_string(), vec![])).collect(),
-        };
-        assert!(matches!(
-            TrainingSet::from_strokes(&many, DIMS),
-            Err(StrokesError::TooManyClasses { count: 256 })
-        ));
+        let many = StrokesFile { classes: (0..256).map(|k| class(&k.to_string(), vec![])).collect() };
+        assert!(matches!(TrainingSet::from_strokes(&many, DIMS), Err(StrokesError::TooManyClasses { count: 256 })));
     }
 
     #[test]
@@ -351,10 +283,7 @@ mod tests {
         let file = StrokesFile {
             classes: vec![
                 // 300 and 100 voxels on different slices, and a small class under the cap.
-                class(
-                    "bone",
-                    vec![rectangle(1, 0, 0, 29, 9), rectangle(2, 0, 0, 9, 9)],
-                ),
+                class("bone", vec![rectangle(1, 0, 0, 29, 9), rectangle(2, 0, 0, 9, 9)]),
                 class("air", vec![rectangle(3, 0, 0, 4, 4)]),
             ],
         };
@@ -366,11 +295,7 @@ mod tests {
         assert_eq!(bone.stroke_voxel_counts, vec![76, 25]);
         assert_eq!(bone.dropped_by_cap, 299);
         assert!(bone.voxels.windows(2).all(|w| w[0] < w[1]));
-        assert!(
-            bone.voxels
-                .iter()
-                .all(|v| set.classes[0].voxels.binary_search(v).is_ok())
-        );
+        assert!(bone.voxels.iter().all(|v| set.classes[0].voxels.binary_search(v).is_ok()));
         for (voxel, &stroke) in bone.voxels.iter().zip(&bone.stroke_of_voxel) {
             assert_eq!(voxel / (40 * 30), stroke as usize + 1);
         }
