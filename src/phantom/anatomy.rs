@@ -126,6 +126,7 @@ const fn bone(
 }
 
 /// The skin: blobs blended by a smooth union.
+#[rustfmt::skip]
 pub const SKIN: [Shape; 9] = [
     capsule([40.0, 54.0, 60.0], [40.0, 54.0, 175.0], 25.0), // leg
     ellipsoid([32.0, 54.0, 34.0], [26.0, 24.0, 26.0]),      // heel
@@ -138,162 +139,32 @@ pub const SKIN: [Shape; 9] = [
     capsule([113.0, 71.0, 13.0], [123.0, 73.0, 11.0], 5.0), // little toe
 ];
 
-/// The bones (a simplified right foot and the distal leg).
+/// The bones (a simplified right foot and the distal leg): name, shape, cortex thickness (mm),
+/// cortex and marrow HU.
+#[rustfmt::skip]
 pub const BONES: [Bone; 22] = [
-    bone(
-        "tibia",
-        capsule([42.0, 54.0, 60.0], [42.0, 54.0, 200.0], 12.0),
-        2.6,
-        1450.0,
-        300.0,
-    ),
-    bone(
-        "fibula",
-        capsule([40.0, 75.0, 50.0], [38.0, 74.0, 200.0], 5.5),
-        1.8,
-        1400.0,
-        320.0,
-    ),
-    bone(
-        "talus",
-        ellipsoid([46.0, 54.0, 44.0], [17.0, 14.0, 10.0]),
-        1.4,
-        1250.0,
-        280.0,
-    ),
-    bone(
-        "calcaneus",
-        ellipsoid([32.0, 56.0, 28.0], [26.0, 14.0, 11.0]),
-        1.4,
-        1200.0,
-        250.0,
-    ),
-    bone(
-        "navicular",
-        ellipsoid([66.0, 46.0, 42.0], [6.5, 12.0, 8.0]),
-        1.2,
-        1250.0,
-        300.0,
-    ),
-    bone(
-        "cuboid",
-        ellipsoid([62.0, 62.0, 28.0], [9.0, 9.0, 8.0]),
-        1.2,
-        1200.0,
-        290.0,
-    ),
-    bone(
-        "medial cuneiform",
-        ellipsoid([78.0, 36.0, 38.0], [7.0, 6.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "intermediate cuneiform",
-        ellipsoid([78.0, 47.0, 38.0], [7.0, 5.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "lateral cuneiform",
-        ellipsoid([77.0, 57.0, 35.0], [7.0, 5.0, 8.0]),
-        1.2,
-        1250.0,
-        310.0,
-    ),
-    bone(
-        "metatarsal 1",
-        capsule([88.0, 34.0, 33.0], [118.0, 29.0, 20.0], 5.5),
-        1.6,
-        1350.0,
-        330.0,
-    ),
-    bone(
-        "metatarsal 2",
-        capsule([89.0, 46.0, 33.0], [122.0, 42.0, 18.0], 4.0),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 3",
-        capsule([88.0, 56.0, 31.0], [119.0, 52.0, 17.0], 3.8),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 4",
-        capsule([84.0, 64.0, 29.0], [115.0, 61.0, 16.0], 3.8),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "metatarsal 5",
-        capsule([74.0, 70.0, 26.0], [109.0, 71.0, 14.0], 4.0),
-        1.5,
-        1350.0,
-        340.0,
-    ),
-    bone(
-        "proximal phalanx 1",
-        capsule([127.0, 28.0, 18.5], [134.0, 27.0, 17.0], 4.6),
-        1.3,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "distal phalanx 1",
-        capsule([140.0, 26.5, 16.0], [144.0, 26.0, 15.5], 4.0),
-        1.3,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 2",
-        capsule([128.0, 41.5, 16.0], [134.0, 41.0, 15.0], 3.2),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 3",
-        capsule([125.0, 51.8, 15.0], [131.0, 51.8, 14.0], 3.0),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 4",
-        capsule([121.0, 61.2, 14.0], [127.0, 61.6, 13.0], 3.0),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "proximal phalanx 5",
-        capsule([115.0, 71.6, 13.0], [120.0, 72.4, 12.0], 2.9),
-        1.2,
-        1300.0,
-        330.0,
-    ),
-    bone(
-        "sesamoid medial",
-        ellipsoid([116.0, 25.0, 12.5], [3.0, 2.5, 2.5]),
-        1.0,
-        1300.0,
-        350.0,
-    ),
-    bone(
-        "sesamoid lateral",
-        ellipsoid([116.0, 32.0, 12.5], [3.0, 2.5, 2.5]),
-        1.0,
-        1300.0,
-        350.0,
-    ),
+    bone("tibia", capsule([42.0, 54.0, 60.0], [42.0, 54.0, 200.0], 12.0), 2.6, 1450.0, 300.0),
+    bone("fibula", capsule([40.0, 75.0, 50.0], [38.0, 74.0, 200.0], 5.5), 1.8, 1400.0, 320.0),
+    bone("talus", ellipsoid([46.0, 54.0, 44.0], [17.0, 14.0, 10.0]), 1.4, 1250.0, 280.0),
+    bone("calcaneus", ellipsoid([32.0, 56.0, 28.0], [26.0, 14.0, 11.0]), 1.4, 1200.0, 250.0),
+    bone("navicular", ellipsoid([66.0, 46.0, 42.0], [6.5, 12.0, 8.0]), 1.2, 1250.0, 300.0),
+    bone("cuboid", ellipsoid([62.0, 62.0, 28.0], [9.0, 9.0, 8.0]), 1.2, 1200.0, 290.0),
+    bone("medial cuneiform", ellipsoid([78.0, 36.0, 38.0], [7.0, 6.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("intermediate cuneiform", ellipsoid([78.0, 47.0, 38.0], [7.0, 5.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("lateral cuneiform", ellipsoid([77.0, 57.0, 35.0], [7.0, 5.0, 8.0]), 1.2, 1250.0, 310.0),
+    bone("metatarsal 1", capsule([88.0, 34.0, 33.0], [118.0, 29.0, 20.0], 5.5), 1.6, 1350.0, 330.0),
+    bone("metatarsal 2", capsule([89.0, 46.0, 33.0], [122.0, 42.0, 18.0], 4.0), 1.5, 1350.0, 340.0),
+    bone("metatarsal 3", capsule([88.0, 56.0, 31.0], [119.0, 52.0, 17.0], 3.8), 1.5, 1350.0, 340.0),
+    bone("metatarsal 4", capsule([84.0, 64.0, 29.0], [115.0, 61.0, 16.0], 3.8), 1.5, 1350.0, 340.0),
+    bone("metatarsal 5", capsule([74.0, 70.0, 26.0], [109.0, 71.0, 14.0], 4.0), 1.5, 1350.0, 340.0),
+    bone("proximal phalanx 1", capsule([127.0, 28.0, 18.5], [134.0, 27.0, 17.0], 4.6), 1.3, 1300.0, 330.0),
+    bone("distal phalanx 1", capsule([140.0, 26.5, 16.0], [144.0, 26.0, 15.5], 4.0), 1.3, 1300.0, 330.0),
+    bone("proximal phalanx 2", capsule([128.0, 41.5, 16.0], [134.0, 41.0, 15.0], 3.2), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 3", capsule([125.0, 51.8, 15.0], [131.0, 51.8, 14.0], 3.0), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 4", capsule([121.0, 61.2, 14.0], [127.0, 61.6, 13.0], 3.0), 1.2, 1300.0, 330.0),
+    bone("proximal phalanx 5", capsule([115.0, 71.6, 13.0], [120.0, 72.4, 12.0], 2.9), 1.2, 1300.0, 330.0),
+    bone("sesamoid medial", ellipsoid([116.0, 25.0, 12.5], [3.0, 2.5, 2.5]), 1.0, 1300.0, 350.0),
+    bone("sesamoid lateral", ellipsoid([116.0, 32.0, 12.5], [3.0, 2.5, 2.5]), 1.0, 1300.0, 350.0),
 ];
 
 /// Polynomial smooth minimum (blends within `k`).
@@ -313,6 +184,7 @@ pub struct RowShapes {
 /// point cannot change whether the point is inside or within the fat layer; a bone farther
 /// than this cannot change the joint, cortex or marrow decision.
 const SKIN_MARGIN_MM: f64 = 1.25 * SKIN_BLEND_MM + FAT_THICKNESS_MM + 1.0;
+// 2.6 mm is the thickest cortex (tibia).
 const BONE_MARGIN_MM: f64 = JOINT_GAP_MM + 2.0 * 2.6 + 1.0;
 
 impl RowShapes {
