@@ -12,11 +12,11 @@
 //! never knows about them.
 
 pub mod cli;
-pub mod volume;
-
-pub use volume::{Volume, VolumeError, VoxelType};
 pub mod features;
 pub mod phantom;
 pub mod rng;
 pub mod slices;
 pub mod strokes;
+pub mod volume;
+
+pub use volume::{Volume, VolumeError, VoxelType};
