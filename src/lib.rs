@@ -13,12 +13,12 @@
 
 pub mod atomic_file;
 pub mod cli;
-pub mod transfer;
-pub mod volume;
-
-pub use volume::{Volume, VolumeError, VoxelType};
 pub mod features;
 pub mod phantom;
 pub mod rng;
 pub mod slices;
 pub mod strokes;
+pub mod transfer;
+pub mod volume;
+
+pub use volume::{Volume, VolumeError, VoxelType};

@@ -78,44 +78,30 @@ impl<'v> FeatureSlabReader<'v> {
                 let (next_minus, next_0, next_plus) =
                     (row(next, y_minus, size_x), row(next, y, size_x), row(next, y_plus, size_x));
                 let y_gradient_scale = self.y_gradient_scale[y];
-                for (x, voxel_out) in row_out.chunks_exact_mut(dim).enumerate() {
-                    let [x_minus, x_plus] = self.x_neighbours[x];
-                    let neighbourhood = Neighbourhood {
-                        centre: current_0[x],
-                        xy: [
-                            current_minus[x_minus],
-                            current_minus[x],
-                            current_minus[x_plus],
-                            current_0[x_minus],
-                            current_0[x_plus],
-                            current_plus[x_minus],
-                            current_plus[x],
-                            current_plus[x_plus],
-                        ],
-                        xz: [
-                            previous_0[x_minus],
-                            previous_0[x],
-                            previous_0[x_plus],
-                            current_0[x_minus],
-                            current_0[x_plus],
-                            next_0[x_minus],
-                            next_0[x],
-                            next_0[x_plus],
-                        ],
-                        yz: [
-                            previous_minus[x],
-                            previous_0[x],
-                            previous_plus[x],
-                            current_minus[x],
-                            current_plus[x],
-                            next_minus[x],
-                            next_0[x],
-                            next_plus[x],
-                        ],
-                        gradient_scale: [self.x_gradient_scale[x], y_gradient_scale, z_gradient_scale],
-                    };
-                    match self.feature_set {
+                let rows = NineRows {
+                    previous: [previous_minus, previous_0, previous_plus],
+                    current: [current_minus, current_0, current_plus],
+                    next: [next_minus, next_0, next_plus],
+                }
+                .cut_to(size_x);
+                let feature_set = self.feature_set;
+                let mut emit = |x: usize, x_minus: usize, x_plus: usize, x_scale: f32| {
+                    let neighbourhood =
+                        rows.neighbourhood([x_minus, x, x_plus], [x_scale, y_gradient_scale, z_gradient_scale]);
+                    let voxel_out = &mut row_out[x * dim..(x + 1) * dim];
+                    match feature_set {
                         FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
+                    }
+                };
+                // The first and last columns clamp; the columns between need no table.
+                for x in [0, size_x - 1] {
+                    let [x_minus, x_plus] = self.x_neighbours[x];
+                    emit(x, x_minus, x_plus, self.x_gradient_scale[x]);
+                }
+                if size_x > 2 {
+                    let interior_scale = self.x_gradient_scale[1];
+                    for x in 1..size_x - 1 {
+                        emit(x, x - 1, x + 1, interior_scale);
                     }
                 }
             }
@@ -218,6 +204,66 @@ impl<'v> FeatureSlabReader<'v> {
             }
         }
         slots
+    }
+}
+
+/// Rows y-1, y, y+1 of planes z-1, z, z+1.
+#[derive(Clone, Copy)]
+struct NineRows<'a> {
+    previous: [&'a [f32]; 3],
+    current: [&'a [f32]; 3],
+    next: [&'a [f32]; 3],
+}
+
+impl<'a> NineRows<'a> {
+    /// Every row cut to exactly `length`, so that the optimiser can drop bounds checks.
+    fn cut_to(self, length: usize) -> NineRows<'a> {
+        let cut = |rows: [&'a [f32]; 3]| rows.map(|row| &row[..length]);
+        NineRows { previous: cut(self.previous), current: cut(self.current), next: cut(self.next) }
+    }
+
+    /// The neighbourhood of column `x[1]` with clamped neighbours `x[0]`, `x[2]` (the same
+    /// order of values as `features_at`).
+    #[inline(always)]
+    fn neighbourhood(&self, x: [usize; 3], gradient_scale: [f32; 3]) -> Neighbourhood {
+        let [previous_minus, previous_0, previous_plus] = self.previous;
+        let [current_minus, current_0, current_plus] = self.current;
+        let [next_minus, next_0, next_plus] = self.next;
+        let [x_minus, x, x_plus] = x;
+        Neighbourhood {
+            centre: current_0[x],
+            xy: [
+                current_minus[x_minus],
+                current_minus[x],
+                current_minus[x_plus],
+                current_0[x_minus],
+                current_0[x_plus],
+                current_plus[x_minus],
+                current_plus[x],
+                current_plus[x_plus],
+            ],
+            xz: [
+                previous_0[x_minus],
+                previous_0[x],
+                previous_0[x_plus],
+                current_0[x_minus],
+                current_0[x_plus],
+                next_0[x_minus],
+                next_0[x],
+                next_0[x_plus],
+            ],
+            yz: [
+                previous_minus[x],
+                previous_0[x],
+                previous_plus[x],
+                current_minus[x],
+                current_plus[x],
+                next_minus[x],
+                next_0[x],
+                next_plus[x],
+            ],
+            gradient_scale,
+        }
     }
 }
 

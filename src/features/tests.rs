@@ -213,6 +213,28 @@ fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughpu
         volume.voxel_count() as f64 / seconds / 1e6,
         rayon::current_num_threads()
     );
+    // One thread's CPU time for the same work (Linux), a figure that other load on the
+    // machine does not distort.
+    let cpu_seconds = || {
+        std::fs::read_to_string("/proc/thread-self/schedstat")
+            .ok()
+            .and_then(|s| s.split_whitespace().next()?.parse::<f64>().ok())
+            .map(|ns| ns / 1e9)
+    };
+    if let Some(before) = cpu_seconds() {
+        let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5);
+        let mut block = Vec::new();
+        let mut checksum = 0f64;
+        for z_range in slab_ranges(256, 4) {
+            reader.compute(z_range, &mut block).unwrap();
+            checksum += block[block.len() / 2] as f64;
+        }
+        let cpu = cpu_seconds().unwrap_or(before) - before;
+        println!(
+            "Paper5 features, one thread: {cpu:.3} CPU s, {:.0} Mvoxels per CPU second (checksum {checksum})",
+            volume.voxel_count() as f64 / cpu / 1e6
+        );
+    }
     let probed: Vec<_> = slabs.iter().flat_map(|(p, _)| p.clone()).collect();
     assert_eq!(probed.len(), probes.len());
     for (index, features) in probed {

@@ -98,6 +98,7 @@ const fn bone(name: &'static str, shape: Shape, cortex_mm: f64, cortex_hu: f32, 
 }
 
 /// The skin: blobs blended by a smooth union.
+#[rustfmt::skip]
 pub const SKIN: [Shape; 9] = [
     capsule([40.0, 54.0, 60.0], [40.0, 54.0, 175.0], 25.0), // leg
     ellipsoid([32.0, 54.0, 34.0], [26.0, 24.0, 26.0]),      // heel
@@ -110,7 +111,9 @@ pub const SKIN: [Shape; 9] = [
     capsule([113.0, 71.0, 13.0], [123.0, 73.0, 11.0], 5.0), // little toe
 ];
 
-/// The bones (a simplified right foot and the distal leg).
+/// The bones (a simplified right foot and the distal leg): name, shape, cortex thickness (mm),
+/// cortex and marrow HU.
+#[rustfmt::skip]
 pub const BONES: [Bone; 22] = [
     bone("tibia", capsule([42.0, 54.0, 60.0], [42.0, 54.0, 200.0], 12.0), 2.6, 1450.0, 300.0),
     bone("fibula", capsule([40.0, 75.0, 50.0], [38.0, 74.0, 200.0], 5.5), 1.8, 1400.0, 320.0),
@@ -153,6 +156,7 @@ pub struct RowShapes {
 /// point cannot change whether the point is inside or within the fat layer; a bone farther
 /// than this cannot change the joint, cortex or marrow decision.
 const SKIN_MARGIN_MM: f64 = 1.25 * SKIN_BLEND_MM + FAT_THICKNESS_MM + 1.0;
+// 2.6 mm is the thickest cortex (tibia).
 const BONE_MARGIN_MM: f64 = JOINT_GAP_MM + 2.0 * 2.6 + 1.0;
 
 impl RowShapes {

@@ -28,6 +28,9 @@
 //! Generation is deterministic (noise comes from a hash of seed and voxel index, not from a
 //! stream, so the thread schedule cannot change a bit) and parallel over z slices.
 //!
+//! [`lassos_inside`] draws the lassos a careful user would on the top-entropy slices (so this
+//! module uses `slices` and `strokes`, as a demo session does).
+//!
 //! Never: reads files, or pretends to be real anatomy beyond a test's needs.
 
 pub mod anatomy;

@@ -211,3 +211,15 @@ fn walking_a_row_with_distance_skips_equals_evaluating_every_voxel() {
     assert!(inside > 10_000);
     assert_eq!(differences, 0);
 }
+
+#[test]
+fn the_automatic_display_window_shows_soft_tissue_dark_and_bone_bright() {
+    use crate::slices::DisplayWindow;
+    let phantom = demo_foot_with([96, 64, 48], 4).unwrap();
+    let window = DisplayWindow::automatic(&phantom.volume);
+    println!("automatic window of the demo foot: {window:?}");
+    assert_eq!(window.grey(-1000.0), 0);
+    assert!(window.grey(anatomy::FAT_HU as f64) < window.grey(anatomy::MUSCLE_HU as f64));
+    assert!(window.grey(anatomy::MUSCLE_HU as f64) < window.grey(anatomy::JOINT_HU as f64));
+    assert!(window.grey(300.0) < 128 && window.grey(1250.0) > 200);
+}

@@ -199,6 +199,9 @@ mod tests {
         }
         let square = [[1.5, 1.5], [4.5, 1.5], [4.5, 4.5], [1.5, 4.5]];
         assert!(lasso(Axis::Z, 10, &square).selected_voxels(dims).is_empty());
+        // Coordinates at the edge of f64 overflow the slope: no panic, nothing outside.
+        let huge = [[-1e308, -1e308], [1e308, -1e308], [0.0, 1e308], [f64::MAX, f64::MIN]];
+        assert!(lasso(Axis::Z, 2, &huge).selected_voxels(dims).iter().all(|&v| v < 1000));
     }
 
     #[test]
