@@ -1,0 +1,318 @@
+//! Where the slices of one series lie: their order along the slice normal, their spacing, and
+//! whether they form a regular grid.
+//!
+//! Nouns: the *row direction* r and *column direction* c are ImageOrientationPatient's two
+//! cosine triples (r points along a row, towards increasing column index, i.e. along x); the
+//! *normal* is n = r × c. A slice's *first pixel* ImagePositionPatient is described by its
+//! projections (u, v, w) on (r, c, n). Slices are ordered by w; the *gaps* are the differences
+//! of consecutive w; a nonzero change of (u, v) between slices is a *tilt* (gantry tilt makes
+//! each slice shift in-plane as the table moves).
+//!
+//! Entry points: [`order_slices`] (checks consistency, sorts, removes duplicate files) and
+//! [`StackGeometry::regularity`]. SliceThickness is never used for spacing: it describes the
+//! slice profile, not where the next slice is.
+//!
+//! Never: reads pixel data or resamples.
+
+use super::header::SliceHeader;
+use crate::volume::VolumeError;
+
+/// The in-plane shift below which slices count as stacked straight (fraction of a pixel).
+const TILT_TOLERANCE_PIXELS: f64 = 0.1;
+/// Gaps whose spread is within this fraction of the median gap count as even.
+const EVEN_GAP_TOLERANCE: f64 = 0.01;
+/// Slices closer than this fraction of a pixel along the normal share one position.
+const DUPLICATE_TOLERANCE_PIXELS: f64 = 0.01;
+
+/// The geometry of an ordered series (slice k is `first_pixel_mm[k]`).
+#[derive(Clone, Debug)]
+pub(super) struct StackGeometry {
+    pub rows: usize,
+    pub columns: usize,
+    /// [between columns (x), between rows (y)]: PixelSpacing in the order of the volume axes.
+    pub pixel_spacing_mm: [f64; 2],
+    /// ImagePositionPatient of each slice as (u, v, w) on (row, column, normal); w ascending.
+    pub first_pixel_mm: Vec<[f64; 3]>,
+    /// The spacing to report for a one-slice volume (SpacingBetweenSlices, SliceThickness or 1).
+    pub single_slice_spacing_mm: f64,
+}
+
+/// How far a series is from a regular grid.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct StackRegularity {
+    pub gap_min_mm: f64,
+    pub gap_max_mm: f64,
+    pub gap_median_mm: f64,
+    /// Angle between the line through the first pixels of the end slices and the normal.
+    pub tilt_degrees: f64,
+    pub even_gaps: bool,
+    pub tilted: bool,
+}
+
+impl StackRegularity {
+    pub fn is_regular(&self) -> bool {
+        self.even_gaps && !self.tilted
+    }
+
+    /// What is irregular, e.g. "gantry tilt 18.5 deg and uneven slice gaps 1.08..7.00 mm".
+    pub fn describe(&self) -> String {
+        let tilt = format!("gantry tilt {:.1} deg", self.tilt_degrees);
+        let gaps = format!(
+            "uneven slice gaps {:.2}..{:.2} mm",
+            self.gap_min_mm, self.gap_max_mm
+        );
+        match (self.tilted, self.even_gaps) {
+            (true, false) => format!("{tilt} and {gaps}"),
+            (true, true) => format!(
+                "{tilt} (slices shift in-plane; gap {:.2} mm)",
+                self.gap_median_mm
+            ),
+            (false, false) => gaps,
+            (false, true) => format!("regular slices {:.2} mm apart", self.gap_median_mm),
+        }
+    }
+}
+
+impl StackGeometry {
+    pub fn slice_count(&self) -> usize {
+        self.first_pixel_mm.len()
+    }
+
+    /// Differences of consecutive normal positions (one fewer than slices).
+    pub fn gaps_mm(&self) -> Vec<f64> {
+        self.first_pixel_mm
+            .windows(2)
+            .map(|pair| pair[1][2] - pair[0][2])
+            .collect()
+    }
+
+    pub fn regularity(&self) -> StackRegularity {
+        let gaps = self.gaps_mm();
+        if gaps.is_empty() {
+            return StackRegularity {
+                gap_min_mm: self.single_slice_spacing_mm,
+                gap_max_mm: self.single_slice_spacing_mm,
+                gap_median_mm: self.single_slice_spacing_mm,
+                tilt_degrees: 0.0,
+                even_gaps: true,
+                tilted: false,
+            };
+        }
+        let gap_min_mm = gaps.iter().copied().fold(f64::INFINITY, f64::min);
+        let gap_max_mm = gaps.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        let gap_median_mm = median(&gaps);
+        let first = self.first_pixel_mm[0];
+        let in_plane_shift_mm = |p: &[f64; 3]| (p[0] - first[0]).hypot(p[1] - first[1]);
+        let largest_shift_mm = self
+            .first_pixel_mm
+            .iter()
+            .map(in_plane_shift_mm)
+            .fold(0.0, f64::max);
+        let last = self.first_pixel_mm[self.slice_count() - 1];
+        let tilt_degrees = in_plane_shift_mm(&last)
+            .atan2(last[2] - first[2])
+            .to_degrees();
+        let pixel_mm = self.pixel_spacing_mm[0].min(self.pixel_spacing_mm[1]);
+        StackRegularity {
+            gap_min_mm,
+            gap_max_mm,
+            gap_median_mm,
+            tilt_degrees,
+            even_gaps: gap_max_mm - gap_min_mm <= EVEN_GAP_TOLERANCE * gap_median_mm,
+            tilted: largest_shift_mm > TILT_TOLERANCE_PIXELS * pixel_mm,
+        }
+    }
+
+    /// The slice spacing of a resampled grid when the caller gives none: the smallest gap that
+    /// is at least half the median gap. It keeps the finest real sampling of the series while
+    /// ignoring the odd overlapping slice (the GE head series has one 1.08 mm gap among 4 and
+    /// 7 mm ones), which would multiply the slice count for no information.
+    pub fn automatic_slice_spacing_mm(&self) -> f64 {
+        let gaps = self.gaps_mm();
+        let half_median = 0.5 * median(&gaps);
+        gaps.iter()
+            .copied()
+            .filter(|gap| *gap >= half_median)
+            .fold(f64::INFINITY, f64::min)
+    }
+}
+
+/// Checks that `headers` (one series, any order) agree on image size, pixel spacing and
+/// orientation, sorts them along the normal and drops repeated copies of one image.
+///
+/// Duplicate positions: two files with the same SOPInstanceUID at one position are the same
+/// image twice; the later (by path) is dropped with a warning. Two *different* images at one
+/// position (several phases or acquisitions in one series) are an error, because choosing
+/// one would silently drop data.
+pub(super) fn order_slices(
+    headers: Vec<SliceHeader>,
+    warnings: &mut Vec<String>,
+) -> Result<(Vec<SliceHeader>, StackGeometry), VolumeError> {
+    let Some(first) = headers.first() else {
+        return Err(VolumeError::Dicom {
+            problem: "the series has no image files".into(),
+            path: std::path::PathBuf::new(),
+        });
+    };
+    let multi_slice = headers.len() > 1;
+    for header in &headers[1..] {
+        check_consistent(first, header)?;
+    }
+    if multi_slice {
+        for header in &headers {
+            let missing = if header.position_mm.is_none() {
+                Some("ImagePositionPatient")
+            } else if header.orientation.is_none() {
+                Some("ImageOrientationPatient")
+            } else {
+                None
+            };
+            if let Some(field) = missing {
+                return Err(VolumeError::Dicom {
+                    problem: format!(
+                        "{field} is missing, and slices of a {}-file series cannot be placed without it",
+                        headers.len()
+                    ),
+                    path: header.path.clone(),
+                });
+            }
+        }
+    }
+    let orientation = first.orientation.unwrap_or([1.0, 0.0, 0.0, 0.0, 1.0, 0.0]);
+    let row_direction = [orientation[0], orientation[1], orientation[2]];
+    let column_direction = [orientation[3], orientation[4], orientation[5]];
+    let normal = cross(row_direction, column_direction);
+    let pixel_spacing_mm = match first.pixel_spacing_mm {
+        Some([between_rows, between_columns]) => [between_columns, between_rows],
+        None => {
+            warnings.push("PixelSpacing is missing: assuming 1 mm square pixels".into());
+            [1.0, 1.0]
+        }
+    };
+    let single_slice_spacing_mm = first.slice_thickness_mm.unwrap_or(1.0);
+    let project = |header: &SliceHeader| {
+        let p = header.position_mm.unwrap_or([0.0; 3]);
+        [
+            dot(p, row_direction),
+            dot(p, column_direction),
+            dot(p, normal),
+        ]
+    };
+    let mut placed: Vec<([f64; 3], SliceHeader)> =
+        headers.into_iter().map(|h| (project(&h), h)).collect();
+    placed.sort_by(|a, b| {
+        a.0[2]
+            .total_cmp(&b.0[2])
+            .then_with(|| a.1.path.cmp(&b.1.path))
+    });
+
+    let duplicate_mm = DUPLICATE_TOLERANCE_PIXELS * pixel_spacing_mm[0].min(pixel_spacing_mm[1]);
+    let mut kept: Vec<([f64; 3], SliceHeader)> = Vec::with_capacity(placed.len());
+    for (position, header) in placed {
+        if let Some((previous_position, previous)) = kept.last()
+            && (position[2] - previous_position[2]).abs() <= duplicate_mm
+        {
+            if !header.sop_instance_uid.is_empty()
+                && header.sop_instance_uid == previous.sop_instance_uid
+            {
+                warnings.push(format!(
+                    "{} repeats the image {} (same SOPInstanceUID): skipped",
+                    header.path.display(),
+                    previous.path.display()
+                ));
+                continue;
+            }
+            return Err(VolumeError::Dicom {
+                problem: format!(
+                    "two different images lie at {:.3} mm along the slice normal ({} and this file); \
+                     the series holds several phases or acquisitions and is not one volume",
+                    position[2],
+                    previous.path.display()
+                ),
+                path: header.path.clone(),
+            });
+        }
+        kept.push((position, header));
+    }
+    let (first_pixel_mm, ordered): (Vec<[f64; 3]>, Vec<SliceHeader>) = kept.into_iter().unzip();
+    let geometry = StackGeometry {
+        rows: ordered[0].rows,
+        columns: ordered[0].columns,
+        pixel_spacing_mm,
+        first_pixel_mm,
+        single_slice_spacing_mm,
+    };
+    Ok((ordered, geometry))
+}
+
+/// One series, one image size, one pixel spacing, one orientation.
+fn check_consistent(first: &SliceHeader, other: &SliceHeader) -> Result<(), VolumeError> {
+    let mismatch = |what: &str, here: String, there: String| VolumeError::Dicom {
+        problem: format!(
+            "{what} {here} differs from {there} in {} of the same series",
+            first.path.display()
+        ),
+        path: other.path.clone(),
+    };
+    if (other.columns, other.rows) != (first.columns, first.rows) {
+        return Err(mismatch(
+            "image size (columns x rows)",
+            format!("{}x{}", other.columns, other.rows),
+            format!("{}x{}", first.columns, first.rows),
+        ));
+    }
+    let spacing_agrees = match (first.pixel_spacing_mm, other.pixel_spacing_mm) {
+        (Some(a), Some(b)) => a
+            .iter()
+            .zip(&b)
+            .all(|(a, b)| (a - b).abs() <= 1e-4 * a.abs()),
+        (None, None) => true,
+        _ => false,
+    };
+    if !spacing_agrees {
+        return Err(mismatch(
+            "PixelSpacing",
+            format!("{:?}", other.pixel_spacing_mm),
+            format!("{:?}", first.pixel_spacing_mm),
+        ));
+    }
+    let orientation_agrees = match (first.orientation, other.orientation) {
+        (Some(a), Some(b)) => a.iter().zip(&b).all(|(a, b)| (a - b).abs() <= 1e-4),
+        (None, None) => true,
+        _ => false,
+    };
+    if !orientation_agrees {
+        return Err(mismatch(
+            "ImageOrientationPatient",
+            format!("{:?}", other.orientation),
+            format!("{:?}", first.orientation),
+        ));
+    }
+    Ok(())
+}
+
+fn median(values: &[f64]) -> f64 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut sorted = values.to_vec();
+    sorted.sort_by(f64::total_cmp);
+    let middle = sorted.len() / 2;
+    if sorted.len() % 2 == 0 {
+        0.5 * (sorted[middle - 1] + sorted[middle])
+    } else {
+        sorted[middle]
+    }
+}
+
+pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
+    a[0] * b[0] + a[1] * b[1] + a[2] * b[2]
+}
+
+fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
+    [
+        a[1] * b[2] - a[2] * b[1],
+        a[2] * b[0] - a[0] * b[2],
+        a[0] * b[1] - a[1] * b[0],
+    ]
+}

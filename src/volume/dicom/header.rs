@@ -1,0 +1,415 @@
+//! One DICOM file's header: the attributes that put an image into a series and into space.
+//!
+//! [`read_header`] parses a file up to (not including) its PixelData and returns a
+//! [`SliceHeader`], or [`FileKind::NotImage`] for DICOM files that hold no image (a DICOMDIR,
+//! a structured report, a presentation state). Everything a later stage relies on is checked
+//! here once: one sample per pixel, 8 or 16 allocated bits, a native transfer syntax, a finite
+//! rescale, unit orientation cosines.
+//!
+//! Never: reads pixel data (that is [`super::pixels`]) or compares files with each other
+//! (that is [`super::geometry`]).
+
+use crate::volume::{ValueScale, VolumeError};
+use dicom_core::Tag;
+use dicom_dictionary_std::tags;
+use dicom_object::{DefaultDicomObject, OpenFileOptions};
+use std::path::{Path, PathBuf};
+
+/// Media Storage SOP Class UID of a DICOMDIR (Media Storage Directory Storage).
+pub(super) const MEDIA_STORAGE_DIRECTORY_UID: &str = "1.2.840.10008.1.3.10";
+
+/// Transfer syntaxes whose PixelData is stored uncompressed (native) and which dicom-rs
+/// decodes without optional features.
+const NATIVE_TRANSFER_SYNTAXES: [&str; 3] = [
+    "1.2.840.10008.1.2",   // Implicit VR Little Endian
+    "1.2.840.10008.1.2.1", // Explicit VR Little Endian
+    "1.2.840.10008.1.2.2", // Explicit VR Big Endian (retired)
+];
+
+/// How stored pixel samples are laid out (Image Pixel module).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub(super) struct PixelFormat {
+    /// 8 or 16.
+    pub bits_allocated: u16,
+    /// Significant low bits of each sample; the rest may hold overlays and are masked off.
+    pub bits_stored: u16,
+    /// PixelRepresentation 1: two's complement within `bits_stored`.
+    pub signed: bool,
+}
+
+/// What the series assembly needs to know about one image file.
+#[derive(Clone, Debug)]
+pub(super) struct SliceHeader {
+    pub path: PathBuf,
+    /// Empty when the file has none (then it forms a series of its own kind with other such files).
+    pub series_uid: String,
+    pub series_description: String,
+    pub sop_instance_uid: String,
+    pub rows: usize,
+    pub columns: usize,
+    /// DICOM order: spacing between rows (along y), then between columns (along x).
+    pub pixel_spacing_mm: Option<[f64; 2]>,
+    /// ImagePositionPatient: centre of the first transmitted pixel.
+    pub position_mm: Option<[f64; 3]>,
+    /// ImageOrientationPatient: row direction cosines, then column direction cosines, normalised.
+    pub orientation: Option<[f64; 6]>,
+    /// SpacingBetweenSlices, else SliceThickness: only used for a single slice.
+    pub slice_thickness_mm: Option<f64>,
+    pub pixel_format: PixelFormat,
+    pub rescale: ValueScale,
+}
+
+/// Storage SOP classes that always carry Rows/Columns (CR, DX, CT, MR, NM, US, secondary
+/// capture, XA, PET): such a file without them is damaged, not a report.
+const IMAGE_STORAGE_CLASSES: [&str; 11] = [
+    "1.2.840.10008.5.1.4.1.1.1",
+    "1.2.840.10008.5.1.4.1.1.1.1",
+    "1.2.840.10008.5.1.4.1.1.2",
+    "1.2.840.10008.5.1.4.1.1.2.1",
+    "1.2.840.10008.5.1.4.1.1.4",
+    "1.2.840.10008.5.1.4.1.1.4.1",
+    "1.2.840.10008.5.1.4.1.1.20",
+    "1.2.840.10008.5.1.4.1.1.6.1",
+    "1.2.840.10008.5.1.4.1.1.7",
+    "1.2.840.10008.5.1.4.1.1.12.1",
+    "1.2.840.10008.5.1.4.1.1.128",
+];
+
+/// The result of looking at one DICOM file.
+#[derive(Debug)]
+pub(super) enum FileKind {
+    Image(Box<SliceHeader>),
+    /// A well-formed image this reader cannot turn into voxels (colour, compressed,
+    /// multi-frame, odd bit layout). Its series is skipped with a warning when another series
+    /// can be read, and `error` is returned when it is the one asked for.
+    Unsupported {
+        series_uid: String,
+        series_description: String,
+        error: VolumeError,
+    },
+    /// A valid DICOM file without an image (DICOMDIR, report): skipped quietly.
+    NotImage,
+}
+
+/// Opens `path` (which must carry the DICM preamble and a file meta group) and reads its header.
+pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
+    let object = OpenFileOptions::new()
+        .read_until(tags::PIXEL_DATA)
+        .open_file(path)
+        .map_err(|error| VolumeError::Dicom {
+            problem: format!("unreadable DICOM file ({error})"),
+            path: path.to_path_buf(),
+        })?;
+    if object.meta().media_storage_sop_class_uid() == MEDIA_STORAGE_DIRECTORY_UID {
+        return Ok(FileKind::NotImage);
+    }
+    let (Some(rows), Some(columns)) = (
+        unsigned(&object, tags::ROWS, "Rows", path)?,
+        unsigned(&object, tags::COLUMNS, "Columns", path)?,
+    ) else {
+        let sop_class = object.meta().media_storage_sop_class_uid();
+        if IMAGE_STORAGE_CLASSES.contains(&sop_class) {
+            // dicom-rs ends a data set quietly at some truncation points.
+            return Err(VolumeError::Dicom {
+                problem: format!(
+                    "image storage file (SOP class {sop_class}) without Rows/Columns: truncated or damaged"
+                ),
+                path: path.to_path_buf(),
+            });
+        }
+        return Ok(FileKind::NotImage);
+    };
+    if rows == 0 || columns == 0 || rows > u32::from(u16::MAX) || columns > u32::from(u16::MAX) {
+        return Err(VolumeError::BadDimensions {
+            dims: [u64::from(columns), u64::from(rows), 1],
+            problem: "Rows and Columns must be 1..65535",
+            path: path.to_path_buf(),
+        });
+    }
+    let series_uid = text(&object, tags::SERIES_INSTANCE_UID);
+    let series_description = text(&object, tags::SERIES_DESCRIPTION);
+    let supported = check_transfer_syntax(object.meta().transfer_syntax(), path)
+        .and_then(|()| check_grey_single_frame(&object, path))
+        .and_then(|()| pixel_format(&object, path));
+    let pixel_format = match supported {
+        Ok(pixel_format) => pixel_format,
+        Err(error) => {
+            return Ok(FileKind::Unsupported {
+                series_uid,
+                series_description,
+                error,
+            });
+        }
+    };
+    let rescale = ValueScale {
+        slope: single_float(&object, tags::RESCALE_SLOPE, "RescaleSlope", path)?.unwrap_or(1.0),
+        intercept: single_float(&object, tags::RESCALE_INTERCEPT, "RescaleIntercept", path)?
+            .unwrap_or(0.0),
+    };
+    if rescale.slope == 0.0 {
+        return Err(VolumeError::header(
+            "RescaleSlope",
+            "must not be zero",
+            path,
+        ));
+    }
+    let pixel_spacing_mm = match floats::<2>(&object, tags::PIXEL_SPACING, "PixelSpacing", path)? {
+        Some(spacing) => Some(spacing),
+        None => floats::<2>(
+            &object,
+            tags::IMAGER_PIXEL_SPACING,
+            "ImagerPixelSpacing",
+            path,
+        )?,
+    };
+    if let Some(spacing) = pixel_spacing_mm
+        && spacing.iter().any(|s| *s <= 0.0)
+    {
+        return Err(VolumeError::header(
+            "PixelSpacing",
+            format!("{} \\ {} mm: both must be positive", spacing[0], spacing[1]),
+            path,
+        ));
+    }
+    let slice_thickness_mm = match single_float(
+        &object,
+        tags::SPACING_BETWEEN_SLICES,
+        "SpacingBetweenSlices",
+        path,
+    )? {
+        Some(spacing) if spacing > 0.0 => Some(spacing),
+        _ => single_float(&object, tags::SLICE_THICKNESS, "SliceThickness", path)?
+            .filter(|thickness| *thickness > 0.0),
+    };
+    let orientation = match floats::<6>(
+        &object,
+        tags::IMAGE_ORIENTATION_PATIENT,
+        "ImageOrientationPatient",
+        path,
+    )? {
+        Some(cosines) => Some(normalised_orientation(cosines, path)?),
+        None => None,
+    };
+    Ok(FileKind::Image(Box::new(SliceHeader {
+        path: path.to_path_buf(),
+        series_uid,
+        series_description,
+        sop_instance_uid: text(&object, tags::SOP_INSTANCE_UID),
+        rows: rows as usize,
+        columns: columns as usize,
+        pixel_spacing_mm,
+        position_mm: floats::<3>(
+            &object,
+            tags::IMAGE_POSITION_PATIENT,
+            "ImagePositionPatient",
+            path,
+        )?,
+        orientation,
+        slice_thickness_mm,
+        pixel_format,
+        rescale,
+    })))
+}
+
+/// Refuses encapsulated (compressed) pixel data with the syntax's name.
+fn check_transfer_syntax(uid: &str, path: &Path) -> Result<(), VolumeError> {
+    if NATIVE_TRANSFER_SYNTAXES.contains(&uid) {
+        return Ok(());
+    }
+    let name = match uid {
+        "1.2.840.10008.1.2.1.99" => "Deflated Explicit VR Little Endian",
+        "1.2.840.10008.1.2.4.50" => "JPEG Baseline",
+        "1.2.840.10008.1.2.4.51" => "JPEG Extended",
+        "1.2.840.10008.1.2.4.57" | "1.2.840.10008.1.2.4.70" => "JPEG Lossless",
+        "1.2.840.10008.1.2.4.80" | "1.2.840.10008.1.2.4.81" => "JPEG-LS",
+        "1.2.840.10008.1.2.4.90" => "JPEG 2000 lossless",
+        "1.2.840.10008.1.2.4.91" => "JPEG 2000",
+        "1.2.840.10008.1.2.5" => "RLE Lossless",
+        _ => "not a native pixel encoding",
+    };
+    Err(VolumeError::Unsupported {
+        what: "DICOM transfer syntax (convert the series to uncompressed, e.g. `gdcmconv --raw`)",
+        value: format!("{uid} ({name})"),
+        path: path.to_path_buf(),
+    })
+}
+
+/// Volumes are scalar: one grey sample per pixel, one frame per file.
+fn check_grey_single_frame(object: &DefaultDicomObject, path: &Path) -> Result<(), VolumeError> {
+    let samples = unsigned(object, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel", path)?.unwrap_or(1);
+    let photometric = text(object, tags::PHOTOMETRIC_INTERPRETATION);
+    if samples != 1 || !(photometric.is_empty() || photometric.starts_with("MONOCHROME")) {
+        return Err(VolumeError::Unsupported {
+            what: "DICOM colour image (only greyscale, SamplesPerPixel 1, can be a volume)",
+            value: format!("SamplesPerPixel {samples}, PhotometricInterpretation {photometric}"),
+            path: path.to_path_buf(),
+        });
+    }
+    let frames = text(object, tags::NUMBER_OF_FRAMES)
+        .parse::<u32>()
+        .unwrap_or(1);
+    if frames > 1 {
+        return Err(VolumeError::Unsupported {
+            what: "multi-frame DICOM image (NumberOfFrames; only one image per file is read)",
+            value: frames.to_string(),
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(())
+}
+
+fn pixel_format(object: &DefaultDicomObject, path: &Path) -> Result<PixelFormat, VolumeError> {
+    let bits_allocated = unsigned(object, tags::BITS_ALLOCATED, "BitsAllocated", path)?
+        .ok_or_else(|| VolumeError::MissingField {
+            field: "BitsAllocated",
+            path: path.to_path_buf(),
+        })?;
+    if bits_allocated != 8 && bits_allocated != 16 {
+        return Err(VolumeError::Unsupported {
+            what: "DICOM BitsAllocated (8 and 16 are read)",
+            value: bits_allocated.to_string(),
+            path: path.to_path_buf(),
+        });
+    }
+    let bits_stored =
+        unsigned(object, tags::BITS_STORED, "BitsStored", path)?.unwrap_or(bits_allocated);
+    let high_bit =
+        unsigned(object, tags::HIGH_BIT, "HighBit", path)?.unwrap_or(bits_stored.saturating_sub(1));
+    if bits_stored == 0 || bits_stored > bits_allocated || high_bit + 1 != bits_stored {
+        return Err(VolumeError::Unsupported {
+            what: "DICOM bit layout (BitsStored must fit BitsAllocated with HighBit = BitsStored - 1)",
+            value: format!(
+                "BitsAllocated {bits_allocated}, BitsStored {bits_stored}, HighBit {high_bit}"
+            ),
+            path: path.to_path_buf(),
+        });
+    }
+    let signed = match unsigned(
+        object,
+        tags::PIXEL_REPRESENTATION,
+        "PixelRepresentation",
+        path,
+    )?
+    .unwrap_or(0)
+    {
+        0 => false,
+        1 => true,
+        other => {
+            return Err(VolumeError::header(
+                "PixelRepresentation",
+                format!("{other} is neither 0 (unsigned) nor 1 (signed)"),
+                path,
+            ));
+        }
+    };
+    Ok(PixelFormat {
+        bits_allocated: bits_allocated as u16,
+        bits_stored: bits_stored as u16,
+        signed,
+    })
+}
+
+/// Row and column cosines, each scaled to unit length; they must be (nearly) orthogonal.
+fn normalised_orientation(cosines: [f64; 6], path: &Path) -> Result<[f64; 6], VolumeError> {
+    let row = [cosines[0], cosines[1], cosines[2]];
+    let column = [cosines[3], cosines[4], cosines[5]];
+    let row_length = row.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let column_length = column.iter().map(|c| c * c).sum::<f64>().sqrt();
+    let dot: f64 = row.iter().zip(&column).map(|(a, b)| a * b).sum();
+    // Scanners write 6-8 decimals; 1e-3 allows for that rounding and nothing more.
+    if (row_length - 1.0).abs() > 1e-3 || (column_length - 1.0).abs() > 1e-3 || dot.abs() > 1e-3 {
+        return Err(VolumeError::header(
+            "ImageOrientationPatient",
+            format!(
+                "{cosines:?} are not two orthogonal unit vectors (lengths {row_length:.4}, {column_length:.4}, dot {dot:.4})"
+            ),
+            path,
+        ));
+    }
+    let mut unit = [0.0; 6];
+    for axis in 0..3 {
+        unit[axis] = row[axis] / row_length;
+        unit[axis + 3] = column[axis] / column_length;
+    }
+    Ok(unit)
+}
+
+/// A text attribute, trimmed; empty when absent or not text.
+fn text(object: &DefaultDicomObject, tag: Tag) -> String {
+    object
+        .get(tag)
+        .and_then(|element| element.to_str().ok())
+        .map(|value| value.trim_matches([' ', '\0']).to_string())
+        .unwrap_or_default()
+}
+
+/// An unsigned integer attribute (US, or IS text); `None` when absent or empty.
+fn unsigned(
+    object: &DefaultDicomObject,
+    tag: Tag,
+    field: &'static str,
+    path: &Path,
+) -> Result<Option<u32>, VolumeError> {
+    let Some(element) = object.get(tag) else {
+        return Ok(None);
+    };
+    if is_blank(element.value()) {
+        return Ok(None);
+    }
+    element
+        .to_int::<u32>()
+        .map(Some)
+        .map_err(|error| VolumeError::header(field, error.to_string(), path))
+}
+
+/// A decimal-string attribute with exactly `N` finite values; `None` when absent or empty.
+fn floats<const N: usize>(
+    object: &DefaultDicomObject,
+    tag: Tag,
+    field: &'static str,
+    path: &Path,
+) -> Result<Option<[f64; N]>, VolumeError> {
+    let Some(element) = object.get(tag) else {
+        return Ok(None);
+    };
+    if is_blank(element.value()) {
+        return Ok(None);
+    }
+    let values = element
+        .to_multi_float64()
+        .map_err(|error| VolumeError::header(field, error.to_string(), path))?;
+    let array: [f64; N] = values.as_slice().try_into().map_err(|_| {
+        VolumeError::header(
+            field,
+            format!("has {} values, expected {N}", values.len()),
+            path,
+        )
+    })?;
+    if array.iter().any(|v| !v.is_finite()) {
+        return Err(VolumeError::header(
+            field,
+            format!("{array:?} holds a non-finite value"),
+            path,
+        ));
+    }
+    Ok(Some(array))
+}
+
+fn single_float(
+    object: &DefaultDicomObject,
+    tag: Tag,
+    field: &'static str,
+    path: &Path,
+) -> Result<Option<f64>, VolumeError> {
+    Ok(floats::<1>(object, tag, field, path)?.map(|[value]| value))
+}
+
+/// Zero-length or all-padding values count as absent (type 2 attributes may be sent empty).
+fn is_blank<I, P>(value: &dicom_core::value::Value<I, P>) -> bool {
+    match value.primitive() {
+        Some(primitive) => {
+            primitive.multiplicity() == 0 || primitive.to_str().trim_matches([' ', '\0']).is_empty()
+        }
+        None => true,
+    }
+}

@@ -1,0 +1,267 @@
+//! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT): issue 2, item 3;
+//! `interfaces.md` (inputs: "a DICOM series (a folder, or a DICOMDIR)").
+//!
+//! Entry point: [`read_series`]. A *series* is the image files sharing one SeriesInstanceUID.
+//! The path may be
+//! * a folder: scanned recursively; files without the `DICM` preamble are skipped quietly
+//!   (counted in a debug log), DICOM files without an image (DICOMDIR, reports) are skipped,
+//!   and DICOM files that cannot be parsed are skipped with a warning (which series they
+//!   belonged to is unknowable);
+//! * a DICOMDIR: its folder is scanned as above. The directory records are not followed: every
+//!   file they list lies under that folder, and scanning also finds files whose names differ
+//!   in case from the records, as happens on copied CDs;
+//! * any other DICOM file: a one-slice volume.
+//!
+//! Choosing (`series.rs`): with [`DicomOptions::series_uid`] unset, several readable image
+//! series are an error listing each (UID, description, slice count); nothing is picked
+//! silently. Series this reader cannot decode (colour, compressed, multi-frame) are skipped
+//! with a warning when exactly one readable series remains, and are the error when none does.
+//!
+//! Geometry (`geometry.rs`): slices are ordered along the slice normal; a regular stack (even
+//! gaps within 1 %, no in-plane shift) is copied as it is, an irregular one (gantry tilt,
+//! uneven gaps) is resampled onto a regular grid with a warning (`resample.rs`), or refused
+//! with [`Resample::Refuse`]. Volume axes: x along the image rows (ImageOrientationPatient's
+//! row cosines), y down the columns, z along their cross product. A resampled grid starts at
+//! the first slice and the smallest in-plane position of any slice's first pixel.
+//!
+//! Never: decompresses JPEG/RLE pixel data (refused with the transfer syntax named), reads
+//! colour or multi-frame images, or writes files (the import cache is the caller's).
+
+mod geometry;
+mod header;
+mod pixels;
+#[cfg(test)]
+mod real_data_tests;
+mod resample;
+mod series;
+#[cfg(test)]
+mod synthetic;
+#[cfg(test)]
+mod tests;
+
+use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType};
+use geometry::StackGeometry;
+use header::{FileKind, SliceHeader};
+use pixels::DecodedSlice;
+use rayon::prelude::*;
+use series::{FoundImages, choose_series, read_folder_headers, scan_root};
+use std::path::{Path, PathBuf};
+
+/// Whether an irregular series may be resampled onto a regular grid.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Resample {
+    /// Resample tilted or unevenly spaced series, with a warning saying so.
+    #[default]
+    Auto,
+    /// Refuse such series with an error naming the tilt and gaps.
+    Refuse,
+}
+
+#[derive(Clone, Debug, Default)]
+pub struct DicomOptions {
+    /// The SeriesInstanceUID to read when the path holds several image series.
+    pub series_uid: Option<String>,
+    pub resample: Resample,
+    /// Slice spacing of a resampled grid; regular series keep their own spacing.
+    pub slice_spacing_mm: Option<f64>,
+}
+
+/// A series read into memory.
+#[derive(Debug)]
+pub struct DicomImport {
+    /// Owned bytes: `VoxelType::I16` when every rescaled value is an integer in i16 range
+    /// (typical CT), else `F32` (always for resampled series).
+    pub volume: Volume,
+    /// What was tolerated or changed (resampling, skipped files), one sentence each.
+    pub warnings: Vec<String>,
+    pub series_uid: String,
+    pub description: String,
+    /// The files used, in slice order.
+    pub files: Vec<PathBuf>,
+}
+
+/// Reads one DICOM series (see the module doc for what `path` may be).
+pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, VolumeError> {
+    let mut warnings = Vec::new();
+    let found = match scan_root(path)? {
+        Some(folder) => read_folder_headers(&folder, path, &mut warnings)?,
+        None => match header::read_header(path)? {
+            FileKind::Image(header) => FoundImages {
+                readable: vec![*header],
+                unsupported: Vec::new(),
+            },
+            FileKind::Unsupported { error, .. } => return Err(error),
+            FileKind::NotImage => {
+                return Err(VolumeError::Dicom {
+                    problem: "the file holds no image (no Rows/Columns)".into(),
+                    path: path.to_path_buf(),
+                });
+            }
+        },
+    };
+    let (series_uid, headers) = choose_series(found, options, path, &mut warnings)?;
+    let description = headers[0].series_description.clone();
+    let (headers, geometry) = geometry::order_slices(headers, &mut warnings)?;
+    let regularity = geometry.regularity();
+    if !regularity.is_regular() && options.resample == Resample::Refuse {
+        return Err(VolumeError::Dicom {
+            problem: format!(
+                "{} across {} slices: they do not form a regular grid, and resampling onto one was refused \
+                 (allow resampling to read this series)",
+                regularity.describe(),
+                geometry.slice_count()
+            ),
+            path: path.to_path_buf(),
+        });
+    }
+    let slices: Vec<DecodedSlice> = headers
+        .par_iter()
+        .map(pixels::read_slice)
+        .collect::<Result<_, _>>()?;
+    let files: Vec<PathBuf> = headers.iter().map(|h| h.path.clone()).collect();
+    let volume = if regularity.is_regular() {
+        stack_slices(&slices, &geometry, &headers, path)?
+    } else {
+        let (volume, grid) = resample_slices(&slices, &geometry, options, path)?;
+        warnings.push(format!(
+            "{}: resampled onto {:.3} x {:.3} x {:.3} mm ({} x {} x {} voxels) along the image rows, columns and slice normal",
+            regularity.describe(),
+            grid.spacing_mm[0],
+            grid.spacing_mm[1],
+            grid.spacing_mm[2],
+            grid.dims[0],
+            grid.dims[1],
+            grid.dims[2],
+        ));
+        volume
+    };
+    Ok(DicomImport {
+        volume,
+        warnings,
+        series_uid,
+        description,
+        files,
+    })
+}
+
+/// True for a folder holding DICOM files (looked for in its first few hundred entries,
+/// recursively), a DICOMDIR, or a file with the `DICM` preamble.
+pub fn looks_like_dicom(path: &Path) -> bool {
+    if path.is_dir() {
+        let mut found = false;
+        let mut budget = 256usize;
+        series::walk_files(path, &mut |file| {
+            budget = budget.saturating_sub(1);
+            found = series::is_dicomdir_name(file) || series::has_dicm_preamble(file);
+            !found && budget > 0
+        });
+        found
+    } else {
+        series::is_dicomdir_name(path) || series::has_dicm_preamble(path)
+    }
+}
+
+/// A regular stack: the slices as they are, spaced by their mean gap.
+fn stack_slices(
+    slices: &[DecodedSlice],
+    geometry: &StackGeometry,
+    headers: &[SliceHeader],
+    source: &Path,
+) -> Result<Volume, VolumeError> {
+    let count = geometry.slice_count();
+    let spacing_z_mm = if count > 1 {
+        (geometry.first_pixel_mm[count - 1][2] - geometry.first_pixel_mm[0][2]) / (count - 1) as f64
+    } else {
+        geometry.single_slice_spacing_mm
+    };
+    let dims = [geometry.columns, geometry.rows, count];
+    let spacing_mm = [
+        geometry.pixel_spacing_mm[0],
+        geometry.pixel_spacing_mm[1],
+        spacing_z_mm,
+    ];
+    let integral_rescale = headers
+        .iter()
+        .all(|h| h.rescale.slope.fract() == 0.0 && h.rescale.intercept.fract() == 0.0);
+    let fits_i16 = slices
+        .iter()
+        .all(|s| s.min >= f32::from(i16::MIN) && s.max <= f32::from(i16::MAX));
+    if integral_rescale && fits_i16 {
+        // Integer samples times an integer slope plus an integer intercept: the f32 values
+        // are exact integers, so the cast loses nothing.
+        let mut bytes = vec![0u8; dims[0] * dims[1] * count * 2];
+        bytes
+            .par_chunks_mut(dims[0] * dims[1] * 2)
+            .zip(slices)
+            .for_each(|(out, slice)| {
+                for (pair, value) in out.chunks_exact_mut(2).zip(&slice.values) {
+                    pair.copy_from_slice(&(*value as i16).to_le_bytes());
+                }
+            });
+        return Volume::new(
+            dims,
+            spacing_mm,
+            VoxelType::I16,
+            ByteOrder::Little,
+            ValueScale::IDENTITY,
+            VoxelBytes::Owned(bytes),
+            source,
+        );
+    }
+    let planes: Vec<&[f32]> = slices.iter().map(|s| s.values.as_slice()).collect();
+    float_volume(dims, spacing_mm, &planes, source)
+}
+
+/// A `float32` volume from planes of values (x fastest), converted to bytes in parallel.
+fn float_volume(
+    dims: [usize; 3],
+    spacing_mm: [f64; 3],
+    planes: &[&[f32]],
+    source: &Path,
+) -> Result<Volume, VolumeError> {
+    let plane_bytes = dims[0] * dims[1] * 4;
+    let mut bytes = vec![0u8; plane_bytes * planes.len()];
+    bytes
+        .par_chunks_mut(plane_bytes)
+        .zip(planes)
+        .for_each(|(out, plane)| {
+            for (quad, value) in out.chunks_exact_mut(4).zip(plane.iter()) {
+                quad.copy_from_slice(&value.to_le_bytes());
+            }
+        });
+    Volume::new(
+        dims,
+        spacing_mm,
+        VoxelType::F32,
+        ByteOrder::Little,
+        ValueScale::IDENTITY,
+        VoxelBytes::Owned(bytes),
+        source,
+    )
+}
+
+/// An irregular stack, resampled; returns the volume and the grid it was sampled on.
+fn resample_slices(
+    slices: &[DecodedSlice],
+    geometry: &StackGeometry,
+    options: &DicomOptions,
+    source: &Path,
+) -> Result<(Volume, resample::ResampleGrid), VolumeError> {
+    let (slice_spacing_mm, exact_span) = match options.slice_spacing_mm {
+        Some(spacing) => (spacing, false),
+        None => (geometry.automatic_slice_spacing_mm(), true),
+    };
+    let grid = resample::plan_grid(geometry, slice_spacing_mm, exact_span, source)?;
+    let pad = slices.iter().map(|s| s.min).fold(f32::INFINITY, f32::min);
+    let bytes = resample::resample(slices, geometry, &grid, pad, source)?;
+    let volume = Volume::new(
+        grid.dims,
+        grid.spacing_mm,
+        VoxelType::F32,
+        ByteOrder::Little,
+        ValueScale::IDENTITY,
+        VoxelBytes::Owned(bytes),
+        source,
+    )?;
+    Ok((volume, grid))
+}
