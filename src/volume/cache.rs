@@ -12,7 +12,7 @@
 
 use super::{Volume, VolumeError, nrrd};
 use sha2::{Digest, Sha256};
-use std::io::Read;
+use std::io::{Read, Write};
 use std::path::{Path, PathBuf};
 
 /// The cache folder to use when none is given.
@@ -53,17 +53,23 @@ pub fn content_key(files: &[PathBuf], options: &str) -> Result<String, VolumeErr
 
 /// Opens the cached volume for `key`, or builds it with `import`, stores it, and opens that.
 /// The returned volume is memory-mapped from the cache file and names `source` as its source.
+/// The import's warnings (e.g. "resampled") are logged, kept beside the entry, and logged
+/// again on every later open, so a reused import never hides what was done to it.
 pub fn open_or_import(
     folder: &Path,
     key: &str,
     source: &Path,
-    import: impl FnOnce() -> Result<Volume, VolumeError>,
+    import: impl FnOnce() -> Result<(Volume, Vec<String>), VolumeError>,
 ) -> Result<Volume, VolumeError> {
     let entry = folder.join(format!("{key}.nrrd"));
+    let warnings_file = folder.join(format!("{key}.warnings"));
     if entry.exists() {
         match nrrd::read(&entry) {
             Ok(read) if !read.decoded => {
                 log::info!("{}: using cached import {}", source.display(), entry.display());
+                for warning in std::fs::read_to_string(&warnings_file).unwrap_or_default().lines() {
+                    log::warn!("{}: {warning}", source.display());
+                }
                 let mut volume = read.volume;
                 volume.source = source.to_path_buf();
                 return Ok(volume);
@@ -74,9 +80,18 @@ pub fn open_or_import(
             }
         }
     }
-    let imported = import()?;
+    let (imported, warnings) = import()?;
+    for warning in &warnings {
+        log::warn!("{}: {warning}", source.display());
+    }
     let stored = std::fs::create_dir_all(folder)
         .map_err(|e| VolumeError::io(e, folder))
+        .and_then(|()| {
+            crate::atomic_file::write_atomically(&warnings_file, |file| {
+                warnings.iter().try_for_each(|warning| writeln!(file, "{}", warning.replace('\n', " ")))
+            })
+            .map_err(|e| VolumeError::io(e, &warnings_file))
+        })
         .and_then(|()| nrrd::write_volume(&entry, &imported, &format!("volasso import cache of {}", source.display())));
     if let Err(error) = stored {
         // A read-only or full disk costs the next open another import, not this one its volume.

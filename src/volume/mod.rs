@@ -288,53 +288,63 @@ impl Volume {
         self.read_f32(z * plane, &mut out[..plane]);
     }
 
+    /// The exact range of stored values (one parallel pass over z planes, each a tight loop
+    /// per type), then mapped through the scale, which is linear and so maps extremes to
+    /// extremes.
     fn compute_range(&self) -> ValueRange {
-        let plane = self.dims[0] * self.dims[1];
-        let (min, max, non_finite) = (0..self.dims[2])
-            .into_par_iter()
-            .map_init(
-                || vec![0f32; plane],
-                |buffer, z| {
-                    self.read_z_slice_f32(z, buffer);
-                    let mut min = f64::INFINITY;
-                    let mut max = f64::NEG_INFINITY;
-                    let mut non_finite = 0u64;
-                    if self.voxel_type.is_float() || !self.scale.is_identity() {
-                        for index in z * plane..(z + 1) * plane {
-                            let v = self.value(index);
-                            if v.is_finite() {
-                                min = min.min(v);
-                                max = max.max(v);
-                            } else {
-                                non_finite += 1;
-                            }
-                        }
-                    } else {
-                        // Integer data without scaling converts to f32 exactly up to 2^24 and
-                        // the buffer read is vectorised; the rare wider values are re-read exactly.
-                        for &v in buffer.iter() {
-                            min = min.min(v as f64);
-                            max = max.max(v as f64);
-                        }
-                        if matches!(self.voxel_type, VoxelType::U32 | VoxelType::I32) {
-                            for index in z * plane..(z + 1) * plane {
-                                let v = self.value(index);
-                                min = min.min(v);
-                                max = max.max(v);
-                            }
-                        }
-                    }
-                    (min, max, non_finite)
-                },
-            )
+        let plane_bytes = self.dims[0] * self.dims[1] * self.voxel_type.size_bytes();
+        let (voxel_type, order) = (self.voxel_type, self.byte_order);
+        let (min, max, non_finite) = self
+            .bytes
+            .as_slice()
+            .par_chunks(plane_bytes)
+            .map(|bytes| stored_range(bytes, voxel_type, order))
             .reduce(|| (f64::INFINITY, f64::NEG_INFINITY, 0u64), |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
         if min > max {
             // Every voxel was NaN or infinite.
-            ValueRange { min: 0.0, max: 0.0, non_finite_voxels: non_finite }
-        } else {
-            ValueRange { min, max, non_finite_voxels: non_finite }
+            return ValueRange { min: 0.0, max: 0.0, non_finite_voxels: non_finite };
         }
+        let (low, high) =
+            (min * self.scale.slope + self.scale.intercept, max * self.scale.slope + self.scale.intercept);
+        ValueRange { min: low.min(high), max: low.max(high), non_finite_voxels: non_finite }
     }
+}
+
+/// Smallest and largest finite stored value in `bytes`, and the count of non-finite ones.
+fn stored_range(bytes: &[u8], voxel_type: VoxelType, order: ByteOrder) -> (f64, f64, u64) {
+    macro_rules! range {
+        ($t:ty, $n:expr) => {{
+            let (mut min, mut max, mut non_finite) = (<$t>::MAX, <$t>::MIN, 0u64);
+            for chunk in bytes.chunks_exact($n) {
+                let mut raw = [0u8; $n];
+                raw.copy_from_slice(chunk);
+                let v = match order {
+                    ByteOrder::Little => <$t>::from_le_bytes(raw),
+                    ByteOrder::Big => <$t>::from_be_bytes(raw),
+                };
+                if (v as f64).is_finite() {
+                    min = if v < min { v } else { min };
+                    max = if v > max { v } else { max };
+                } else {
+                    non_finite += 1;
+                }
+            }
+            (min as f64, max as f64, non_finite)
+        }};
+    }
+    let (min, max, non_finite) = match voxel_type {
+        VoxelType::U8 => range!(u8, 1),
+        VoxelType::I8 => range!(i8, 1),
+        VoxelType::U16 => range!(u16, 2),
+        VoxelType::I16 => range!(i16, 2),
+        VoxelType::U32 => range!(u32, 4),
+        VoxelType::I32 => range!(i32, 4),
+        VoxelType::F32 => range!(f32, 4),
+        VoxelType::F64 => range!(f64, 8),
+    };
+    // An empty or all-non-finite run leaves the sentinels; report "no values".
+    let count = bytes.len() / voxel_type.size_bytes();
+    if non_finite as usize == count { (f64::INFINITY, f64::NEG_INFINITY, non_finite) } else { (min, max, non_finite) }
 }
 
 /// Reads stored voxel `index` as `f64`, honouring type and byte order; no alignment needed.

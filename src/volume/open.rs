@@ -64,7 +64,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
         Format::Nrrd => {
             if nrrd_is_compressed(path)? {
                 let key = cache::content_key(&[path.to_path_buf()], "nrrd")?;
-                cache::open_or_import(&cache_dir, &key, path, || nrrd::read(path).map(|r| r.volume))?
+                cache::open_or_import(&cache_dir, &key, path, || nrrd::read(path).map(|r| (r.volume, Vec::new())))?
             } else {
                 nrrd::read(path)?.volume
             }
@@ -78,7 +78,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
                     files.push(path.parent().unwrap_or(Path::new(".")).join(data));
                 }
                 let key = cache::content_key(&files, "metaimage")?;
-                cache::open_or_import(&cache_dir, &key, path, || metaimage::read(path).map(|r| r.volume))?
+                cache::open_or_import(&cache_dir, &key, path, || metaimage::read(path).map(|r| (r.volume, Vec::new())))?
             } else {
                 metaimage::read(path)?.volume
             }
@@ -86,7 +86,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
         Format::Nifti => {
             if nifti::is_gzip(path)? {
                 let key = cache::content_key(&[path.to_path_buf()], "nifti")?;
-                cache::open_or_import(&cache_dir, &key, path, || nifti::read(path).map(|r| r.volume))?
+                cache::open_or_import(&cache_dir, &key, path, || nifti::read(path).map(|r| (r.volume, Vec::new())))?
             } else {
                 nifti::read(path)?.volume
             }
@@ -124,10 +124,7 @@ fn open_dicom(path: &Path, options: &DicomOptions, cache_dir: &Path) -> Result<V
     let key = cache::content_key(&files, &settings)?;
     cache::open_or_import(cache_dir, &key, path, || {
         let imported = dicom::read_series(path, options)?;
-        for warning in &imported.warnings {
-            log::warn!("{}: {warning}", path.display());
-        }
-        Ok(imported.volume)
+        Ok((imported.volume, imported.warnings))
     })
 }
 

@@ -57,16 +57,10 @@ impl StackRegularity {
     /// What is irregular, e.g. "gantry tilt 18.5 deg and uneven slice gaps 1.08..7.00 mm".
     pub fn describe(&self) -> String {
         let tilt = format!("gantry tilt {:.1} deg", self.tilt_degrees);
-        let gaps = format!(
-            "uneven slice gaps {:.2}..{:.2} mm",
-            self.gap_min_mm, self.gap_max_mm
-        );
+        let gaps = format!("uneven slice gaps {:.2}..{:.2} mm", self.gap_min_mm, self.gap_max_mm);
         match (self.tilted, self.even_gaps) {
             (true, false) => format!("{tilt} and {gaps}"),
-            (true, true) => format!(
-                "{tilt} (slices shift in-plane; gap {:.2} mm)",
-                self.gap_median_mm
-            ),
+            (true, true) => format!("{tilt} (slices shift in-plane; gap {:.2} mm)", self.gap_median_mm),
             (false, false) => gaps,
             (false, true) => format!("regular slices {:.2} mm apart", self.gap_median_mm),
         }
@@ -80,10 +74,7 @@ impl StackGeometry {
 
     /// Differences of consecutive normal positions (one fewer than slices).
     pub fn gaps_mm(&self) -> Vec<f64> {
-        self.first_pixel_mm
-            .windows(2)
-            .map(|pair| pair[1][2] - pair[0][2])
-            .collect()
+        self.first_pixel_mm.windows(2).map(|pair| pair[1][2] - pair[0][2]).collect()
     }
 
     pub fn regularity(&self) -> StackRegularity {
@@ -103,15 +94,9 @@ impl StackGeometry {
         let gap_median_mm = median(&gaps);
         let first = self.first_pixel_mm[0];
         let in_plane_shift_mm = |p: &[f64; 3]| (p[0] - first[0]).hypot(p[1] - first[1]);
-        let largest_shift_mm = self
-            .first_pixel_mm
-            .iter()
-            .map(in_plane_shift_mm)
-            .fold(0.0, f64::max);
+        let largest_shift_mm = self.first_pixel_mm.iter().map(in_plane_shift_mm).fold(0.0, f64::max);
         let last = self.first_pixel_mm[self.slice_count() - 1];
-        let tilt_degrees = in_plane_shift_mm(&last)
-            .atan2(last[2] - first[2])
-            .to_degrees();
+        let tilt_degrees = in_plane_shift_mm(&last).atan2(last[2] - first[2]).to_degrees();
         let pixel_mm = self.pixel_spacing_mm[0].min(self.pixel_spacing_mm[1]);
         StackRegularity {
             gap_min_mm,
@@ -130,10 +115,7 @@ impl StackGeometry {
     pub fn automatic_slice_spacing_mm(&self) -> f64 {
         let gaps = self.gaps_mm();
         let half_median = 0.5 * median(&gaps);
-        gaps.iter()
-            .copied()
-            .filter(|gap| *gap >= half_median)
-            .fold(f64::INFINITY, f64::min)
+        gaps.iter().copied().filter(|gap| *gap >= half_median).fold(f64::INFINITY, f64::min)
     }
 }
 
@@ -192,19 +174,10 @@ pub(super) fn order_slices(
     let single_slice_spacing_mm = first.slice_thickness_mm.unwrap_or(1.0);
     let project = |header: &SliceHeader| {
         let p = header.position_mm.unwrap_or([0.0; 3]);
-        [
-            dot(p, row_direction),
-            dot(p, column_direction),
-            dot(p, normal),
-        ]
+        [dot(p, row_direction), dot(p, column_direction), dot(p, normal)]
     };
-    let mut placed: Vec<([f64; 3], SliceHeader)> =
-        headers.into_iter().map(|h| (project(&h), h)).collect();
-    placed.sort_by(|a, b| {
-        a.0[2]
-            .total_cmp(&b.0[2])
-            .then_with(|| a.1.path.cmp(&b.1.path))
-    });
+    let mut placed: Vec<([f64; 3], SliceHeader)> = headers.into_iter().map(|h| (project(&h), h)).collect();
+    placed.sort_by(|a, b| a.0[2].total_cmp(&b.0[2]).then_with(|| a.1.path.cmp(&b.1.path)));
 
     let duplicate_mm = DUPLICATE_TOLERANCE_PIXELS * pixel_spacing_mm[0].min(pixel_spacing_mm[1]);
     let mut kept: Vec<([f64; 3], SliceHeader)> = Vec::with_capacity(placed.len());
@@ -212,9 +185,7 @@ pub(super) fn order_slices(
         if let Some((previous_position, previous)) = kept.last()
             && (position[2] - previous_position[2]).abs() <= duplicate_mm
         {
-            if !header.sop_instance_uid.is_empty()
-                && header.sop_instance_uid == previous.sop_instance_uid
-            {
+            if !header.sop_instance_uid.is_empty() && header.sop_instance_uid == previous.sop_instance_uid {
                 warnings.push(format!(
                     "{} repeats the image {} (same SOPInstanceUID): skipped",
                     header.path.display(),
@@ -248,10 +219,7 @@ pub(super) fn order_slices(
 /// One series, one image size, one pixel spacing, one orientation.
 fn check_consistent(first: &SliceHeader, other: &SliceHeader) -> Result<(), VolumeError> {
     let mismatch = |what: &str, here: String, there: String| VolumeError::Dicom {
-        problem: format!(
-            "{what} {here} differs from {there} in {} of the same series",
-            first.path.display()
-        ),
+        problem: format!("{what} {here} differs from {there} in {} of the same series", first.path.display()),
         path: other.path.clone(),
     };
     if (other.columns, other.rows) != (first.columns, first.rows) {
@@ -262,10 +230,7 @@ fn check_consistent(first: &SliceHeader, other: &SliceHeader) -> Result<(), Volu
         ));
     }
     let spacing_agrees = match (first.pixel_spacing_mm, other.pixel_spacing_mm) {
-        (Some(a), Some(b)) => a
-            .iter()
-            .zip(&b)
-            .all(|(a, b)| (a - b).abs() <= 1e-4 * a.abs()),
+        (Some(a), Some(b)) => a.iter().zip(&b).all(|(a, b)| (a - b).abs() <= 1e-4 * a.abs()),
         (None, None) => true,
         _ => false,
     };
@@ -298,11 +263,7 @@ fn median(values: &[f64]) -> f64 {
     let mut sorted = values.to_vec();
     sorted.sort_by(f64::total_cmp);
     let middle = sorted.len() / 2;
-    if sorted.len() % 2 == 0 {
-        0.5 * (sorted[middle - 1] + sorted[middle])
-    } else {
-        sorted[middle]
-    }
+    if sorted.len() % 2 == 0 { 0.5 * (sorted[middle - 1] + sorted[middle]) } else { sorted[middle] }
 }
 
 pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
@@ -310,9 +271,5 @@ pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 }
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
-    [
-        a[1] * b[2] - a[2] * b[1],
-        a[2] * b[0] - a[0] * b[2],
-        a[0] * b[1] - a[1] * b[0],
-    ]
+    [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
 }

@@ -93,20 +93,15 @@ pub(super) enum FileKind {
 
 /// Opens `path` (which must carry the DICM preamble and a file meta group) and reads its header.
 pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
-    let object = OpenFileOptions::new()
-        .read_until(tags::PIXEL_DATA)
-        .open_file(path)
-        .map_err(|error| VolumeError::Dicom {
-            problem: format!("unreadable DICOM file ({error})"),
-            path: path.to_path_buf(),
-        })?;
+    let object = OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(path).map_err(|error| {
+        VolumeError::Dicom { problem: format!("unreadable DICOM file ({error})"), path: path.to_path_buf() }
+    })?;
     if object.meta().media_storage_sop_class_uid() == MEDIA_STORAGE_DIRECTORY_UID {
         return Ok(FileKind::NotImage);
     }
-    let (Some(rows), Some(columns)) = (
-        unsigned(&object, tags::ROWS, "Rows", path)?,
-        unsigned(&object, tags::COLUMNS, "Columns", path)?,
-    ) else {
+    let (Some(rows), Some(columns)) =
+        (unsigned(&object, tags::ROWS, "Rows", path)?, unsigned(&object, tags::COLUMNS, "Columns", path)?)
+    else {
         let sop_class = object.meta().media_storage_sop_class_uid();
         if IMAGE_STORAGE_CLASSES.contains(&sop_class) {
             // dicom-rs ends a data set quietly at some truncation points.
@@ -134,33 +129,19 @@ pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
     let pixel_format = match supported {
         Ok(pixel_format) => pixel_format,
         Err(error) => {
-            return Ok(FileKind::Unsupported {
-                series_uid,
-                series_description,
-                error,
-            });
+            return Ok(FileKind::Unsupported { series_uid, series_description, error });
         }
     };
     let rescale = ValueScale {
         slope: single_float(&object, tags::RESCALE_SLOPE, "RescaleSlope", path)?.unwrap_or(1.0),
-        intercept: single_float(&object, tags::RESCALE_INTERCEPT, "RescaleIntercept", path)?
-            .unwrap_or(0.0),
+        intercept: single_float(&object, tags::RESCALE_INTERCEPT, "RescaleIntercept", path)?.unwrap_or(0.0),
     };
     if rescale.slope == 0.0 {
-        return Err(VolumeError::header(
-            "RescaleSlope",
-            "must not be zero",
-            path,
-        ));
+        return Err(VolumeError::header("RescaleSlope", "must not be zero", path));
     }
     let pixel_spacing_mm = match floats::<2>(&object, tags::PIXEL_SPACING, "PixelSpacing", path)? {
         Some(spacing) => Some(spacing),
-        None => floats::<2>(
-            &object,
-            tags::IMAGER_PIXEL_SPACING,
-            "ImagerPixelSpacing",
-            path,
-        )?,
+        None => floats::<2>(&object, tags::IMAGER_PIXEL_SPACING, "ImagerPixelSpacing", path)?,
     };
     if let Some(spacing) = pixel_spacing_mm
         && spacing.iter().any(|s| *s <= 0.0)
@@ -171,22 +152,11 @@ pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
             path,
         ));
     }
-    let slice_thickness_mm = match single_float(
-        &object,
-        tags::SPACING_BETWEEN_SLICES,
-        "SpacingBetweenSlices",
-        path,
-    )? {
+    let slice_thickness_mm = match single_float(&object, tags::SPACING_BETWEEN_SLICES, "SpacingBetweenSlices", path)? {
         Some(spacing) if spacing > 0.0 => Some(spacing),
-        _ => single_float(&object, tags::SLICE_THICKNESS, "SliceThickness", path)?
-            .filter(|thickness| *thickness > 0.0),
+        _ => single_float(&object, tags::SLICE_THICKNESS, "SliceThickness", path)?.filter(|thickness| *thickness > 0.0),
     };
-    let orientation = match floats::<6>(
-        &object,
-        tags::IMAGE_ORIENTATION_PATIENT,
-        "ImageOrientationPatient",
-        path,
-    )? {
+    let orientation = match floats::<6>(&object, tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient", path)? {
         Some(cosines) => Some(normalised_orientation(cosines, path)?),
         None => None,
     };
@@ -198,12 +168,7 @@ pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
         rows: rows as usize,
         columns: columns as usize,
         pixel_spacing_mm,
-        position_mm: floats::<3>(
-            &object,
-            tags::IMAGE_POSITION_PATIENT,
-            "ImagePositionPatient",
-            path,
-        )?,
+        position_mm: floats::<3>(&object, tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient", path)?,
         orientation,
         slice_thickness_mm,
         pixel_format,
@@ -245,9 +210,7 @@ fn check_grey_single_frame(object: &DefaultDicomObject, path: &Path) -> Result<(
             path: path.to_path_buf(),
         });
     }
-    let frames = text(object, tags::NUMBER_OF_FRAMES)
-        .parse::<u32>()
-        .unwrap_or(1);
+    let frames = text(object, tags::NUMBER_OF_FRAMES).parse::<u32>().unwrap_or(1);
     if frames > 1 {
         return Err(VolumeError::Unsupported {
             what: "multi-frame DICOM image (NumberOfFrames; only one image per file is read)",
@@ -260,10 +223,7 @@ fn check_grey_single_frame(object: &DefaultDicomObject, path: &Path) -> Result<(
 
 fn pixel_format(object: &DefaultDicomObject, path: &Path) -> Result<PixelFormat, VolumeError> {
     let bits_allocated = unsigned(object, tags::BITS_ALLOCATED, "BitsAllocated", path)?
-        .ok_or_else(|| VolumeError::MissingField {
-            field: "BitsAllocated",
-            path: path.to_path_buf(),
-        })?;
+        .ok_or_else(|| VolumeError::MissingField { field: "BitsAllocated", path: path.to_path_buf() })?;
     if bits_allocated != 8 && bits_allocated != 16 {
         return Err(VolumeError::Unsupported {
             what: "DICOM BitsAllocated (8 and 16 are read)",
@@ -271,27 +231,16 @@ fn pixel_format(object: &DefaultDicomObject, path: &Path) -> Result<PixelFormat,
             path: path.to_path_buf(),
         });
     }
-    let bits_stored =
-        unsigned(object, tags::BITS_STORED, "BitsStored", path)?.unwrap_or(bits_allocated);
-    let high_bit =
-        unsigned(object, tags::HIGH_BIT, "HighBit", path)?.unwrap_or(bits_stored.saturating_sub(1));
+    let bits_stored = unsigned(object, tags::BITS_STORED, "BitsStored", path)?.unwrap_or(bits_allocated);
+    let high_bit = unsigned(object, tags::HIGH_BIT, "HighBit", path)?.unwrap_or(bits_stored.saturating_sub(1));
     if bits_stored == 0 || bits_stored > bits_allocated || high_bit + 1 != bits_stored {
         return Err(VolumeError::Unsupported {
             what: "DICOM bit layout (BitsStored must fit BitsAllocated with HighBit = BitsStored - 1)",
-            value: format!(
-                "BitsAllocated {bits_allocated}, BitsStored {bits_stored}, HighBit {high_bit}"
-            ),
+            value: format!("BitsAllocated {bits_allocated}, BitsStored {bits_stored}, HighBit {high_bit}"),
             path: path.to_path_buf(),
         });
     }
-    let signed = match unsigned(
-        object,
-        tags::PIXEL_REPRESENTATION,
-        "PixelRepresentation",
-        path,
-    )?
-    .unwrap_or(0)
-    {
+    let signed = match unsigned(object, tags::PIXEL_REPRESENTATION, "PixelRepresentation", path)?.unwrap_or(0) {
         0 => false,
         1 => true,
         other => {
@@ -302,11 +251,7 @@ fn pixel_format(object: &DefaultDicomObject, path: &Path) -> Result<PixelFormat,
             ));
         }
     };
-    Ok(PixelFormat {
-        bits_allocated: bits_allocated as u16,
-        bits_stored: bits_stored as u16,
-        signed,
-    })
+    Ok(PixelFormat { bits_allocated: bits_allocated as u16, bits_stored: bits_stored as u16, signed })
 }
 
 /// Row and column cosines, each scaled to unit length; they must be (nearly) orthogonal.
@@ -356,10 +301,7 @@ fn unsigned(
     if is_blank(element.value()) {
         return Ok(None);
     }
-    element
-        .to_int::<u32>()
-        .map(Some)
-        .map_err(|error| VolumeError::header(field, error.to_string(), path))
+    element.to_int::<u32>().map(Some).map_err(|error| VolumeError::header(field, error.to_string(), path))
 }
 
 /// A decimal-string attribute with exactly `N` finite values; `None` when absent or empty.
@@ -375,22 +317,13 @@ fn floats<const N: usize>(
     if is_blank(element.value()) {
         return Ok(None);
     }
-    let values = element
-        .to_multi_float64()
-        .map_err(|error| VolumeError::header(field, error.to_string(), path))?;
-    let array: [f64; N] = values.as_slice().try_into().map_err(|_| {
-        VolumeError::header(
-            field,
-            format!("has {} values, expected {N}", values.len()),
-            path,
-        )
-    })?;
+    let values = element.to_multi_float64().map_err(|error| VolumeError::header(field, error.to_string(), path))?;
+    let array: [f64; N] = values
+        .as_slice()
+        .try_into()
+        .map_err(|_| VolumeError::header(field, format!("has {} values, expected {N}", values.len()), path))?;
     if array.iter().any(|v| !v.is_finite()) {
-        return Err(VolumeError::header(
-            field,
-            format!("{array:?} holds a non-finite value"),
-            path,
-        ));
+        return Err(VolumeError::header(field, format!("{array:?} holds a non-finite value"), path));
     }
     Ok(Some(array))
 }
@@ -407,9 +340,7 @@ fn single_float(
 /// Zero-length or all-padding values count as absent (type 2 attributes may be sent empty).
 fn is_blank<I, P>(value: &dicom_core::value::Value<I, P>) -> bool {
     match value.primitive() {
-        Some(primitive) => {
-            primitive.multiplicity() == 0 || primitive.to_str().trim_matches([' ', '\0']).is_empty()
-        }
+        Some(primitive) => primitive.multiplicity() == 0 || primitive.to_str().trim_matches([' ', '\0']).is_empty(),
         None => true,
     }
 }

@@ -86,10 +86,7 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
     let found = match scan_root(path)? {
         Some(folder) => read_folder_headers(&folder, path, &mut warnings)?,
         None => match header::read_header(path)? {
-            FileKind::Image(header) => FoundImages {
-                readable: vec![*header],
-                unsupported: Vec::new(),
-            },
+            FileKind::Image(header) => FoundImages { readable: vec![*header], unsupported: Vec::new() },
             FileKind::Unsupported { error, .. } => return Err(error),
             FileKind::NotImage => {
                 return Err(VolumeError::Dicom {
@@ -107,17 +104,14 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
         return Err(VolumeError::Dicom {
             problem: format!(
                 "{} across {} slices: they do not form a regular grid, and resampling onto one was refused \
-                 (allow resampling to read this series)",
+                 (run without --no-resample to resample it)",
                 regularity.describe(),
                 geometry.slice_count()
             ),
             path: path.to_path_buf(),
         });
     }
-    let slices: Vec<DecodedSlice> = headers
-        .par_iter()
-        .map(pixels::read_slice)
-        .collect::<Result<_, _>>()?;
+    let slices: Vec<DecodedSlice> = headers.par_iter().map(pixels::read_slice).collect::<Result<_, _>>()?;
     let files: Vec<PathBuf> = headers.iter().map(|h| h.path.clone()).collect();
     let volume = if regularity.is_regular() {
         stack_slices(&slices, &geometry, &headers, path)?
@@ -135,13 +129,7 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
         ));
         volume
     };
-    Ok(DicomImport {
-        volume,
-        warnings,
-        series_uid,
-        description,
-        files,
-    })
+    Ok(DicomImport { volume, warnings, series_uid, description, files })
 }
 
 /// True for a folder holding DICOM files (looked for in its first few hundred entries,
@@ -175,29 +163,18 @@ fn stack_slices(
         geometry.single_slice_spacing_mm
     };
     let dims = [geometry.columns, geometry.rows, count];
-    let spacing_mm = [
-        geometry.pixel_spacing_mm[0],
-        geometry.pixel_spacing_mm[1],
-        spacing_z_mm,
-    ];
-    let integral_rescale = headers
-        .iter()
-        .all(|h| h.rescale.slope.fract() == 0.0 && h.rescale.intercept.fract() == 0.0);
-    let fits_i16 = slices
-        .iter()
-        .all(|s| s.min >= f32::from(i16::MIN) && s.max <= f32::from(i16::MAX));
+    let spacing_mm = [geometry.pixel_spacing_mm[0], geometry.pixel_spacing_mm[1], spacing_z_mm];
+    let integral_rescale = headers.iter().all(|h| h.rescale.slope.fract() == 0.0 && h.rescale.intercept.fract() == 0.0);
+    let fits_i16 = slices.iter().all(|s| s.min >= f32::from(i16::MIN) && s.max <= f32::from(i16::MAX));
     if integral_rescale && fits_i16 {
         // Integer samples times an integer slope plus an integer intercept: the f32 values
         // are exact integers, so the cast loses nothing.
         let mut bytes = vec![0u8; dims[0] * dims[1] * count * 2];
-        bytes
-            .par_chunks_mut(dims[0] * dims[1] * 2)
-            .zip(slices)
-            .for_each(|(out, slice)| {
-                for (pair, value) in out.chunks_exact_mut(2).zip(&slice.values) {
-                    pair.copy_from_slice(&(*value as i16).to_le_bytes());
-                }
-            });
+        bytes.par_chunks_mut(dims[0] * dims[1] * 2).zip(slices).for_each(|(out, slice)| {
+            for (pair, value) in out.chunks_exact_mut(2).zip(&slice.values) {
+                pair.copy_from_slice(&(*value as i16).to_le_bytes());
+            }
+        });
         return Volume::new(
             dims,
             spacing_mm,
@@ -221,14 +198,11 @@ fn float_volume(
 ) -> Result<Volume, VolumeError> {
     let plane_bytes = dims[0] * dims[1] * 4;
     let mut bytes = vec![0u8; plane_bytes * planes.len()];
-    bytes
-        .par_chunks_mut(plane_bytes)
-        .zip(planes)
-        .for_each(|(out, plane)| {
-            for (quad, value) in out.chunks_exact_mut(4).zip(plane.iter()) {
-                quad.copy_from_slice(&value.to_le_bytes());
-            }
-        });
+    bytes.par_chunks_mut(plane_bytes).zip(planes).for_each(|(out, plane)| {
+        for (quad, value) in out.chunks_exact_mut(4).zip(plane.iter()) {
+            quad.copy_from_slice(&value.to_le_bytes());
+        }
+    });
     Volume::new(
         dims,
         spacing_mm,

@@ -25,18 +25,13 @@ pub(super) struct DecodedSlice {
 /// Reads and decodes the pixel data of the file `header` was read from.
 pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeError> {
     let path = header.path.as_path();
-    let object = OpenFileOptions::new()
-        .open_file(path)
-        .map_err(|error| VolumeError::Dicom {
-            problem: format!("unreadable DICOM file ({error})"),
-            path: path.to_path_buf(),
-        })?;
+    let object = OpenFileOptions::new().open_file(path).map_err(|error| VolumeError::Dicom {
+        problem: format!("unreadable DICOM file ({error})"),
+        path: path.to_path_buf(),
+    })?;
     let element = object
         .get(tags::PIXEL_DATA)
-        .ok_or_else(|| VolumeError::MissingField {
-            field: "PixelData",
-            path: path.to_path_buf(),
-        })?;
+        .ok_or_else(|| VolumeError::MissingField { field: "PixelData", path: path.to_path_buf() })?;
     let pixel_count = header.rows * header.columns;
     let format = header.pixel_format;
     let bytes_per_sample = usize::from(format.bits_allocated / 8);
@@ -47,15 +42,11 @@ pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeErr
     };
     let stored: Vec<u16> = match element.value() {
         Value::Primitive(PrimitiveValue::U16(words)) if format.bits_allocated == 16 => {
-            let words = words
-                .get(..pixel_count)
-                .ok_or(size_error(words.len() * 2))?;
+            let words = words.get(..pixel_count).ok_or(size_error(words.len() * 2))?;
             words.to_vec()
         }
         Value::Primitive(PrimitiveValue::I16(words)) if format.bits_allocated == 16 => {
-            let words = words
-                .get(..pixel_count)
-                .ok_or(size_error(words.len() * 2))?;
+            let words = words.get(..pixel_count).ok_or(size_error(words.len() * 2))?;
             words.iter().map(|w| *w as u16).collect()
         }
         Value::Primitive(PrimitiveValue::U16(words)) => {
@@ -65,17 +56,12 @@ pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeErr
             bytes.iter().map(|b| u16::from(*b)).collect()
         }
         Value::Primitive(PrimitiveValue::U8(bytes)) => {
-            let bytes = bytes
-                .get(..pixel_count * bytes_per_sample)
-                .ok_or(size_error(bytes.len()))?;
+            let bytes = bytes.get(..pixel_count * bytes_per_sample).ok_or(size_error(bytes.len()))?;
             if bytes_per_sample == 1 {
                 bytes.iter().map(|b| u16::from(*b)).collect()
             } else {
                 // 16-bit samples sent as OB (explicit VR) keep the file's little-endian order.
-                bytes
-                    .chunks_exact(2)
-                    .map(|pair| u16::from_le_bytes([pair[0], pair[1]]))
-                    .collect()
+                bytes.chunks_exact(2).map(|pair| u16::from_le_bytes([pair[0], pair[1]])).collect()
             }
         }
         Value::Primitive(PrimitiveValue::Empty) => return Err(size_error(0)),
@@ -89,21 +75,12 @@ pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeErr
         _ => {
             return Err(VolumeError::header(
                 "PixelData",
-                format!(
-                    "its value (VR {}) does not match BitsAllocated {}",
-                    element.vr(),
-                    format.bits_allocated
-                ),
+                format!("its value (VR {}) does not match BitsAllocated {}", element.vr(), format.bits_allocated),
                 path,
             ));
         }
     };
-    Ok(to_physical(
-        &stored,
-        format,
-        header.rescale.slope,
-        header.rescale.intercept,
-    ))
+    Ok(to_physical(&stored, format, header.rescale.slope, header.rescale.intercept))
 }
 
 /// Masks, sign-extends and rescales stored samples.
@@ -115,18 +92,10 @@ fn to_physical(stored: &[u16], format: PixelFormat, slope: f64, intercept: f64) 
         .iter()
         .map(|&sample| {
             let top = u32::from(sample) << unused_bits;
-            if format.signed {
-                (top as i32) >> unused_bits
-            } else {
-                (top >> unused_bits) as i32
-            }
+            if format.signed { (top as i32) >> unused_bits } else { (top >> unused_bits) as i32 }
         })
         .collect();
-    let (low, high) = integers
-        .iter()
-        .fold((i32::MAX, i32::MIN), |(low, high), &v| {
-            (low.min(v), high.max(v))
-        });
+    let (low, high) = integers.iter().fold((i32::MAX, i32::MIN), |(low, high), &v| (low.min(v), high.max(v)));
     let rescale = |integer: i32| (f64::from(integer) * slope + intercept) as f32;
     let values: Vec<f32> = integers.iter().map(|&integer| rescale(integer)).collect();
     // The rescale is monotonic, so the extremes of the values are those of the samples.
@@ -144,11 +113,7 @@ mod tests {
     use super::*;
 
     fn format(bits_allocated: u16, bits_stored: u16, signed: bool) -> PixelFormat {
-        PixelFormat {
-            bits_allocated,
-            bits_stored,
-            signed,
-        }
+        PixelFormat { bits_allocated, bits_stored, signed }
     }
 
     #[test]

@@ -53,9 +53,7 @@ fn philips_phantom_is_a_regular_stack_in_hounsfield_units() {
     // The DICOMDIR (here named DIRFILE) leads to the same series.
     let through_dicomdir = read("philips_phantom_5mm/DIRFILE", &DicomOptions::default()).unwrap();
     assert_eq!(through_dicomdir.files, import.files);
-    assert!(looks_like_dicom(
-        &Path::new(DATA).join("philips_phantom_5mm")
-    ));
+    assert!(looks_like_dicom(&Path::new(DATA).join("philips_phantom_5mm")));
 }
 
 #[test]
@@ -74,10 +72,7 @@ fn ct_small_is_one_slice() {
 fn ge_tilted_head_is_resampled_or_refused() {
     let import = read("ge_head_tilt", &DicomOptions::default()).unwrap();
     let volume = &import.volume;
-    println!(
-        "ge {:?} {:?} {:?}",
-        volume.dims, volume.spacing_mm, import.warnings
-    );
+    println!("ge {:?} {:?} {:?}", volume.dims, volume.spacing_mm, import.warnings);
     // 48.2 mm of in-plane shift over the series is 99 extra rows; 144.1 mm along the normal
     // in 36 steps of the 4.00 mm gap.
     assert_eq!(volume.dims, [512, 611, 37]);
@@ -85,22 +80,18 @@ fn ge_tilted_head_is_resampled_or_refused() {
     assert!((volume.spacing_mm[2] - 4.0025).abs() < 1e-3);
     assert_eq!(import.warnings.len(), 1);
     assert!(
-        import.warnings[0].starts_with("gantry tilt 18.5 deg and uneven slice gaps 1.08..7.00 mm: resampled onto 0.488 x 0.488 x 4.002 mm"),
+        import.warnings[0].starts_with(
+            "gantry tilt 18.5 deg and uneven slice gaps 1.08..7.00 mm: resampled onto 0.488 x 0.488 x 4.002 mm"
+        ),
         "{}",
         import.warnings[0]
     );
     // The series' padding value -1500 outside the reconstruction circle is its minimum.
     assert_eq!(volume.value_range().min, -1500.0);
 
-    let refuse = DicomOptions {
-        resample: Resample::Refuse,
-        ..DicomOptions::default()
-    };
+    let refuse = DicomOptions { resample: Resample::Refuse, ..DicomOptions::default() };
     let message = read("ge_head_tilt", &refuse).unwrap_err().to_string();
-    assert!(
-        message.contains("gantry tilt 18.5 deg") && message.contains("refused"),
-        "{message}"
-    );
+    assert!(message.contains("gantry tilt 18.5 deg") && message.contains("refused"), "{message}");
 }
 
 /// Tissue (above -200 HU) of one image: centroid (u, v) in mm and area in mm².
@@ -132,11 +123,7 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     }
     let o = acquired[0].0.orientation.unwrap();
     let (r, c) = ([o[0], o[1], o[2]], [o[3], o[4], o[5]]);
-    let n = [
-        r[1] * c[2] - r[2] * c[1],
-        r[2] * c[0] - r[0] * c[2],
-        r[0] * c[1] - r[1] * c[0],
-    ];
+    let n = [r[1] * c[2] - r[2] * c[1], r[2] * c[0] - r[0] * c[2], r[0] * c[1] - r[1] * c[0]];
     let [dx, dy, dz] = volume.spacing_mm;
     let uvw: Vec<[f64; 3]> = acquired
         .iter()
@@ -146,10 +133,7 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
         })
         .collect();
     let last = uvw.len() - 1;
-    assert!(
-        (uvw[last][1] - uvw[0][1]).abs() > 45.0,
-        "the series is tilted"
-    );
+    assert!((uvw[last][1] - uvw[0][1]).abs() > 45.0, "the series is tilted");
     // The documented grid origin: the smallest in-plane coordinates, the first slice's w.
     let u0 = uvw.iter().map(|p| p[0]).fold(f64::INFINITY, f64::min);
     let v0 = uvw.iter().map(|p| p[1]).fold(f64::INFINITY, f64::min);
@@ -169,43 +153,28 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     let mut on_slice_planes = 0;
     for z in 0..nz {
         volume.read_z_slice_f32(z, &mut plane);
-        let pixels = plane
-            .iter()
-            .enumerate()
-            .map(|(i, value)| (u0 + (i % nx) as f64 * dx, v0 + (i / nx) as f64 * dy, *value));
+        let pixels =
+            plane.iter().enumerate().map(|(i, value)| (u0 + (i % nx) as f64 * dx, v0 + (i / nx) as f64 * dy, *value));
         let (centroid, area) = tissue(pixels, dx * dy);
         let w = uvw[0][2] + z as f64 * dz;
-        let k = uvw
-            .partition_point(|p| p[2] <= w + 1e-6)
-            .saturating_sub(1)
-            .min(last - 1);
+        let k = uvw.partition_point(|p| p[2] <= w + 1e-6).saturating_sub(1).min(last - 1);
         let t = ((w - uvw[k][2]) / (uvw[k + 1][2] - uvw[k][2])).clamp(0.0, 1.0);
         let lerp = |a: f64, b: f64| a + t * (b - a);
         let (below, above) = (acquired_tissue[k], acquired_tissue[k + 1]);
         let expected_centroid = [lerp(below.0[0], above.0[0]), lerp(below.0[1], above.0[1])];
         let expected_area = lerp(below.1, above.1);
-        let distance =
-            (centroid[0] - expected_centroid[0]).hypot(centroid[1] - expected_centroid[1]);
+        let distance = (centroid[0] - expected_centroid[0]).hypot(centroid[1] - expected_centroid[1]);
         let area_ratio = area / expected_area;
         if !(0.02..=0.98).contains(&t) {
             // The plane lies on an acquired slice: only the sub-pixel in-plane shift differs.
             on_slice_planes += 1;
-            assert!(
-                distance < 0.1 && (area_ratio - 1.0).abs() < 0.005,
-                "plane {z}: {distance} mm, area x{area_ratio}"
-            );
+            assert!(distance < 0.1 && (area_ratio - 1.0).abs() < 0.005, "plane {z}: {distance} mm, area x{area_ratio}");
         } else {
             // Between slices 4-7 mm apart the head's outline changes; the centroid stays close.
-            assert!(
-                distance < 2.5 && (area_ratio - 1.0).abs() < 0.12,
-                "plane {z}: {distance} mm, area x{area_ratio}"
-            );
+            assert!(distance < 2.5 && (area_ratio - 1.0).abs() < 0.12, "plane {z}: {distance} mm, area x{area_ratio}");
         }
     }
-    assert_eq!(
-        on_slice_planes, 18,
-        "planes 0-13 (4 mm part), 15, 22, 29 and 36 (the last slice)"
-    );
+    assert_eq!(on_slice_planes, 18, "planes 0-13 (4 mm part), 15, 22, 29 and 36 (the last slice)");
 }
 
 /// The budget: the 28 x 512 x 512 series import in well under a second. A
@@ -218,8 +187,7 @@ fn import_time_is_well_under_a_second() {
         let mut best_seconds = f64::INFINITY;
         for _ in 0..7 {
             let start = std::time::Instant::now();
-            let import =
-                read_series(&Path::new(DATA).join(name), &DicomOptions::default()).unwrap();
+            let import = read_series(&Path::new(DATA).join(name), &DicomOptions::default()).unwrap();
             best_seconds = best_seconds.min(start.elapsed().as_secs_f64());
             drop(import);
         }

@@ -43,25 +43,13 @@ pub(super) fn plan_grid(
 ) -> Result<ResampleGrid, VolumeError> {
     let [dx, dy] = geometry.pixel_spacing_mm;
     let positions = &geometry.first_pixel_mm;
-    let fold = |axis: usize, start: f64, pick: fn(f64, f64) -> f64| {
-        positions.iter().map(|p| p[axis]).fold(start, pick)
-    };
-    let (u_min, u_max) = (
-        fold(0, f64::INFINITY, f64::min),
-        fold(0, f64::NEG_INFINITY, f64::max),
-    );
-    let (v_min, v_max) = (
-        fold(1, f64::INFINITY, f64::min),
-        fold(1, f64::NEG_INFINITY, f64::max),
-    );
+    let fold = |axis: usize, start: f64, pick: fn(f64, f64) -> f64| positions.iter().map(|p| p[axis]).fold(start, pick);
+    let (u_min, u_max) = (fold(0, f64::INFINITY, f64::min), fold(0, f64::NEG_INFINITY, f64::max));
+    let (v_min, v_max) = (fold(1, f64::INFINITY, f64::min), fold(1, f64::NEG_INFINITY, f64::max));
     let w_first = positions[0][2];
     let span_mm = positions[positions.len() - 1][2] - w_first;
     if !(slice_spacing_mm.is_finite() && slice_spacing_mm > 0.0) {
-        return Err(VolumeError::BadSpacing {
-            axis: 2,
-            value: slice_spacing_mm,
-            path: source.to_path_buf(),
-        });
+        return Err(VolumeError::BadSpacing { axis: 2, value: slice_spacing_mm, path: source.to_path_buf() });
     }
     let steps_along_normal = if exact_span {
         (span_mm / slice_spacing_mm).round().max(1.0)
@@ -73,10 +61,7 @@ pub(super) fn plan_grid(
     // Checked in floating point first: absurd positions in a damaged file must give an error,
     // not an overflowing cast.
     const MOST_STEPS: f64 = 1e6;
-    if ![extra_columns, extra_rows, steps_along_normal]
-        .iter()
-        .all(|steps| steps.is_finite() && *steps < MOST_STEPS)
-    {
+    if ![extra_columns, extra_rows, steps_along_normal].iter().all(|steps| steps.is_finite() && *steps < MOST_STEPS) {
         return Err(VolumeError::Dicom {
             problem: format!(
                 "the slice positions span {:.0} x {:.0} x {:.0} mm, which no grid of {slice_spacing_mm} mm slices can hold",
@@ -90,16 +75,8 @@ pub(super) fn plan_grid(
     let nx = extra_columns as usize + geometry.columns;
     let ny = extra_rows as usize + geometry.rows;
     let nz = steps_along_normal as usize + 1;
-    let dz = if exact_span {
-        span_mm / steps_along_normal
-    } else {
-        slice_spacing_mm
-    };
-    Ok(ResampleGrid {
-        dims: [nx, ny, nz],
-        spacing_mm: [dx, dy, dz],
-        origin_mm: [u_min, v_min, w_first],
-    })
+    let dz = if exact_span { span_mm / steps_along_normal } else { slice_spacing_mm };
+    Ok(ResampleGrid { dims: [nx, ny, nz], spacing_mm: [dx, dy, dz], origin_mm: [u_min, v_min, w_first] })
 }
 
 /// Resamples `slices` (in the order of `geometry`) onto `grid`, as little-endian `f32`
@@ -124,9 +101,9 @@ pub(super) fn resample(
         .and_then(|voxels| voxels.checked_mul(4))
         .ok_or_else(|| too_large("the resampled grid is too large to address"))?;
     let mut output: Vec<u8> = Vec::new();
-    output.try_reserve_exact(total_bytes).map_err(|_| {
-        too_large("the resampled grid does not fit in memory (choose a larger slice spacing)")
-    })?;
+    output
+        .try_reserve_exact(total_bytes)
+        .map_err(|_| too_large("the resampled grid does not fit in memory (choose a larger slice spacing)"))?;
     output.resize(total_bytes, 0);
     let normal_positions: Vec<f64> = geometry.first_pixel_mm.iter().map(|p| p[2]).collect();
     let last_w = normal_positions[normal_positions.len() - 1];
@@ -139,15 +116,7 @@ pub(super) fn resample(
             let w = (grid.origin_mm[2] + z as f64 * grid.spacing_mm[2]).min(last_w);
             for (slice_index, weight) in bracketing_slices(&normal_positions, w) {
                 let shift = slice_shift_pixels(geometry, grid, slice_index);
-                accumulate_slice(
-                    &slices[slice_index].values,
-                    geometry,
-                    shift,
-                    weight as f32,
-                    pad,
-                    [nx, ny],
-                    out_plane,
-                );
+                accumulate_slice(&slices[slice_index].values, geometry, shift, weight as f32, pad, [nx, ny], out_plane);
             }
             for (quad, value) in out_bytes.chunks_exact_mut(4).zip(out_plane.iter()) {
                 quad.copy_from_slice(&value.to_le_bytes());
@@ -177,11 +146,7 @@ fn bracketing_slices(normal_positions: &[f64], w: f64) -> Vec<(usize, f64)> {
 }
 
 /// Where output voxel (0, 0) falls in slice `slice_index`, in (column, row) pixels.
-fn slice_shift_pixels(
-    geometry: &StackGeometry,
-    grid: &ResampleGrid,
-    slice_index: usize,
-) -> [f64; 2] {
+fn slice_shift_pixels(geometry: &StackGeometry, grid: &ResampleGrid, slice_index: usize) -> [f64; 2] {
     let first_pixel = geometry.first_pixel_mm[slice_index];
     [
         (grid.origin_mm[0] - first_pixel[0]) / grid.spacing_mm[0],
@@ -203,9 +168,7 @@ fn accumulate_slice(
 ) {
     let (columns, rows) = (geometry.columns, geometry.rows);
     // Per output column: the two source columns, the blend fraction, and whether inside.
-    let column_taps: Vec<Option<(usize, usize, f32)>> = (0..nx)
-        .map(|x| taps(x as f64 + shift[0], columns))
-        .collect();
+    let column_taps: Vec<Option<(usize, usize, f32)>> = (0..nx).map(|x| taps(x as f64 + shift[0], columns)).collect();
     for y in 0..ny {
         let out_row = &mut out_plane[y * nx..(y + 1) * nx];
         let Some((row_0, row_1, fy)) = taps(y as f64 + shift[1], rows) else {
@@ -261,9 +224,7 @@ mod tests {
         assert_eq!(bracketing_slices(&positions, 4.0), vec![(2, 1.0)]);
         let between = bracketing_slices(&positions, 2.0);
         assert_eq!((between[0].0, between[1].0), (1, 2));
-        assert!(
-            (between[0].1 - 2.0 / 3.0).abs() < 1e-12 && (between[1].1 - 1.0 / 3.0).abs() < 1e-12
-        );
+        assert!((between[0].1 - 2.0 / 3.0).abs() < 1e-12 && (between[1].1 - 1.0 / 3.0).abs() < 1e-12);
     }
 
     fn two_by_two_slices_at(first_pixel_mm: Vec<[f64; 3]>) -> StackGeometry {
@@ -286,10 +247,7 @@ mod tests {
         let exact_span = plan_grid(&stack, 0.3, true, source).unwrap();
         assert_eq!(exact_span.dims, [2, 5, 4]);
         assert!((exact_span.spacing_mm[2] - 1.0 / 3.0).abs() < 1e-12);
-        assert!(matches!(
-            plan_grid(&stack, 0.0, false, source),
-            Err(VolumeError::BadSpacing { .. })
-        ));
+        assert!(matches!(plan_grid(&stack, 0.0, false, source), Err(VolumeError::BadSpacing { .. })));
         assert!(plan_grid(&stack, 1e-9, false, source).is_err());
         let damaged = two_by_two_slices_at(vec![[0.0, 0.0, 0.0], [1e300, 0.0, 1.0]]);
         assert!(plan_grid(&damaged, 1.0, true, source).is_err());

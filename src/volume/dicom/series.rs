@@ -51,30 +51,17 @@ pub(super) fn read_folder_headers(
         true
     });
     candidates.sort();
-    log::debug!(
-        "{}: {} DICOM files, {other_files} other files skipped",
-        folder.display(),
-        candidates.len()
-    );
-    let results: Vec<Result<FileKind, VolumeError>> = candidates
-        .par_iter()
-        .map(|file| header::read_header(file))
-        .collect();
-    let mut found = FoundImages {
-        readable: Vec::new(),
-        unsupported: Vec::new(),
-    };
+    log::debug!("{}: {} DICOM files, {other_files} other files skipped", folder.display(), candidates.len());
+    let results: Vec<Result<FileKind, VolumeError>> =
+        candidates.par_iter().map(|file| header::read_header(file)).collect();
+    let mut found = FoundImages { readable: Vec::new(), unsupported: Vec::new() };
     let (mut not_images, mut unreadable) = (0usize, 0usize);
     for result in results {
         match result {
             Ok(FileKind::Image(header)) => found.readable.push(*header),
-            Ok(FileKind::Unsupported {
-                series_uid,
-                series_description,
-                error,
-            }) => found
-                .unsupported
-                .push((series_uid, series_description, error)),
+            Ok(FileKind::Unsupported { series_uid, series_description, error }) => {
+                found.unsupported.push((series_uid, series_description, error))
+            }
             Ok(FileKind::NotImage) => not_images += 1,
             Err(error) => {
                 unreadable += 1;
@@ -82,19 +69,13 @@ pub(super) fn read_folder_headers(
             }
         }
     }
-    log::debug!(
-        "{}: {not_images} DICOM files without an image",
-        folder.display()
-    );
+    log::debug!("{}: {not_images} DICOM files without an image", folder.display());
     if found.readable.is_empty() && found.unsupported.is_empty() {
         return Err(VolumeError::Dicom {
             problem: format!(
                 "no DICOM image series found ({} DICOM files: {not_images} without an image, {unreadable} unreadable{}; {other_files} other files)",
                 candidates.len(),
-                warnings
-                    .first()
-                    .map(|w| format!(", first {w}"))
-                    .unwrap_or_default()
+                warnings.first().map(|w| format!(", first {w}")).unwrap_or_default()
             ),
             path: source.to_path_buf(),
         });
@@ -113,44 +94,26 @@ pub(super) fn choose_series(
 ) -> Result<(String, Vec<SliceHeader>), VolumeError> {
     let mut readable: BTreeMap<String, Vec<SliceHeader>> = BTreeMap::new();
     for header in found.readable {
-        readable
-            .entry(header.series_uid.clone())
-            .or_default()
-            .push(header);
+        readable.entry(header.series_uid.clone()).or_default().push(header);
     }
     // A series with any unsupported file cannot be read as a whole.
     let mut unsupported: BTreeMap<String, (String, usize, VolumeError)> = BTreeMap::new();
     for (uid, description, error) in found.unsupported {
-        unsupported
-            .entry(uid)
-            .and_modify(|(_, count, _)| *count += 1)
-            .or_insert((description, 1, error));
+        unsupported.entry(uid).and_modify(|(_, count, _)| *count += 1).or_insert((description, 1, error));
     }
     for (uid, (_, count, _)) in unsupported.iter_mut() {
         *count += readable.remove(uid).map_or(0, |slices| slices.len());
     }
     let name = |uid: &str| {
-        if uid.is_empty() {
-            "(no SeriesInstanceUID)".to_string()
-        } else {
-            uid.to_string()
-        }
+        if uid.is_empty() { "(no SeriesInstanceUID)".to_string() } else { uid.to_string() }
     };
     let listing = |readable: &BTreeMap<String, Vec<SliceHeader>>,
                    unsupported: &BTreeMap<String, (String, usize, VolumeError)>| {
         let readable = readable.iter().map(|(uid, slices)| {
-            format!(
-                "{} \"{}\" ({} slices)",
-                name(uid),
-                slices[0].series_description,
-                slices.len()
-            )
+            format!("{} \"{}\" ({} slices)", name(uid), slices[0].series_description, slices.len())
         });
         let unreadable = unsupported.iter().map(|(uid, (description, count, _))| {
-            format!(
-                "{} \"{description}\" ({count} files, not readable)",
-                name(uid)
-            )
+            format!("{} \"{description}\" ({count} files, not readable)", name(uid))
         });
         readable.chain(unreadable).collect::<Vec<_>>().join("; ")
     };
@@ -182,19 +145,15 @@ pub(super) fn choose_series(
     match readable.pop_first() {
         Some((uid, slices)) => {
             for (other, (description, count, error)) in &unsupported {
-                warnings.push(format!(
-                    "skipped series {} \"{description}\" ({count} files): {error}",
-                    name(other)
-                ));
+                warnings.push(format!("skipped series {} \"{description}\" ({count} files): {error}", name(other)));
             }
             Ok((uid, slices))
         }
         None => match unsupported.pop_first() {
             Some((_, (_, _, error))) => Err(error),
-            None => Err(VolumeError::Dicom {
-                problem: "no DICOM image series found".into(),
-                path: source.to_path_buf(),
-            }),
+            None => {
+                Err(VolumeError::Dicom { problem: "no DICOM image series found".into(), path: source.to_path_buf() })
+            }
         },
     }
 }
@@ -216,9 +175,7 @@ pub(super) fn walk_files(folder: &Path, visit: &mut dyn FnMut(&Path) -> bool) {
             let entry_path = entry.path();
             if file_type.is_dir() {
                 pending.push(entry_path);
-            } else if (file_type.is_file() || (file_type.is_symlink() && entry_path.is_file()))
-                && !visit(&entry_path)
-            {
+            } else if (file_type.is_file() || (file_type.is_symlink() && entry_path.is_file())) && !visit(&entry_path) {
                 return;
             }
         }
@@ -235,8 +192,7 @@ pub(super) fn has_dicm_preamble(path: &Path) -> bool {
 }
 
 pub(super) fn is_dicomdir_name(path: &Path) -> bool {
-    path.file_name()
-        .is_some_and(|name| name.eq_ignore_ascii_case("DICOMDIR"))
+    path.file_name().is_some_and(|name| name.eq_ignore_ascii_case("DICOMDIR"))
 }
 
 /// A DICOMDIR under another name (the Philips phantom's is called DIRFILE).
@@ -245,7 +201,5 @@ fn is_dicomdir_file(path: &Path) -> bool {
         && dicom_object::OpenFileOptions::new()
             .read_until(dicom_dictionary_std::tags::PIXEL_DATA)
             .open_file(path)
-            .is_ok_and(|object| {
-                object.meta().media_storage_sop_class_uid() == header::MEDIA_STORAGE_DIRECTORY_UID
-            })
+            .is_ok_and(|object| object.meta().media_storage_sop_class_uid() == header::MEDIA_STORAGE_DIRECTORY_UID)
 }

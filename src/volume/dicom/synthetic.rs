@@ -60,9 +60,7 @@ impl SyntheticSlice {
     }
 
     pub fn write(&self, path: &Path) {
-        let ds = |values: &[f64]| {
-            PrimitiveValue::Strs(values.iter().map(|v| v.to_string()).collect::<C<String>>())
-        };
+        let ds = |values: &[f64]| PrimitiveValue::Strs(values.iter().map(|v| v.to_string()).collect::<C<String>>());
         let us = |value: u16| PrimitiveValue::U16(C::from_elem(value, 1));
         let mut elements = vec![
             DataElement::new(tags::SOP_CLASS_UID, VR::UI, "1.2.840.10008.5.1.4.1.1.2"),
@@ -70,11 +68,7 @@ impl SyntheticSlice {
             DataElement::new(tags::MODALITY, VR::CS, "CT"),
             DataElement::new(tags::SERIES_DESCRIPTION, VR::LO, "synthetic"),
             DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, self.series_uid.as_str()),
-            DataElement::new(
-                tags::IMAGE_ORIENTATION_PATIENT,
-                VR::DS,
-                ds(&self.orientation),
-            ),
+            DataElement::new(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, ds(&self.orientation)),
             DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, us(self.samples_per_pixel)),
             DataElement::new(tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2"),
             DataElement::new(tags::ROWS, VR::US, us(self.rows as u16)),
@@ -88,19 +82,11 @@ impl SyntheticSlice {
             DataElement::new(tags::RESCALE_SLOPE, VR::DS, ds(&[self.slope])),
         ];
         if let Some(position) = self.position_mm {
-            elements.push(DataElement::new(
-                tags::IMAGE_POSITION_PATIENT,
-                VR::DS,
-                ds(&position),
-            ));
+            elements.push(DataElement::new(tags::IMAGE_POSITION_PATIENT, VR::DS, ds(&position)));
         }
         if self.with_pixel_data {
             let words: C<u16> = self.stored.iter().map(|v| *v as u16).collect();
-            elements.push(DataElement::new(
-                tags::PIXEL_DATA,
-                VR::OW,
-                PrimitiveValue::U16(words),
-            ));
+            elements.push(DataElement::new(tags::PIXEL_DATA, VR::OW, PrimitiveValue::U16(words)));
         }
         InMemDicomObject::from_element_iter(elements)
             .with_meta(FileMetaTableBuilder::new().transfer_syntax(self.transfer_syntax))

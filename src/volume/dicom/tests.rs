@@ -45,11 +45,7 @@ fn regular_series_is_sorted_along_the_normal_and_copied_exactly() {
         assert_eq!(volume.spacing_mm, [0.6, 0.8, 1.5]);
         assert_eq!(volume.voxel_type, VoxelType::I16);
         assert!(import.warnings.is_empty(), "{:?}", import.warnings);
-        let names: Vec<_> = import
-            .files
-            .iter()
-            .map(|f| f.file_name().unwrap())
-            .collect();
+        let names: Vec<_> = import.files.iter().map(|f| f.file_name().unwrap()).collect();
         assert_eq!(names, ["c.dcm", "a.dcm", "b.dcm"]);
         for (z, y, x) in [(0, 0, 0), (1, 2, 3), (2, 1, 2)] {
             let expected = (100 * z + 10 * y + x) as f64 - 1024.0;
@@ -65,45 +61,20 @@ fn several_series_are_listed_and_one_is_chosen_by_uid() {
     let folder = tempfile::tempdir().unwrap();
     write_sagittal_series(folder.path(), "1.2.3", EXPLICIT_LITTLE);
     for k in 0..2 {
-        SyntheticSlice::axial(
-            "9.8.7",
-            &format!("9.8.7.{k}"),
-            [2, 2],
-            [0.0, 0.0, k as f64],
-            |_, _| 5,
-        )
-        .write(&folder.path().join(format!("other{k}.dcm")));
+        SyntheticSlice::axial("9.8.7", &format!("9.8.7.{k}"), [2, 2], [0.0, 0.0, k as f64], |_, _| 5)
+            .write(&folder.path().join(format!("other{k}.dcm")));
     }
     let message = error_text(read_series(folder.path(), &DicomOptions::default()));
-    for needle in [
-        "2 image series",
-        "--series",
-        "1.2.3",
-        "(3 slices)",
-        "9.8.7",
-        "(2 slices)",
-    ] {
-        assert!(
-            message.contains(needle),
-            "'{needle}' missing from: {message}"
-        );
+    for needle in ["2 image series", "--series", "1.2.3", "(3 slices)", "9.8.7", "(2 slices)"] {
+        assert!(message.contains(needle), "'{needle}' missing from: {message}");
     }
-    let options = DicomOptions {
-        series_uid: Some("9.8.7".into()),
-        ..DicomOptions::default()
-    };
+    let options = DicomOptions { series_uid: Some("9.8.7".into()), ..DicomOptions::default() };
     let import = read_series(folder.path(), &options).unwrap();
     assert_eq!(import.volume.dims, [2, 2, 2]);
     assert_eq!(import.series_uid, "9.8.7");
-    let options = DicomOptions {
-        series_uid: Some("4.4".into()),
-        ..DicomOptions::default()
-    };
+    let options = DicomOptions { series_uid: Some("4.4".into()), ..DicomOptions::default() };
     let message = error_text(read_series(folder.path(), &options));
-    assert!(
-        message.contains("4.4") && message.contains("1.2.3"),
-        "{message}"
-    );
+    assert!(message.contains("4.4") && message.contains("1.2.3"), "{message}");
 }
 
 /// Field linear in space (mm), integer at every pixel centre of the tilted series below.
@@ -114,21 +85,12 @@ fn linear_field(u: f64, v: f64, w: f64) -> f64 {
 /// Axial slices at uneven z (gaps 2, 2, 6, 2 mm), each shifted in y by z / 2 mm (a 26.6 degree
 /// tilt), 8 columns 1 mm apart, 6 rows 2 mm apart, holding `linear_field` in HU.
 fn write_tilted_series(folder: &Path) -> Vec<[f64; 3]> {
-    let positions: Vec<[f64; 3]> = [0.0, 2.0, 4.0, 10.0, 12.0]
-        .iter()
-        .map(|z| [0.0, z / 2.0, *z])
-        .collect();
+    let positions: Vec<[f64; 3]> = [0.0, 2.0, 4.0, 10.0, 12.0].iter().map(|z| [0.0, z / 2.0, *z]).collect();
     for (k, position) in positions.iter().enumerate().rev() {
-        let mut slice = SyntheticSlice::axial(
-            "5.5",
-            &format!("5.5.{k}"),
-            [8, 6],
-            *position,
-            |column, row| {
-                let hu = linear_field(column as f64, position[1] + 2.0 * row as f64, position[2]);
-                (hu + 1024.0) as i16
-            },
-        );
+        let mut slice = SyntheticSlice::axial("5.5", &format!("5.5.{k}"), [8, 6], *position, |column, row| {
+            let hu = linear_field(column as f64, position[1] + 2.0 * row as f64, position[2]);
+            (hu + 1024.0) as i16
+        });
         slice.pixel_spacing_mm = [2.0, 1.0];
         slice.intercept = -1024.0;
         slice.write(&folder.join(format!("{k}.dcm")));
@@ -148,15 +110,8 @@ fn tilted_uneven_series_is_resampled_reproducing_a_linear_field() {
     assert_eq!(volume.voxel_type, VoxelType::F32);
     assert_eq!(import.warnings.len(), 1);
     let warning = &import.warnings[0];
-    for needle in [
-        "gantry tilt 26.6 deg",
-        "uneven slice gaps 2.00..6.00 mm",
-        "1.000 x 2.000 x 2.000 mm",
-    ] {
-        assert!(
-            warning.contains(needle),
-            "'{needle}' missing from: {warning}"
-        );
+    for needle in ["gantry tilt 26.6 deg", "uneven slice gaps 2.00..6.00 mm", "1.000 x 2.000 x 2.000 mm"] {
+        assert!(warning.contains(needle), "'{needle}' missing from: {warning}");
     }
     let pad = linear_field(0.0, 0.0, 0.0) as f32;
     // Row coordinate of output position v in slice k: exact between pixel centres, padded
@@ -175,10 +130,7 @@ fn tilted_uneven_series_is_resampled_reproducing_a_linear_field() {
                 let value = volume.value_at(x, y, z) as f32;
                 if inside(below, v) && inside(above, v) {
                     let expected = linear_field(x as f64, v, w) as f32;
-                    assert!(
-                        (value - expected).abs() < 1e-3,
-                        "({x},{y},{z}): {value} != {expected}"
-                    );
+                    assert!((value - expected).abs() < 1e-3, "({x},{y},{z}): {value} != {expected}");
                     checked_inside += 1;
                 } else if outside(below, v) && outside(above, v) {
                     assert_eq!(value, pad, "({x},{y},{z}) lies outside every slice");
@@ -187,33 +139,20 @@ fn tilted_uneven_series_is_resampled_reproducing_a_linear_field() {
             }
         }
     }
-    assert!(
-        checked_inside > 250 && checked_pad > 30,
-        "{checked_inside} {checked_pad}"
-    );
+    assert!(checked_inside > 250 && checked_pad > 30, "{checked_inside} {checked_pad}");
 
-    let refuse = DicomOptions {
-        resample: Resample::Refuse,
-        ..DicomOptions::default()
-    };
+    let refuse = DicomOptions { resample: Resample::Refuse, ..DicomOptions::default() };
     let message = error_text(read_series(folder.path(), &refuse));
-    assert!(
-        message.contains("gantry tilt 26.6 deg") && message.contains("2.00..6.00 mm"),
-        "{message}"
-    );
+    assert!(message.contains("gantry tilt 26.6 deg") && message.contains("2.00..6.00 mm"), "{message}");
 }
 
 #[test]
 fn uneven_gaps_reproduce_a_ramp_along_the_normal_at_any_slice_spacing() {
     let folder = tempfile::tempdir().unwrap();
     for (k, z) in [0.0, 1.0, 3.0, 7.0].into_iter().enumerate() {
-        SyntheticSlice::axial(
-            "6.6",
-            &format!("6.6.{k}"),
-            [3, 2],
-            [0.0, 0.0, z],
-            |column, _| (10.0 * z) as i16 + column as i16,
-        )
+        SyntheticSlice::axial("6.6", &format!("6.6.{k}"), [3, 2], [0.0, 0.0, z], |column, _| {
+            (10.0 * z) as i16 + column as i16
+        })
         .write(&folder.path().join(format!("{k}.dcm")));
     }
     let import = read_series(folder.path(), &DicomOptions::default()).unwrap();
@@ -227,10 +166,7 @@ fn uneven_gaps_reproduce_a_ramp_along_the_normal_at_any_slice_spacing() {
             assert_eq!(import.volume.value_at(x, 1, z), 10.0 * z as f64 + x as f64);
         }
     }
-    let options = DicomOptions {
-        slice_spacing_mm: Some(3.0),
-        ..DicomOptions::default()
-    };
+    let options = DicomOptions { slice_spacing_mm: Some(3.0), ..DicomOptions::default() };
     let import = read_series(folder.path(), &options).unwrap();
     assert_eq!(import.volume.dims, [3, 2, 3]);
     let ramp: Vec<f64> = (0..3).map(|z| import.volume.value_at(0, 0, z)).collect();
@@ -241,29 +177,18 @@ fn uneven_gaps_reproduce_a_ramp_along_the_normal_at_any_slice_spacing() {
 fn repeated_files_are_dropped_and_different_images_at_one_position_refused() {
     let folder = tempfile::tempdir().unwrap();
     write_sagittal_series(folder.path(), "1.2.3", EXPLICIT_LITTLE);
-    std::fs::copy(
-        folder.path().join("a.dcm"),
-        folder.path().join("a_copy.dcm"),
-    )
-    .unwrap();
+    std::fs::copy(folder.path().join("a.dcm"), folder.path().join("a_copy.dcm")).unwrap();
     let import = read_series(folder.path(), &DicomOptions::default()).unwrap();
     assert_eq!(import.volume.dims, [4, 3, 3]);
     assert_eq!(import.files.len(), 3);
-    assert!(
-        import.warnings[0].contains("a_copy.dcm")
-            && import.warnings[0].contains("same SOPInstanceUID")
-    );
+    assert!(import.warnings[0].contains("a_copy.dcm") && import.warnings[0].contains("same SOPInstanceUID"));
 
-    let mut other =
-        SyntheticSlice::axial("1.2.3", "1.2.3.99", [4, 3], [-1.5, 10.0, 20.0], |_, _| 0);
+    let mut other = SyntheticSlice::axial("1.2.3", "1.2.3.99", [4, 3], [-1.5, 10.0, 20.0], |_, _| 0);
     other.orientation = [0.0, 1.0, 0.0, 0.0, 0.0, -1.0];
     other.pixel_spacing_mm = [0.8, 0.6];
     other.write(&folder.path().join("phase2.dcm"));
     let message = error_text(read_series(folder.path(), &DicomOptions::default()));
-    assert!(
-        message.contains("two different images") && message.contains("phase2.dcm"),
-        "{message}"
-    );
+    assert!(message.contains("two different images") && message.contains("phase2.dcm"), "{message}");
 }
 
 #[test]
@@ -274,10 +199,7 @@ fn inconsistent_or_incomplete_series_are_refused_with_the_file_named() {
             .write(&folder.path().join("first.dcm"));
         second.write(&folder.path().join("second.dcm"));
         let message = error_text(read_series(folder.path(), &DicomOptions::default()));
-        assert!(
-            message.contains("second.dcm") || message.contains("first.dcm"),
-            "{message}"
-        );
+        assert!(message.contains("second.dcm") || message.contains("first.dcm"), "{message}");
         message
     };
     let base = SyntheticSlice::axial("7.7", "7.7.1", [4, 4], [0.0, 0.0, 1.0], |_, _| 1);
@@ -296,10 +218,7 @@ fn inconsistent_or_incomplete_series_are_refused_with_the_file_named() {
     let mut without_pixels = base.clone();
     without_pixels.with_pixel_data = false;
     let message = write_pair(without_pixels);
-    assert!(
-        message.contains("PixelData") && message.contains("second.dcm"),
-        "{message}"
-    );
+    assert!(message.contains("PixelData") && message.contains("second.dcm"), "{message}");
     let mut colour = base;
     colour.samples_per_pixel = 3;
     assert!(write_pair(colour).contains("colour"));
@@ -308,9 +227,7 @@ fn inconsistent_or_incomplete_series_are_refused_with_the_file_named() {
 #[test]
 fn a_single_file_without_position_or_pixel_data() {
     let folder = tempfile::tempdir().unwrap();
-    let mut slice = SyntheticSlice::axial("8.8", "8.8.0", [3, 2], [0.0; 3], |column, row| {
-        (column * row) as i16
-    });
+    let mut slice = SyntheticSlice::axial("8.8", "8.8.0", [3, 2], [0.0; 3], |column, row| (column * row) as i16);
     slice.position_mm = None;
     let path = folder.path().join("one.dcm");
     slice.write(&path);
@@ -320,10 +237,7 @@ fn a_single_file_without_position_or_pixel_data() {
     slice.with_pixel_data = false;
     slice.write(&path);
     let error = read_series(&path, &DicomOptions::default()).unwrap_err();
-    assert!(
-        matches!(&error, VolumeError::MissingField { field: "PixelData", path: p } if p == &path),
-        "{error}"
-    );
+    assert!(matches!(&error, VolumeError::MissingField { field: "PixelData", path: p } if p == &path), "{error}");
 }
 
 #[test]
@@ -353,10 +267,7 @@ fn folders_without_image_series_are_errors() {
     std::fs::write(folder.path().join("volume.raw"), vec![0u8; 4096]).unwrap();
     assert!(!looks_like_dicom(folder.path()));
     let message = error_text(read_series(folder.path(), &DicomOptions::default()));
-    assert!(
-        message.contains("no DICOM image series") && message.contains("2 other files"),
-        "{message}"
-    );
+    assert!(message.contains("no DICOM image series") && message.contains("2 other files"), "{message}");
     // A DICOM header without the rest is skipped with a warning, then nothing is left.
     let original = std::fs::read("../shared/data/dicom/ct_small.dcm").unwrap();
     std::fs::write(folder.path().join("cut.dcm"), &original[..400]).unwrap();
@@ -375,14 +286,8 @@ fn a_series_that_cannot_be_read_is_skipped_with_a_warning_when_another_can() {
     let import = read_series(folder.path(), &DicomOptions::default()).unwrap();
     assert_eq!(import.series_uid, "1.2.3");
     assert_eq!(import.warnings.len(), 1, "{:?}", import.warnings);
-    assert!(
-        import.warnings[0].contains("skipped series 4.5.6")
-            && import.warnings[0].contains("colour")
-    );
-    let options = DicomOptions {
-        series_uid: Some("4.5.6".into()),
-        ..DicomOptions::default()
-    };
+    assert!(import.warnings[0].contains("skipped series 4.5.6") && import.warnings[0].contains("colour"));
+    let options = DicomOptions { series_uid: Some("4.5.6".into()), ..DicomOptions::default() };
     let error = read_series(folder.path(), &options).unwrap_err();
     assert!(matches!(error, VolumeError::Unsupported { .. }), "{error}");
 }
