@@ -59,6 +59,7 @@ impl MultiplyAdd for Fused {
 pub(crate) fn exp_nonpositive<A: MultiplyAdd>(x: f32) -> f32 {
     // 1.5 * 2^23: adding it rounds to an integer held in the low mantissa bits.
     const ROUNDING: f32 = 12_582_912.0;
+    // Exactly 0.693359375 in f32 (few mantissa bits, so n * LN2_HIGH is exact).
     const LN2_HIGH: f32 = 0.693_359_4;
     const LN2_LOW: f32 = -2.121_944_4e-4;
     let x = x.clamp(-87.0, 0.0);

@@ -186,10 +186,9 @@ pub(crate) fn modified_kernel(
         .sum();
     let penalty_vanishes = penalty_largest_eigenvalue.is_nan()
         || penalty_largest_eigenvalue <= 1e-12 * delta_trace * delta_trace / beta;
-    let penalty_scale = match (params.scale_mode, penalty_vanishes) {
-        (_, true) => 0.0,
-        (ScaleMode::Spectral, false) => 1.0 / penalty_largest_eigenvalue,
-        (ScaleMode::Sum, false) => 1.0,
+    let penalty_scale = match params.scale_mode {
+        ScaleMode::Spectral => 1.0 / penalty_largest_eigenvalue,
+        ScaleMode::Sum => 1.0,
     };
     let spectra = PenaltySpectra {
         nabla_largest_eigenvalue,
@@ -200,6 +199,16 @@ pub(crate) fn modified_kernel(
             penalty_largest_eigenvalue
         },
     };
+    if penalty_vanishes {
+        // M = I: the KND term has nothing to act on (e.g. every own-class neighbour is a
+        // duplicate), so K̃ = K and γ = α∘t exactly.
+        return Ok(ModifiedKernel {
+            modified: gram.clone(),
+            gram,
+            factor: None,
+            spectra,
+        });
+    }
     // 6.
     let mut system = &gram * &penalty;
     drop(penalty);

@@ -131,6 +131,18 @@ fn model_does_not_depend_on_the_order_of_samples() {
 }
 
 #[test]
+fn training_twice_gives_the_same_bits() {
+    // Same strokes, same labels: parallel linear algebra must not make the model drift.
+    let mut rng = SplitMix64::new(17);
+    let (values, labels) = blobs(&mut rng, 3, 150, 5, 1.5);
+    let first = train(&samples(values.clone()), &labels, &defaults()).unwrap();
+    let second = train(&samples(values), &labels, &defaults()).unwrap();
+    assert_eq!(first.coefficients(), second.coefficients());
+    assert_eq!(first.biases(), second.biases());
+    assert_eq!(first.report(), second.report());
+}
+
+#[test]
 fn identical_feature_vectors_across_classes_do_not_hang() {
     let values = vec![0.5; 5 * 60];
     let labels: Vec<u8> = (0..60).map(|i| if i < 35 { 1 } else { 2 }).collect();

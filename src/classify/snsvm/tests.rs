@@ -374,3 +374,36 @@ fn decision_values_match_an_explicit_feature_map() {
         }
     }
 }
+
+#[test]
+fn vanishing_within_class_spread_leaves_the_kernel_unchanged() {
+    // Every own-class neighbour is a duplicate: Delta = 0, so T = I and K~ = K. The zero
+    // within-class radius also makes every boundary weight 0, so Nabla = 0 and beta falls back
+    // to the kernel's scale (mean diagonal 1 for the RBF).
+    let mut points = Vec::new();
+    for _ in 0..6 {
+        points.extend_from_slice(&[0.0, 1.0]);
+    }
+    for _ in 0..6 {
+        points.extend_from_slice(&[1.5, -0.5]);
+    }
+    let owned = Owned {
+        points,
+        first_class: (0..12).map(|i| i < 6).collect(),
+        dim: 2,
+    };
+    let params = checked(SnSvmParams::default());
+    let kernels =
+        modified_kernel(&owned.problem(), &params, ScatterPath::SkipWhenEtaIsZero).unwrap();
+    assert_eq!(kernels.spectra.penalty_largest_eigenvalue, 0.0);
+    assert_eq!(kernels.spectra.nabla_largest_eigenvalue, 0.0);
+    assert_eq!(kernels.spectra.beta, 0.1);
+    for i in 0..12 {
+        for j in 0..12 {
+            assert_eq!(kernels.modified[(i, j)], kernels.gram[(i, j)]);
+        }
+    }
+    let model = train_binary(&owned.problem(), &params, ScatterPath::SkipWhenEtaIsZero).unwrap();
+    assert!(decision(&owned, &params.kernel, &model, &[0.0, 1.0]) > 0.0);
+    assert!(decision(&owned, &params.kernel, &model, &[1.5, -0.5]) < 0.0);
+}
