@@ -12,10 +12,12 @@
 //! never knows about them.
 
 pub mod atomic_file;
+pub mod classify;
 pub mod cli;
 pub mod features;
 pub mod phantom;
 pub mod rng;
+pub mod segmentation;
 pub mod slices;
 pub mod strokes;
 pub mod transfer;

@@ -142,9 +142,13 @@ fn gzip_nrrd_is_imported_once_into_the_cache_and_mapped_from_there() {
     assert!(first.is_memory_mapped(), "the imported volume is mapped from the cache file");
     assert_eq!(first.raw_bytes(), source.raw_bytes());
     assert_eq!(first.source, path);
-    let entries: Vec<_> = std::fs::read_dir(&cache).unwrap().collect();
+    let entries: Vec<_> = std::fs::read_dir(&cache)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "nrrd"))
+        .collect();
     assert_eq!(entries.len(), 1, "one cache entry");
-    let entry = entries[0].as_ref().unwrap().path();
+    let entry = entries[0].clone();
     let stamp = std::fs::metadata(&entry).unwrap().modified().unwrap();
 
     let second = open(&path, &options).unwrap();

@@ -25,6 +25,56 @@ pub enum Command {
     Info(InfoArgs),
     /// Import a volume (e.g. a DICOM series) into a memory-mappable NRRD file.
     Import(ImportArgs),
+    /// Classify every voxel from the lassos of a strokes file (SN-SVM); writes a label NRRD.
+    Classify(ClassifyArgs),
+}
+
+/// Which classifier `classify` trains.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ClassifierChoice {
+    /// The paper's SN-SVM (eta = 0.3, spectral scaling).
+    Snsvm,
+    /// The classical RBF SVM (eta = 0).
+    Svm,
+}
+
+#[derive(Debug, Args)]
+pub struct ClassifyArgs {
+    /// A volume file or DICOM folder, or `demo`.
+    pub volume: PathBuf,
+    #[command(flatten)]
+    pub open: VolumeArgs,
+    /// The lassos: a volasso-strokes/1 JSON file.
+    #[arg(long)]
+    pub strokes: PathBuf,
+    /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
+    #[arg(long)]
+    pub out: PathBuf,
+    #[arg(long, value_enum, default_value_t = ClassifierChoice::Snsvm)]
+    pub classifier: ClassifierChoice,
+    /// Training voxels kept per class (stratified over its strokes).
+    #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N")]
+    pub cap: usize,
+    /// Background threshold: `auto` (Otsu, never above a lassoed voxel), `none`, or a value;
+    /// voxels below it get label 0 and are not evaluated.
+    #[arg(long, default_value = "auto", value_parser = parse_background, value_name = "auto|none|VALUE")]
+    pub background: crate::segmentation::Background,
+    /// Evaluate the classifier on every foreground voxel (no coarse-to-fine refinement).
+    #[arg(long)]
+    pub exact: bool,
+    /// RBF kernel width g in exp(-g |x - y|^2) on standardised features.
+    #[arg(long, value_name = "G")]
+    pub kernel_width: Option<f64>,
+    /// SVM box constraint C.
+    #[arg(long, value_name = "C")]
+    pub c: Option<f64>,
+    /// SN-SVM eta (ignored with --classifier svm).
+    #[arg(long, value_name = "ETA")]
+    pub eta: Option<f64>,
+    /// Also write the training and predicted voxels' features as .npy files into DIR (for
+    /// scripts/compare_sklearn.py).
+    #[arg(long, value_name = "DIR")]
+    pub export_features: Option<PathBuf>,
 }
 
 #[derive(Debug, Args)]
@@ -113,6 +163,18 @@ fn parse_spacing(text: &str) -> Result<[f64; 3], String> {
         return Err("spacing must be positive".into());
     }
     Ok(spacing)
+}
+
+fn parse_background(text: &str) -> Result<crate::segmentation::Background, String> {
+    use crate::segmentation::Background;
+    match text {
+        "auto" => Ok(Background::Automatic),
+        "none" => Ok(Background::None),
+        value => match value.parse::<f64>() {
+            Ok(v) if v.is_finite() => Ok(Background::Below(v)),
+            _ => Err(format!("'{value}' is not auto, none or a number")),
+        },
+    }
 }
 
 fn parse_type(text: &str) -> Result<VoxelType, String> {

@@ -4,9 +4,11 @@
 //! sets up logging and turns an error into one sentence on stderr with a non-zero status.
 
 mod args;
+mod classify;
 mod import;
 mod info;
 mod memory;
+mod npy;
 
 pub use args::{Cli, Command, VolumeArgs};
 
@@ -20,6 +22,10 @@ pub enum CliError {
     Volume(#[from] crate::volume::VolumeError),
     #[error("{0}")]
     Usage(String),
+    #[error(transparent)]
+    Strokes(#[from] crate::strokes::StrokesError),
+    #[error(transparent)]
+    Segmentation(#[from] crate::segmentation::SegmentationError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
 }
@@ -42,6 +48,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Import(args)) => import::run(&args),
+        Some(Command::Classify(args)) => classify::run(&args),
         None => Err(CliError::Usage(
             "the kiosk UI is not part of this build yet; try `volasso info demo` or `volasso --help`".into(),
         )),
