@@ -3,10 +3,13 @@
 //! * `formats`: every volume in `../shared/data` opens with the right dimensions, type, spacing
 //!   and values (checked against figures computed independently with numpy).
 //! * `malformed`: broken, truncated and lying files each give one clear error, never a panic.
+//! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, and
+//!   `volasso classify`'s contract and errors (issue 3).
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
+mod classification;
 mod cli;
 mod formats;
 mod malformed;

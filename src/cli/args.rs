@@ -71,6 +71,10 @@ pub struct ClassifyArgs {
     /// SN-SVM eta (ignored with --classifier svm).
     #[arg(long, value_name = "ETA")]
     pub eta: Option<f64>,
+    /// Benchmark: run training and prediction N times and report the median of each timing
+    /// (the label volume of the last run is written).
+    #[arg(long, default_value_t = 1, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=1000))]
+    pub repeat: u32,
     /// Also write the training and predicted voxels' features as .npy files into DIR (for
     /// scripts/compare_sklearn.py).
     #[arg(long, value_name = "DIR")]

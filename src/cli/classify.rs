@@ -5,7 +5,9 @@
 //! Timings in the JSON: `load` opens the volume and rasterises the lassos; `features` computes
 //! and standardises the training voxels' features; `train` fits the classifier; `predict`
 //! classifies the volume, including the features of every voxel it evaluates (they are
-//! computed on the fly, slab by slab, never stored).
+//! computed on the fly, slab by slab, never stored); `total` is their sum (writing the label
+//! file is not timed). With `--repeat N` each is the median over N runs: the benchmark of
+//! issue 3 (`benches/README.md`).
 
 use super::CliError;
 use super::args::{ClassifierChoice, ClassifyArgs};
@@ -30,18 +32,33 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     let load_seconds = total.elapsed().as_secs_f64();
 
     let options = segmentation_options(args);
-    let segmenter = segmentation::train(&volume, &training, &options)?;
+    let mut runs = Vec::new();
+    let mut result = None;
+    for _ in 0..args.repeat {
+        let segmenter = segmentation::train(&volume, &training, &options)?;
+        let predict_started = Instant::now();
+        let cancel = AtomicBool::new(false);
+        let labels = segmentation::label_volume(&volume, &segmenter, options.refinement, &|_| {}, &cancel)?;
+        let predict_seconds = predict_started.elapsed().as_secs_f64();
+        runs.push([segmenter.summary.features_seconds, segmenter.summary.train_seconds, predict_seconds]);
+        result = Some((segmenter, labels));
+    }
+    let Some((segmenter, labels)) = result else {
+        return Err(CliError::Usage("--repeat must be at least 1".into()));
+    };
     if segmenter.report().hit_cap() {
         log::warn!("the SVM solver hit its iteration cap; the result may be less accurate");
     }
-    let predict_started = Instant::now();
-    let cancel = AtomicBool::new(false);
-    let labels = segmentation::label_volume(&volume, &segmenter, options.refinement, &|_| {}, &cancel)?;
-    let predict_seconds = predict_started.elapsed().as_secs_f64();
+    let median = |k: usize| {
+        let mut values: Vec<f64> = runs.iter().map(|r| r[k]).collect();
+        values.sort_by(f64::total_cmp);
+        values[values.len() / 2]
+    };
+    let (features_seconds, train_seconds, predict_seconds) = (median(0), median(1), median(2));
 
     let comment = format!("volasso labels of {} from {}", volume.source.display(), args.strokes.display());
     nrrd::write(&args.out, labels.dims, volume.spacing_mm, VoxelType::U8, ByteOrder::Little, &labels.labels, &comment)?;
-    let total_seconds = total.elapsed().as_secs_f64();
+    let total_seconds = load_seconds + features_seconds + train_seconds + predict_seconds;
 
     let summary = &segmenter.summary;
     let report = segmenter.report();
@@ -62,11 +79,12 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "solver_hit_iteration_cap": report.hit_cap(),
         "seconds": {
             "load": load_seconds,
-            "features": summary.features_seconds,
-            "train": summary.train_seconds,
+            "features": features_seconds,
+            "train": train_seconds,
             "predict": predict_seconds,
             "total": total_seconds,
         },
+        "repeats": args.repeat,
     });
     if let Some(folder) = &args.export_features {
         export_features(folder, &volume, &segmenter, &training, &options, &labels, &line)?;

@@ -48,7 +48,9 @@ pub(super) fn label_volume(
             Some(grid)
         }
     };
-    let tolerance = (INTENSITY_TOLERANCE * segmenter.standardiser.std[0]) as f32;
+    let tolerance_fraction =
+        std::env::var("VOLASSO_TOL").ok().and_then(|t| t.parse().ok()).unwrap_or(INTENSITY_TOLERANCE);
+    let tolerance = (tolerance_fraction * segmenter.standardiser.std[0]) as f32;
 
     let mut labels = vec![0u8; volume.voxel_count()];
     let classified = labels
@@ -209,9 +211,11 @@ impl CoarseGrid {
             .collect::<Result<(), SegmentationError>>()
     }
 
-    /// The label a fine voxel takes from its coarse neighbours, or `None` when it must be
-    /// evaluated: the neighbours disagree, one is background, or `value` lies outside their
-    /// intensity range widened by `tolerance`.
+    /// The label a fine voxel (itself above the background threshold) takes from its coarse
+    /// neighbours, or `None` when it must be evaluated: its foreground neighbours disagree or
+    /// there are none, or `value` lies outside their intensity range widened by `tolerance`.
+    /// Background neighbours do not veto: at a surface the voxel's own intensity already says
+    /// it is foreground, and a partial-volume voxel there falls outside the interior's range.
     #[inline]
     fn inherited_label(&self, x: usize, y: usize, z: usize, value: f32, tolerance: f32) -> Option<u8> {
         // An odd coordinate lies between two coarse voxels (one at the far border).
@@ -228,7 +232,10 @@ impl CoarseGrid {
                 for &cx in &xs[..nx] {
                     let index = self.index(cx, cy, cz);
                     let label = self.labels[index];
-                    if label == 0 || common.is_some_and(|c| c != label) {
+                    if label == 0 {
+                        continue;
+                    }
+                    if common.is_some_and(|c| c != label) {
                         return None;
                     }
                     common = Some(label);

@@ -1,0 +1,126 @@
+//! Classification end to end (issue 3): accuracy on the demo phantom with its ground truth,
+//! coarse-to-fine against exact, the `classify` command's contract, and its clear errors.
+
+use crate::support::{assert_clean_error, volasso};
+use std::sync::atomic::AtomicBool;
+use volasso::phantom::{self, dice};
+use volasso::segmentation::{self, Refinement, SegmentationError, SegmentationOptions};
+use volasso::strokes::TrainingSet;
+
+fn demo_labels(refinement: Refinement) -> (phantom::Phantom, Vec<u8>) {
+    let phantom = phantom::demo_foot();
+    // Two lassos per class on each top-entropy slice, inside soft tissue (1) and bone (2).
+    let strokes = phantom::lassos_inside(&phantom, &[1, 2], 2, 3.0);
+    let training = TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
+    let options = SegmentationOptions { refinement, ..SegmentationOptions::default() };
+    let segmenter = segmentation::train(&phantom.volume, &training, &options).unwrap();
+    let labels =
+        segmentation::label_volume(&phantom.volume, &segmenter, refinement, &|_| {}, &AtomicBool::new(false)).unwrap();
+    (phantom, labels.labels)
+}
+
+#[test]
+fn lassos_on_the_top_entropy_slices_segment_the_phantom_with_dice_above_0_9() {
+    let (phantom, labels) = demo_labels(Refinement::CoarseToFine);
+    // The phantom's classes: 0 air, 1 soft tissue, 2 bone, 3 joint (not lassoed: too thin for
+    // the paper's features, see the phantom's doc; it is left out of the score).
+    let scored: Vec<usize> = (0..labels.len()).filter(|&i| phantom.truth[i] != 3).collect();
+    let truth: Vec<u8> = scored.iter().map(|&i| phantom.truth[i]).collect();
+    let found: Vec<u8> = scored.iter().map(|&i| labels[i]).collect();
+    let per_class: Vec<f64> = [0u8, 1, 2].iter().map(|&c| dice(&truth, &found, c)).collect();
+    let macro_dice = per_class.iter().sum::<f64>() / 3.0;
+    println!(
+        "Dice air {:.3}, soft tissue {:.3}, bone {:.3}; macro {macro_dice:.3}",
+        per_class[0], per_class[1], per_class[2]
+    );
+    assert!(macro_dice >= 0.9, "macro Dice {macro_dice}");
+    assert!(per_class.iter().all(|&d| d >= 0.9), "per class {per_class:?}");
+}
+
+#[test]
+fn coarse_to_fine_labels_match_the_exact_computation_closely() {
+    let (_, exact) = demo_labels(Refinement::Exact);
+    let (_, refined) = demo_labels(Refinement::CoarseToFine);
+    let classified = exact.iter().filter(|&&l| l > 0).count();
+    let differing = exact.iter().zip(&refined).filter(|(a, b)| a != b).count();
+    let fraction = differing as f64 / classified as f64;
+    println!("coarse-to-fine differs from exact on {differing} of {classified} classified voxels ({fraction:.5})");
+    assert!(fraction < 0.005, "{fraction}");
+}
+
+#[test]
+fn cancelling_stops_the_labelling() {
+    let phantom = phantom::demo_foot_with([48, 32, 24], 1).unwrap();
+    let strokes = phantom::lassos_inside(&phantom, &[1, 2], 1, 1.5);
+    let training = TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
+    let segmenter = segmentation::train(&phantom.volume, &training, &SegmentationOptions::default()).unwrap();
+    let cancelled = AtomicBool::new(true);
+    let result = segmentation::label_volume(&phantom.volume, &segmenter, Refinement::Exact, &|_| {}, &cancelled);
+    assert!(matches!(result, Err(SegmentationError::Cancelled)));
+}
+
+#[test]
+fn classify_prints_the_json_line_and_writes_the_labels() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("labels.nrrd");
+    let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
+    let output = volasso(&["classify", "demo", "--strokes", strokes, "--out", out.to_str().unwrap()], folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    for key in ["voxels", "classified_voxels", "training_voxels"] {
+        assert!(!line[key].is_null(), "{key} missing from {line}");
+    }
+    for key in ["load", "features", "train", "predict", "total"] {
+        assert!(line["seconds"][key].as_f64().is_some(), "seconds.{key} missing");
+    }
+    assert_eq!(line["voxels"], 192 * 128 * 96);
+    let labels = volasso::volume::open(&out, &Default::default()).unwrap();
+    assert_eq!(labels.dims, [192, 128, 96]);
+    assert_eq!(labels.voxel_type, volasso::VoxelType::U8);
+    assert_eq!(labels.value_range().max, 2.0);
+}
+
+#[test]
+fn classify_refuses_bad_strokes_clearly_and_writes_nothing() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("labels.nrrd");
+    let square = |x: f64| format!("[[{x},10],[{},10],[{},20],[{x},20]]", x + 10.0, x + 10.0);
+    let cases = [
+        (
+            "one-class",
+            format!(
+                r#"{{"format":"volasso-strokes/1","classes":[{{"name":"a","strokes":[{{"axis":"z","slice":40,"points":{}}}]}}]}}"#,
+                square(60.0)
+            ),
+            "at least 2 classes",
+        ),
+        (
+            "empty-class",
+            format!(
+                r#"{{"format":"volasso-strokes/1","classes":[{{"name":"a","strokes":[{{"axis":"z","slice":40,"points":{}}}]}},{{"name":"b","strokes":[{{"axis":"z","slice":40,"points":[[1,1],[2,2]]}}]}}]}}"#,
+                square(60.0)
+            ),
+            "select no voxel",
+        ),
+        (
+            "off-volume",
+            format!(
+                r#"{{"format":"volasso-strokes/1","classes":[{{"name":"a","strokes":[{{"axis":"z","slice":400,"points":{}}}]}}]}}"#,
+                square(60.0)
+            ),
+            "slice 400",
+        ),
+        ("wrong-format", r#"{"format":"something/2","classes":[]}"#.to_string(), "format"),
+        ("not-json", "lasso!".to_string(), "strokes file"),
+    ];
+    for (name, text, expected) in cases {
+        let path = folder.path().join(format!("{name}.json"));
+        std::fs::write(&path, text).unwrap();
+        let output = volasso(
+            &["classify", "demo", "--strokes", path.to_str().unwrap(), "--out", out.to_str().unwrap()],
+            folder.path(),
+        );
+        assert_clean_error(&output, expected, name);
+        assert!(!out.exists(), "{name}: nothing is written on error");
+    }
+}
