@@ -13,6 +13,7 @@
 
 pub mod atomic_file;
 pub mod cli;
+pub mod render;
 pub mod transfer;
 pub mod volume;
 
