@@ -86,32 +86,57 @@ fn real_volumes() {
 #[test]
 #[ignore = "pictures of the class-border methods for a person; set VOLASSO_RENDER_LOOK"]
 fn class_border_comparison() {
-    // A sphere (class 1) half sunk into a slab (class 2): a curved border between classes.
-    let phantom = Phantom::new([48; 3], [1.0; 3], VoxelType::U8, |p| {
-        let in_sphere = p[0] * p[0] + p[1] * p[1] + (p[2] - 2.0) * (p[2] - 2.0) <= 13.0 * 13.0;
-        if in_sphere {
-            1
-        } else if p[2] < 2.0 && p[0].abs() < 20.0 && p[1].abs() < 20.0 && p[2] > -12.0 {
-            2
-        } else {
-            0
+    // A sphere (class 1, red) half sunk into a slab (class 2, blue). The scalar is a smooth ramp
+    // across the union's surface (as in real data), so only the labels say where one class
+    // ends and the other begins; they do so voxel by voxel, as a classifier's labels do.
+    let dims = [48usize; 3];
+    let mut values = Vec::new();
+    let mut labels = Vec::new();
+    for z in 0..48 {
+        for y in 0..48 {
+            for x in 0..48 {
+                let p = [x, y, z].map(|c| c as f32 + 0.5 - 24.0);
+                let sphere = (p[0] * p[0] + p[1] * p[1] + (p[2] - 2.0).powi(2)).sqrt() - 13.0;
+                let outside = [p[0].abs() - 20.0, p[1].abs() - 20.0, (p[2] + 5.0).abs() - 7.0];
+                let slab = outside.iter().map(|o| o.max(0.0).powi(2)).sum::<f32>().sqrt()
+                    + outside.iter().copied().fold(f32::MIN, f32::max).min(0.0);
+                values.push(200.0 * (0.5 - sphere.min(slab) / 3.0).clamp(0.0, 1.0));
+                labels.push(if sphere < 0.0 {
+                    1
+                } else if slab < 0.0 {
+                    2
+                } else {
+                    0
+                });
+            }
         }
-    });
-    let styles = [style(0.0, 0.7), style(210.0, 0.7)];
-    let camera = Camera {
+    }
+    let volume = Volume::from_f32(dims, [1.0; 3], &values, Path::new("sphere on slab")).unwrap();
+    let phantom = Phantom { volume, labels };
+    let styles = [style(0.0, 0.7), style(215.0, 0.7)];
+    let overview = Camera {
         azimuth_degrees: 30.0,
         elevation_degrees: 25.0,
         zoom: 2.2,
         pan_mm: [0.0, 0.0],
         projection: Projection::Perspective { fov_y_degrees: 30.0 },
     };
+    // Close up on the seam where the sphere enters the slab, on the side facing the camera.
+    let rays = overview.view_rays([48.0; 3], 256, 256);
+    let azimuth = overview.azimuth_degrees.to_radians();
+    let seam = [13.0 * azimuth.sin(), -13.0 * azimuth.cos(), 2.0];
+    let along = |axis: [f32; 3]| -(0..3).map(|a| axis[a] * seam[a]).sum::<f32>();
+    let close_up = Camera { zoom: 6.0, pan_mm: [along(rays.right_in_world), along(rays.up_in_world)], ..overview };
     let cases = [
         ("largest-indicator", RenderMode::Postclassified, LabelInterpolation::LargestIndicatorWeight),
         ("nearest-label", RenderMode::Postclassified, LabelInterpolation::Nearest),
         ("trilinear-rgba", RenderMode::Preclassified, LabelInterpolation::LargestIndicatorWeight),
     ];
-    for shading in [false, true] {
-        for (name, mode, label_interpolation) in cases {
+    let tile = 256;
+    let mut sheet = image::RgbaImage::new(3 * tile, 2 * tile);
+    for (column, (name, mode, label_interpolation)) in cases.into_iter().enumerate() {
+        let mut ray_caster = phantom.ray_caster(&styles, mode);
+        for (row, (camera, shading)) in [(overview, true), (close_up, false)].into_iter().enumerate() {
             let settings = RenderSettings {
                 mode,
                 label_interpolation,
@@ -119,9 +144,11 @@ fn class_border_comparison() {
                 background: [1.0, 1.0, 1.0, 1.0],
                 ..RenderSettings::default()
             };
-            let image = capture(&mut phantom.ray_caster(&styles, mode), &camera, &settings, [384, 384]);
-            look(&format!("border-{name}-{}", if shading { "shaded" } else { "flat" }), &image);
+            let image = capture(&mut ray_caster, &camera, &settings, [tile, tile]);
+            look(&format!("border-{name}-{}", if shading { "shaded" } else { "flat-close-up" }), &image);
             assert!(image.pixels().any(|p| p[2] < 200), "{name}: nothing drawn");
+            image::imageops::replace(&mut sheet, &image, (column as u32 * tile) as i64, (row as u32 * tile) as i64);
         }
     }
+    look("border-comparison-sheet", &sheet);
 }
