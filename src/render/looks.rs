@@ -9,7 +9,7 @@
 use super::test_support::{Phantom, capture, look, style};
 use super::{Camera, LabelInterpolation, Projection, RenderMode, RenderSettings};
 use crate::transfer::ClassStyle;
-use crate::volume::{OpenOptions, Volume, VoxelType};
+use crate::volume::{OpenOptions, Volume};
 use std::path::Path;
 
 /// Label k where the value reaches `thresholds[k - 1]` (and not the next), 0 below the first.
