@@ -1,8 +1,10 @@
 //! Frame time of the ray caster: the median of `FRAMES` frames after `WARM_UP` frames, each
 //! drawn offscreen and waited for (no readback), for both render modes.
 //!
-//! `cargo run --release --example render_benchmark -- [VOLUME] [WIDTHxHEIGHT]`
-//! (defaults: `../shared/data/engine_256x256x256_uint8.raw`, 1280x800). Classes are made up:
+//! `cargo run --release --example render_benchmark -- [VOLUME] [WIDTHxHEIGHT] [--variants]`
+//! (defaults: `../shared/data/engine_256x256x256_uint8.raw`, 1280x800; `--variants` also times
+//! post-classification without skipping, without shading, and at one sample per voxel).
+//! Classes are made up:
 //! two value thresholds at 1/4 and 1/2 of the value range, a faint and an opaque class,
 //! perspective camera at the default orbit, shading, jitter and empty-space skipping on.
 
@@ -19,6 +21,7 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     let mut arguments = std::env::args().skip(1);
     let path = PathBuf::from(arguments.next().unwrap_or_else(|| "../shared/data/engine_256x256x256_uint8.raw".into()));
     let size = arguments.next().unwrap_or_else(|| "1280x800".into());
+    let variants = arguments.next().is_some_and(|a| a == "--variants");
     let (width, height) = size.split_once('x').ok_or("size must be WIDTHxHEIGHT")?;
     let (width, height): (u32, u32) = (width.parse()?, height.parse()?);
 
@@ -51,10 +54,24 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     println!("volume: {} {:?} {}", path.display(), volume.dims, volume.voxel_type.name());
     let scene = Scene { volume: &volume, labels: &labels, class_styles: &styles, rgba: None };
     let target = OffscreenTarget::new(&gpu.device, &gpu.queue, width, height, OFFSCREEN_FORMAT)?;
-    for mode in [RenderMode::Postclassified, RenderMode::Preclassified] {
-        let mut ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT)?;
-        scene.load_into(&mut ray_caster, mode)?;
-        let settings = RenderSettings { mode, ..RenderSettings::default() };
+    let post = RenderSettings { mode: RenderMode::Postclassified, ..RenderSettings::default() };
+    let pre = RenderSettings { mode: RenderMode::Preclassified, ..post };
+    let mut runs = vec![("default", post), ("default", pre)];
+    if variants {
+        runs.push(("no-skipping", RenderSettings { empty_space_skipping: false, ..post }));
+        runs.push(("no-shading", RenderSettings { shading: false, ..post }));
+        runs.push(("step-1-voxel", RenderSettings { step_voxels: 1.0, ..post }));
+    }
+    let mut loaded: Option<(RenderMode, RayCaster)> = None;
+    for (name, settings) in runs {
+        let mut ray_caster = match loaded.take() {
+            Some((mode, ray_caster)) if mode == settings.mode => ray_caster,
+            _ => {
+                let mut ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT)?;
+                scene.load_into(&mut ray_caster, settings.mode)?;
+                ray_caster
+            }
+        };
         let camera = Camera::default();
         for _ in 0..WARM_UP {
             target.draw(&mut ray_caster, &camera, &settings)?;
@@ -68,11 +85,13 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
             .collect::<Result<_, _>>()?;
         milliseconds.sort_by(f64::total_cmp);
         println!(
-            "render-{mode:?}-{width}x{height}: median {:.1} ms over {FRAMES} frames (min {:.1}, max {:.1})",
+            "render-{:?}-{name}-{width}x{height}: median {:.1} ms over {FRAMES} frames (min {:.1}, max {:.1})",
+            settings.mode,
             milliseconds[FRAMES / 2],
             milliseconds[0],
             milliseconds[FRAMES - 1]
         );
+        loaded = Some((settings.mode, ray_caster));
     }
     Ok(())
 }

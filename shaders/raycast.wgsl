@@ -183,8 +183,15 @@ fn postclassified_sample(texture_position: vec3<f32>, ray_direction: vec3<f32>) 
         let along = select(1.0 - fraction, fraction, offset == vec3<u32>(1u));
         weights[corner] = along.x * along.y * along.z;
     }
+    var uniform_neighbourhood = true;
+    for (var corner = 1u; corner < 8u; corner++) {
+        uniform_neighbourhood = uniform_neighbourhood && labels[corner] == labels[0];
+    }
     var label = 0u;
-    if has_flag(FLAG_NEAREST_LABEL) {
+    if uniform_neighbourhood {
+        // Inside a class (or background) every method agrees; skip the vote.
+        label = labels[0];
+    } else if has_flag(FLAG_NEAREST_LABEL) {
         let nearest = vec3<u32>(fraction >= vec3<f32>(0.5));
         label = labels[nearest.x | (nearest.y << 1u) | (nearest.z << 2u)];
     } else {

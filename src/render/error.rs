@@ -45,6 +45,9 @@ pub enum RenderError {
     #[error("headless rendering needs an Rgba8Unorm ray caster, this one renders to {found:?}")]
     WrongTargetFormat { found: wgpu::TextureFormat },
 
+    #[error("the GPU device failed: {problem}")]
+    Device { problem: String },
+
     #[error("reading the rendered image back from the GPU failed: {problem}")]
     ReadBack { problem: String },
 

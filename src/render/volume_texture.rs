@@ -102,21 +102,23 @@ fn slices_per_slab(slice_bytes: usize) -> usize {
     (SLAB_BYTES / slice_bytes.max(1)).max(1)
 }
 
-/// Writes z-slices `z_first..z_first + slices` from `bytes` (tightly packed rows).
+/// Writes z-slices `slab` from `bytes` (tightly packed rows), then
+/// submits and waits: `write_texture` stages its bytes until the next submit, so without this
+/// the staging copies of all slabs would add up to a second copy of the volume.
 fn write_slab(
+    device: &wgpu::Device,
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,
     dims: [usize; 3],
     bytes_per_voxel: usize,
-    z_first: usize,
-    slices: usize,
+    slab: std::ops::Range<usize>,
     bytes: &[u8],
-) {
+) -> Result<(), RenderError> {
     queue.write_texture(
         wgpu::TexelCopyTextureInfo {
             texture,
             mip_level: 0,
-            origin: wgpu::Origin3d { x: 0, y: 0, z: z_first as u32 },
+            origin: wgpu::Origin3d { x: 0, y: 0, z: slab.start as u32 },
             aspect: wgpu::TextureAspect::All,
         },
         bytes,
@@ -125,8 +127,13 @@ fn write_slab(
             bytes_per_row: Some((dims[0] * bytes_per_voxel) as u32),
             rows_per_image: Some(dims[1] as u32),
         },
-        wgpu::Extent3d { width: dims[0] as u32, height: dims[1] as u32, depth_or_array_layers: slices as u32 },
+        wgpu::Extent3d { width: dims[0] as u32, height: dims[1] as u32, depth_or_array_layers: slab.len() as u32 },
     );
+    let submission = queue.submit([]);
+    device
+        .poll(wgpu::PollType::Wait { submission_index: Some(submission), timeout: None })
+        .map(|_| ())
+        .map_err(|error| RenderError::Device { problem: error.to_string() })
 }
 
 /// Uploads the scalar volume (see the module doc for the format).
@@ -144,7 +151,15 @@ pub fn upload_scalar(
         let step = slices_per_slab(plane);
         for z in (0..dims[2]).step_by(step) {
             let slices = step.min(dims[2] - z);
-            write_slab(queue, &texture.texture, dims, 1, z, slices, &bytes[z * plane..(z + slices) * plane]);
+            write_slab(
+                device,
+                queue,
+                &texture.texture,
+                dims,
+                1,
+                z..z + slices,
+                &bytes[z * plane..(z + slices) * plane],
+            )?;
         }
         texture.geometry = VolumeGeometry::of(volume);
         return Ok(ScalarTexture { volume: texture, value_min: 0.0, value_span: 255.0 });
@@ -166,7 +181,7 @@ pub fn upload_scalar(
             let normalised = if value.is_finite() { ((value - value_min) / value_span).clamp(0.0, 1.0) } else { 0.0 };
             out.copy_from_slice(&half::f16::from_f32(normalised).to_le_bytes());
         }
-        write_slab(queue, &texture.texture, dims, 2, z, slices, &staging[..count * 2]);
+        write_slab(device, queue, &texture.texture, dims, 2, z..z + slices, &staging[..count * 2])?;
     }
     texture.geometry = VolumeGeometry::of(volume);
     Ok(ScalarTexture { volume: texture, value_min, value_span })
@@ -186,7 +201,7 @@ pub fn upload_labels(
     let step = slices_per_slab(plane);
     for z in (0..dims[2]).step_by(step) {
         let slices = step.min(dims[2] - z);
-        write_slab(queue, &texture.texture, dims, 1, z, slices, &labels[z * plane..(z + slices) * plane]);
+        write_slab(device, queue, &texture.texture, dims, 1, z..z + slices, &labels[z * plane..(z + slices) * plane])?;
     }
     texture.geometry = geometry;
     Ok(texture)
@@ -221,7 +236,7 @@ pub fn upload_rgba(
             }
             out[3] = voxel[3];
         }
-        write_slab(queue, &texture.texture, dims, 4, z, slices, &staging[..source.len()]);
+        write_slab(device, queue, &texture.texture, dims, 4, z..z + slices, &staging[..source.len()])?;
     }
     texture.geometry = geometry;
     Ok(texture)
@@ -237,7 +252,7 @@ pub fn upload_bricks(
 ) -> Result<VolumeTexture, RenderError> {
     check_size("brick occupancy", brick_dims, brick_dims.iter().product(), occupancy.len())?;
     let texture = create_texture(device, label, "brick occupancy", brick_dims, wgpu::TextureFormat::R8Uint)?;
-    write_slab(queue, &texture.texture, brick_dims, 1, 0, brick_dims[2], occupancy);
+    write_slab(device, queue, &texture.texture, brick_dims, 1, 0..brick_dims[2], occupancy)?;
     Ok(texture)
 }
 

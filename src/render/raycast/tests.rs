@@ -340,6 +340,21 @@ fn srgb_targets_store_the_same_display_values() {
     assert!(largest <= 2, "sRGB round trip off by {largest}/255");
 }
 
+fn target_view(device: &wgpu::Device, size: [u32; 2]) -> wgpu::TextureView {
+    device
+        .create_texture(&wgpu::TextureDescriptor {
+            label: Some("test target"),
+            size: wgpu::Extent3d { width: size[0], height: size[1], depth_or_array_layers: 1 },
+            mip_level_count: 1,
+            sample_count: 1,
+            dimension: wgpu::TextureDimension::D2,
+            format: OFFSCREEN_FORMAT,
+            usage: wgpu::TextureUsages::RENDER_ATTACHMENT,
+            view_formats: &[],
+        })
+        .create_view(&Default::default())
+}
+
 #[test]
 fn missing_or_mismatched_inputs_are_errors_not_garbage() {
     let gpu = gpu();
@@ -366,6 +381,10 @@ fn missing_or_mismatched_inputs_are_errors_not_garbage() {
     ray_caster.set_labels(&phantom.labels).unwrap();
     ray_caster.set_class_table(&styles).unwrap();
     assert!(target.capture(&mut ray_caster, &camera, &post).is_ok());
+    ray_caster.resize(4, 4);
+    let mut encoder = gpu.device.create_command_encoder(&Default::default());
+    let view = target_view(&gpu.device, [8, 8]);
+    assert!(matches!(ray_caster.render(&mut encoder, &view, &camera, &post), Err(RenderError::BadSetting { .. })));
     let bad = RenderSettings { step_voxels: 0.0, ..post };
     assert!(matches!(target.capture(&mut ray_caster, &camera, &bad), Err(RenderError::BadSetting { .. })));
     let huge =
