@@ -33,6 +33,7 @@ fn check_sphere_silhouette(name: &str, phantom: &Phantom, radius_mm: f32, camera
         radius_mm / camera.mm_per_pixel(extent_mm, SIZE[0], SIZE[1])
     };
     let measured = opaque_disc_radius(&image);
+    eprintln!("{name}: silhouette radius {measured:.2} px, analytic {expected_pixels:.2} px");
     assert!((measured - expected_pixels).abs() < 1.0, "{name}: radius {measured} px, expected {expected_pixels}");
     let centre = opaque_centroid(&image);
     assert!((centre[0] - 64.0).abs() < 0.5 && (centre[1] - 64.0).abs() < 0.5, "{name}: centred at {centre:?}");
