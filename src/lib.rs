@@ -16,6 +16,7 @@ pub mod classify;
 pub mod cli;
 pub mod features;
 pub mod phantom;
+pub mod render;
 pub mod rng;
 pub mod segmentation;
 pub mod slices;

@@ -48,9 +48,7 @@ pub(super) fn label_volume(
             Some(grid)
         }
     };
-    let tolerance_fraction =
-        std::env::var("VOLASSO_TOL").ok().and_then(|t| t.parse().ok()).unwrap_or(INTENSITY_TOLERANCE);
-    let tolerance = (tolerance_fraction * segmenter.standardiser.std[0]) as f32;
+    let tolerance = (INTENSITY_TOLERANCE * segmenter.standardiser.std[0]) as f32;
 
     let mut labels = vec![0u8; volume.voxel_count()];
     let classified = labels

@@ -1,0 +1,149 @@
+//! Per-frame render settings: which classification, sampling, shading, clipping and
+//! background; checked once by [`RenderSettings::validate`] before they reach the GPU.
+//!
+//! Never: holds volume data or camera pose (see [`super::Camera`]).
+
+use super::RenderError;
+
+/// Where colour and opacity come from.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum RenderMode {
+    /// The paper's output: an RGBA8 volume (straight alpha per voxel), interpolated trilinearly
+    /// with opacity-weighted colours.
+    Preclassified,
+    /// Classify after interpolation: the label volume picks the class of each sample, the
+    /// class's [`crate::transfer::ClassStyle`] gives colour and opacity from the interpolated
+    /// scalar's gradient.
+    Postclassified,
+}
+
+/// How post-classification picks a sample's class from the eight surrounding labels.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
+pub enum LabelInterpolation {
+    /// The class whose trilinearly weighted indicator is largest: boundaries follow the 0.5
+    /// level set of each class's indicator (smooth, no colour bleeding). The default.
+    LargestIndicatorWeight,
+    /// The label of the nearest voxel (blocky staircase boundaries; kept for comparison).
+    Nearest,
+}
+
+/// The part of the volume drawn, in normalised volume coordinates ([0, 1] along each axis).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct ClipBox {
+    pub min: [f32; 3],
+    pub max: [f32; 3],
+}
+
+impl ClipBox {
+    pub const WHOLE: ClipBox = ClipBox { min: [0.0; 3], max: [1.0; 3] };
+}
+
+/// Blinn-Phong with a headlight, applied to the gradient's direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Lighting {
+    pub ambient: f32,
+    pub diffuse: f32,
+    pub specular: f32,
+    pub shininess: f32,
+}
+
+impl Default for Lighting {
+    fn default() -> Lighting {
+        Lighting { ambient: 0.35, diffuse: 0.65, specular: 0.25, shininess: 24.0 }
+    }
+}
+
+/// Everything about a frame except the camera and the data.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct RenderSettings {
+    pub mode: RenderMode,
+    pub label_interpolation: LabelInterpolation,
+    /// Gradient-based shading; off draws the classified colours unlit.
+    pub shading: bool,
+    pub lighting: Lighting,
+    /// Skip bricks that hold nothing visible (never changes the image, only the time).
+    pub empty_space_skipping: bool,
+    /// Offsets each ray's first sample by a per-pixel hash of up to one step (no wood grain).
+    pub jitter: bool,
+    /// Changes the jitter pattern (a UI may vary it per frame and accumulate).
+    pub jitter_seed: u32,
+    /// Distance between samples along a ray, in units of the smallest voxel spacing.
+    pub step_voxels: f32,
+    /// Rays stop once their accumulated opacity reaches this (early ray termination).
+    pub opaque_alpha: f32,
+    pub clip_box: ClipBox,
+    /// Straight RGBA in [0, 1], composited behind the volume.
+    pub background: [f32; 4],
+}
+
+impl Default for RenderSettings {
+    fn default() -> RenderSettings {
+        RenderSettings {
+            mode: RenderMode::Postclassified,
+            label_interpolation: LabelInterpolation::LargestIndicatorWeight,
+            shading: true,
+            lighting: Lighting::default(),
+            empty_space_skipping: true,
+            jitter: true,
+            jitter_seed: 0,
+            step_voxels: 0.5,
+            opaque_alpha: 0.99,
+            clip_box: ClipBox::WHOLE,
+            background: [0.0, 0.0, 0.0, 1.0],
+        }
+    }
+}
+
+impl RenderSettings {
+    /// Refuses settings that would make the shader loop forever or draw garbage.
+    pub fn validate(&self) -> Result<(), RenderError> {
+        let bad = |name, value: String, expected| Err(RenderError::BadSetting { name, value, expected });
+        if !(self.step_voxels.is_finite() && (0.01..=8.0).contains(&self.step_voxels)) {
+            return bad("step_voxels", self.step_voxels.to_string(), "0.01 to 8");
+        }
+        if !(self.opaque_alpha > 0.0 && self.opaque_alpha <= 1.0) {
+            return bad("opaque_alpha", self.opaque_alpha.to_string(), "above 0, at most 1");
+        }
+        let clip = self.clip_box;
+        let in_unit = |v: f32| (0.0..=1.0).contains(&v);
+        if !(clip.min.into_iter().chain(clip.max).all(in_unit) && (0..3).all(|a| clip.min[a] < clip.max[a])) {
+            return bad("clip_box", format!("{:?} to {:?}", clip.min, clip.max), "0 <= min < max <= 1 on each axis");
+        }
+        if !self.background.into_iter().all(in_unit) {
+            return bad("background", format!("{:?}", self.background), "each channel in [0, 1]");
+        }
+        let light = self.lighting;
+        let terms_valid = [light.ambient, light.diffuse, light.specular].into_iter().all(|v| v.is_finite() && v >= 0.0);
+        if !(terms_valid && light.shininess.is_finite() && light.shininess >= 1.0) {
+            return bad("lighting", format!("{light:?}"), "non-negative terms and shininess >= 1");
+        }
+        Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn defaults_pass_and_each_bad_value_is_named() {
+        assert!(RenderSettings::default().validate().is_ok());
+        let cases = [
+            ("step_voxels", RenderSettings { step_voxels: 0.0, ..Default::default() }),
+            ("step_voxels", RenderSettings { step_voxels: f32::NAN, ..Default::default() }),
+            ("opaque_alpha", RenderSettings { opaque_alpha: 0.0, ..Default::default() }),
+            (
+                "clip_box",
+                RenderSettings { clip_box: ClipBox { min: [0.5; 3], max: [0.5, 1.0, 1.0] }, ..Default::default() },
+            ),
+            ("clip_box", RenderSettings { clip_box: ClipBox { min: [-0.1; 3], max: [1.0; 3] }, ..Default::default() }),
+            ("background", RenderSettings { background: [2.0, 0.0, 0.0, 1.0], ..Default::default() }),
+        ];
+        for (name, settings) in cases {
+            match settings.validate() {
+                Err(RenderError::BadSetting { name: found, .. }) => assert_eq!(found, name),
+                other => panic!("{name}: {other:?}"),
+            }
+        }
+    }
+}
