@@ -62,3 +62,6 @@ pub enum TransferError {
     #[error("{source}: {path}")]
     Io { source: std::io::Error, path: PathBuf },
 }
+
+#[cfg(test)]
+mod pictures_tests;
