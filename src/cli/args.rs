@@ -59,6 +59,9 @@ pub struct ClassifyArgs {
     /// voxels below it get label 0 and are not evaluated.
     #[arg(long, default_value = "auto", value_parser = parse_background, value_name = "auto|none|VALUE")]
     pub background: crate::segmentation::Background,
+    /// Also write the paper's pre-classified RGBA volume (4 x uint8 per voxel) as NRRD.
+    #[arg(long, value_name = "RGBA.nrrd")]
+    pub rgba: Option<PathBuf>,
     /// Evaluate the classifier on every foreground voxel (no coarse-to-fine refinement).
     #[arg(long)]
     pub exact: bool,

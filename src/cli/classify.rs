@@ -1,5 +1,6 @@
-//! `volasso classify VOLUME --strokes S.json --out LABELS.nrrd`: the paper's pipeline on the
-//! command line. Prints one JSON line (`interfaces.md`); writes the label volume only when the
+//! `volasso classify VOLUME --strokes S.json --out LABELS.nrrd [--rgba RGBA.nrrd]`: the paper's
+//! pipeline on the command line. Beside the labels it writes `LABELS.classes.json`, the
+//! per-class colour table (§3.5, `transfer::ClassTable`). Prints one JSON line (`interfaces.md`); writes the label volume only when the
 //! whole result is valid, through a temporary file and a rename.
 //!
 //! Timings in the JSON: `load` opens the volume and rasterises the lassos; `features` computes
@@ -15,6 +16,7 @@ use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSlabReader, Standardiser};
 use crate::segmentation::{self, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter};
 use crate::strokes::{StrokesFile, TrainingSet};
+use crate::transfer::{self, ClassTable, HueTemplate, class_table_path};
 use crate::volume::{ByteOrder, Volume, VoxelType, nrrd};
 use serde_json::json;
 use std::path::Path;
@@ -56,8 +58,21 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     };
     let (features_seconds, train_seconds, predict_seconds) = (median(0), median(1), median(2));
 
+    // Colours (§3.5): the class table is kept beside the labels, so the renderer can classify
+    // after interpolation and restyle without classifying again.
+    let class_count = strokes.classes.len();
+    let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
+    let rgba = match &args.rgba {
+        Some(_) => Some(transfer::rgba_volume(&volume, &labels.labels, &table.styles)?),
+        None => None,
+    };
+    // Every output is complete before the first is written.
     let comment = format!("volasso labels of {} from {}", volume.source.display(), args.strokes.display());
     nrrd::write(&args.out, labels.dims, volume.spacing_mm, VoxelType::U8, ByteOrder::Little, &labels.labels, &comment)?;
+    table.write(&class_table_path(&args.out))?;
+    if let (Some(path), Some(rgba)) = (&args.rgba, &rgba) {
+        transfer::write_rgba_nrrd(path, volume.dims, volume.spacing_mm, rgba, &comment)?;
+    }
     let total_seconds = load_seconds + features_seconds + train_seconds + predict_seconds;
 
     let summary = &segmenter.summary;

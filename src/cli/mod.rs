@@ -26,6 +26,8 @@ pub enum CliError {
     Strokes(#[from] crate::strokes::StrokesError),
     #[error(transparent)]
     Segmentation(#[from] crate::segmentation::SegmentationError),
+    #[error(transparent)]
+    Transfer(#[from] crate::transfer::TransferError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
 }
