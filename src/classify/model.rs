@@ -124,6 +124,41 @@ impl Model {
         }
     }
 
+    /// The model without the expansion points whose every coefficient is at most
+    /// `relative_threshold` times the largest |coefficient| of its pair (snsvm.md §5, option 3).
+    /// SN-SVM's γ is dense (every training point contributes), but most of it is tiny; pruning
+    /// it makes prediction cost close to a plain SVM's. The decision changes by at most the
+    /// dropped |γ| summed (each kernel value is at most 1); callers report the labels that differ.
+    pub fn pruned(&self, relative_threshold: f64) -> Model {
+        let pair_count = self.pairs.len();
+        let mut column_max = vec![0f64; pair_count];
+        for row in self.coefficients_exact.chunks_exact(pair_count.max(1)) {
+            for (m, g) in column_max.iter_mut().zip(row) {
+                *m = m.max(g.abs());
+            }
+        }
+        let mut points = Vec::new();
+        let mut coefficients = Vec::new();
+        for (point, row) in
+            self.points_exact.chunks_exact(self.dim).zip(self.coefficients_exact.chunks_exact(pair_count.max(1)))
+        {
+            if row.iter().zip(&column_max).any(|(g, m)| g.abs() > relative_threshold * m) {
+                points.extend_from_slice(point);
+                coefficients.extend_from_slice(row);
+            }
+        }
+        Model::assemble(ModelParts {
+            dim: self.dim,
+            kernel: self.kernel,
+            class_ids: self.class_ids.clone(),
+            pairs: self.pairs.clone(),
+            points,
+            coefficients,
+            biases: self.biases_exact.clone(),
+            report: self.report.clone(),
+        })
+    }
+
     /// Feature dimension.
     pub fn dim(&self) -> usize {
         self.dim
