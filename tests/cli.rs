@@ -42,3 +42,20 @@ fn import_writes_a_mappable_nrrd_and_replaces_it_atomically() {
         .collect();
     assert!(leftovers.is_empty());
 }
+
+#[test]
+fn render_classifies_and_writes_a_png_of_the_requested_size() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("demo.png");
+    let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
+    let output = volasso(
+        &["render", "demo", "--strokes", strokes, "--out", out.to_str().unwrap(), "--size", "160x120"],
+        folder.path(),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let image = image::open(&out).unwrap().to_rgba8();
+    assert_eq!(image.dimensions(), (160, 120));
+    // The foot fills part of the frame: some pixels are lit, the corners are background.
+    let lit = image.pixels().filter(|p| p.0[0] as u32 + p.0[1] as u32 + p.0[2] as u32 > 120).count();
+    assert!(lit > 160 * 120 / 20 && lit < 160 * 120 * 3 / 4, "{lit} lit pixels");
+}

@@ -27,6 +27,43 @@ pub enum Command {
     Import(ImportArgs),
     /// Classify every voxel from the lassos of a strokes file (SN-SVM); writes a label NRRD.
     Classify(ClassifyArgs),
+    /// Classify as `classify` does, then ray-cast the result into a PNG (headless, wgpu).
+    Render(RenderArgs),
+}
+
+/// Pre-classified (the paper's RGBA volume) or post-classified rendering.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum RenderModeChoice {
+    Pre,
+    Post,
+}
+
+#[derive(Debug, Args)]
+pub struct RenderArgs {
+    /// A volume file or DICOM folder, or `demo`.
+    pub volume: PathBuf,
+    #[command(flatten)]
+    pub open: VolumeArgs,
+    /// The lassos: a volasso-strokes/1 JSON file.
+    #[arg(long)]
+    pub strokes: PathBuf,
+    /// The PNG to write.
+    #[arg(long)]
+    pub out: PathBuf,
+    /// Image size in pixels.
+    #[arg(long, default_value = "800x600", value_parser = parse_size, value_name = "WxH")]
+    pub size: [u32; 2],
+    /// Camera orbit around the vertical axis, degrees.
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    pub azimuth: f32,
+    /// Camera elevation, degrees.
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    pub elevation: f32,
+    /// Zoom (1 fits the volume).
+    #[arg(long, default_value_t = 1.0)]
+    pub zoom: f32,
+    #[arg(long, value_enum, default_value_t = RenderModeChoice::Post)]
+    pub mode: RenderModeChoice,
 }
 
 /// Which classifier `classify` trains.
@@ -181,6 +218,15 @@ fn parse_background(text: &str) -> Result<crate::segmentation::Background, Strin
             Ok(v) if v.is_finite() => Ok(Background::Below(v)),
             _ => Err(format!("'{value}' is not auto, none or a number")),
         },
+    }
+}
+
+fn parse_size(text: &str) -> Result<[u32; 2], String> {
+    let (width, height) = text.split_once('x').ok_or_else(|| format!("'{text}' is not WxH"))?;
+    let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| (1..=8192).contains(&v));
+    match (parse(width), parse(height)) {
+        (Some(w), Some(h)) => Ok([w, h]),
+        _ => Err(format!("'{text}' is not WxH with sides from 1 to 8192")),
     }
 }
 

@@ -9,6 +9,7 @@ mod import;
 mod info;
 mod memory;
 mod npy;
+mod render;
 
 pub use args::{Cli, Command, VolumeArgs};
 
@@ -28,6 +29,8 @@ pub enum CliError {
     Segmentation(#[from] crate::segmentation::SegmentationError),
     #[error(transparent)]
     Transfer(#[from] crate::transfer::TransferError),
+    #[error(transparent)]
+    Render(#[from] crate::render::RenderError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
 }
@@ -51,6 +54,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Info(args)) => info::run(&args),
         Some(Command::Import(args)) => import::run(&args),
         Some(Command::Classify(args)) => classify::run(&args),
+        Some(Command::Render(args)) => render::run(&args),
         None => Err(CliError::Usage(
             "the kiosk UI is not part of this build yet; try `volasso info demo` or `volasso --help`".into(),
         )),

@@ -1,0 +1,43 @@
+//! `volasso render VOLUME --strokes S.json --out IMAGE.png`: classify with the defaults of
+//! `classify`, colour with the default hue template, and ray-cast one frame headless (wgpu;
+//! Mesa's lavapipe where there is no GPU). The PNG is written whole or not at all.
+
+use super::CliError;
+use super::args::{RenderArgs, RenderModeChoice};
+use crate::render::headless::{Scene, render_png};
+use crate::render::{Camera, RenderMode, RenderSettings, gpu};
+use crate::segmentation::{self, SegmentationOptions};
+use crate::strokes::{StrokesFile, TrainingSet};
+use crate::transfer::{ClassTable, HueTemplate};
+use std::sync::atomic::AtomicBool;
+
+pub fn run(args: &RenderArgs) -> Result<(), CliError> {
+    let volume = super::open_volume(&args.volume, &args.open)?;
+    let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
+    let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;
+    let options = SegmentationOptions::default();
+    let segmenter = segmentation::train(&volume, &training, &options)?;
+    let labels = segmentation::label_volume(&volume, &segmenter, options.refinement, &|_| {}, &AtomicBool::new(false))?;
+    let class_count = strokes.classes.len();
+    let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
+
+    let gpu = gpu::acquire()?;
+    log::info!("rendering on {} ({:?})", gpu.adapter_info.name, gpu.adapter_info.backend);
+    let camera = Camera {
+        azimuth_degrees: args.azimuth,
+        elevation_degrees: args.elevation,
+        zoom: args.zoom,
+        ..Camera::default()
+    };
+    let settings = RenderSettings {
+        mode: match args.mode {
+            RenderModeChoice::Pre => RenderMode::Preclassified,
+            RenderModeChoice::Post => RenderMode::Postclassified,
+        },
+        ..RenderSettings::default()
+    };
+    let scene = Scene { volume: &volume, labels: &labels.labels, class_styles: &table.styles, rgba: None };
+    render_png(&args.out, &gpu.device, &gpu.queue, &scene, &camera, &settings, args.size)?;
+    println!("wrote {} ({}x{}, {} classes)", args.out.display(), args.size[0], args.size[1], class_count);
+    Ok(())
+}
