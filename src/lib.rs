@@ -8,19 +8,23 @@
 //!   -> classify (SN-SVM, §3.4) -> transfer (harmonic colour, §3.5) -> render (wgpu)
 //! ```
 //!
-//! The command line (`cli`) and, later, the UI and input layers call the pipeline; the pipeline
-//! never knows about them.
+//! The command line (`cli`), the kiosk UI (`app`, `ui/*.slint`) and its platform and input
+//! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
 
+pub mod app;
 pub mod atomic_file;
 pub mod classify;
 pub mod cli;
+pub mod display;
 pub mod features;
+pub mod kiosk;
 pub mod phantom;
 pub mod render;
 pub mod rng;
 pub mod segmentation;
 pub mod slices;
 pub mod strokes;
+pub mod touch;
 pub mod transfer;
 pub mod volume;
 

@@ -7,10 +7,12 @@
 //!   `volasso classify`'s contract and errors (issue 3).
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
+//! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod classification;
 mod cli;
 mod formats;
 mod malformed;
+mod replay;
 mod support;

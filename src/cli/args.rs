@@ -29,6 +29,32 @@ pub enum Command {
     Classify(ClassifyArgs),
     /// Classify as `classify` does, then ray-cast the result into a PNG (headless, wgpu).
     Render(RenderArgs),
+    /// The kiosk UI (the default without a subcommand): a desktop window or a DRM display.
+    Ui(super::ui::UiArgs),
+    /// Drive the real UI headless from a touch script or an event recording.
+    Replay(super::replay::ReplayArgs),
+    /// Record a touchscreen's raw events as volasso-events/1 (Linux evdev).
+    Record(RecordArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct RecordArgs {
+    /// The input device, e.g. /dev/input/event3 (default: the first touchscreen found).
+    #[arg(long, value_name = "PATH")]
+    pub device: Option<PathBuf>,
+    /// The recording to write (volasso-events/1 text).
+    #[arg(long)]
+    pub out: PathBuf,
+    /// How long to record.
+    #[arg(long, default_value_t = 30.0, value_parser = parse_seconds, value_name = "N")]
+    pub seconds: f64,
+}
+
+fn parse_seconds(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|s| *s > 0.0 && *s <= 86_400.0)
+        .ok_or_else(|| format!("'{text}' is not a number of seconds from 0 to 86400"))
 }
 
 /// Pre-classified (the paper's RGBA volume) or post-classified rendering.
@@ -221,7 +247,7 @@ fn parse_background(text: &str) -> Result<crate::segmentation::Background, Strin
     }
 }
 
-fn parse_size(text: &str) -> Result<[u32; 2], String> {
+pub(super) fn parse_size(text: &str) -> Result<[u32; 2], String> {
     let (width, height) = text.split_once('x').ok_or_else(|| format!("'{text}' is not WxH"))?;
     let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| (1..=8192).contains(&v));
     match (parse(width), parse(height)) {

@@ -9,7 +9,10 @@ mod import;
 mod info;
 mod memory;
 mod npy;
+mod record;
 mod render;
+mod replay;
+pub mod ui;
 
 pub use args::{Cli, Command, VolumeArgs};
 
@@ -31,6 +34,8 @@ pub enum CliError {
     Transfer(#[from] crate::transfer::TransferError),
     #[error(transparent)]
     Render(#[from] crate::render::RenderError),
+    #[error(transparent)]
+    Touch(#[from] crate::touch::TouchError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
 }
@@ -55,9 +60,10 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Import(args)) => import::run(&args),
         Some(Command::Classify(args)) => classify::run(&args),
         Some(Command::Render(args)) => render::run(&args),
-        None => Err(CliError::Usage(
-            "the kiosk UI is not part of this build yet; try `volasso info demo` or `volasso --help`".into(),
-        )),
+        Some(Command::Ui(args)) => ui::run(&args),
+        Some(Command::Replay(args)) => replay::run(&args),
+        Some(Command::Record(args)) => record::run(&args),
+        None => ui::run(&ui::UiArgs::from_environment()),
     }
 }
 

@@ -24,7 +24,8 @@ mod table;
 pub mod templates;
 
 pub use harmony::{
-    ClassStatistics, ClipBox, class_statistics, class_styles, class_styles_in_box, styles_from_statistics,
+    ClassStatistics, ClipBox, apply_template, class_statistics, class_styles, class_styles_in_box,
+    styles_from_statistics,
 };
 pub use overlay::{DEFAULT_OVERLAY_ALPHA, RgbImage, slice_overlay, write_png};
 pub use rgba::{composite_along_z, rgba_volume, write_rgba_nrrd};

@@ -1,0 +1,213 @@
+#!/usr/bin/env python3
+"""Drives a booting kiosk image through QEMU's QMP socket; called by deploy/test-image.sh.
+
+Waits for `volasso: ready WxH` on the serial log, screendumps the UI, taps it through
+input-send-event (the virtio tablet), screendumps until the screen changes, then presses the
+console's escape keys (Ctrl-Alt-F2, Alt-F2, Ctrl-Alt-Del) and checks the UI stays. Writes
+PNG screenshots to --out. Last, it hot-plugs the USB stick QEMU holds as drive `stick` and
+waits for the import's summary line. Exits non-zero with the reason on stderr when a check fails.
+Standard library only (runs on the bare host).
+"""
+
+import argparse
+import json
+import os
+import re
+import socket
+import struct
+import sys
+import time
+import zlib
+
+READY = re.compile(rb"volasso: ready (\d+)x(\d+)")
+IMPORTED = re.compile(rb"volasso-import: (\d+) imported, (\d+) skipped")
+TABLET_MAX = 0x7FFF  # QEMU's absolute axis range for input-send-event
+
+
+class Qmp:
+    def __init__(self, path, deadline, qemu_pid):
+        while True:
+            if not alive(qemu_pid):
+                fail("QEMU exited before its QMP socket answered")
+            try:
+                self.sock = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+                self.sock.connect(path)
+                break
+            except OSError:
+                if time.time() > deadline:
+                    raise
+                time.sleep(0.2)
+        self.reader = self.sock.makefile("rb")
+        json.loads(self.reader.readline())  # greeting
+        self.command("qmp_capabilities")
+
+    def command(self, name, **arguments):
+        self.sock.sendall(json.dumps({"execute": name, "arguments": arguments}).encode() + b"\n")
+        while True:
+            reply = json.loads(self.reader.readline())
+            if "return" in reply:
+                return reply["return"]
+            if "error" in reply:
+                raise RuntimeError(f"QMP {name}: {reply['error']}")
+            # asynchronous events (RESET, SHUTDOWN...) are skipped
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    return True
+
+
+def read_ppm(path):
+    with open(path, "rb") as ppm:
+        data = ppm.read()
+    fields = data.split(maxsplit=4)
+    if fields[0] != b"P6" or fields[3] != b"255":
+        raise RuntimeError(f"unexpected screendump format in {path}")
+    width, height = int(fields[1]), int(fields[2])
+    pixels = fields[4][: width * height * 3]
+    return width, height, pixels
+
+
+def write_png(path, width, height, pixels):
+    rows = b"".join(b"\x00" + pixels[y * width * 3 : (y + 1) * width * 3] for y in range(height))
+
+    def chunk(kind, body):
+        return struct.pack(">I", len(body)) + kind + body + struct.pack(">I", zlib.crc32(kind + body))
+
+    header = struct.pack(">IIBBBBB", width, height, 8, 2, 0, 0, 0)
+    with open(path, "wb") as png:
+        png.write(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", header) + chunk(b"IDAT", zlib.compress(rows, 6)) + chunk(b"IEND", b""))
+
+
+def screenshot(qmp, out, name):
+    ppm = f"{out}/{name}.ppm"
+    qmp.command("screendump", filename=ppm)
+    width, height, pixels = read_ppm(ppm)
+    write_png(f"{out}/{name}.png", width, height, pixels)
+    os.remove(ppm)
+    return width, height, pixels
+
+
+def lit_fraction(pixels):
+    """Share of pixels that are not pure black."""
+    count = len(pixels) // 3
+    black = sum(1 for i in range(0, len(pixels), 3) if pixels[i : i + 3] == b"\x00\x00\x00")
+    return 1 - black / count
+
+
+def changed_fraction(first, second):
+    count = len(first) // 3
+    changed = sum(1 for i in range(0, len(first), 3) if first[i : i + 3] != second[i : i + 3])
+    return changed / count
+
+
+def fail(message, serial=None):
+    print(f"FAIL: {message}", file=sys.stderr)
+    if serial:
+        with open(serial, "rb") as log:
+            tail = log.read().decode(errors="replace").splitlines()[-40:]
+        print("--- last serial lines ---\n" + "\n".join(tail), file=sys.stderr)
+    sys.exit(1)
+
+
+def tap(qmp, x_fraction, y_fraction):
+    x, y = round(x_fraction * TABLET_MAX), round(y_fraction * TABLET_MAX)
+    position = [{"type": "abs", "data": {"axis": "x", "value": x}}, {"type": "abs", "data": {"axis": "y", "value": y}}]
+    qmp.command("input-send-event", events=position)
+    time.sleep(0.1)
+    qmp.command("input-send-event", events=position + [{"type": "btn", "data": {"down": True, "button": "left"}}])
+    time.sleep(0.15)
+    qmp.command("input-send-event", events=[{"type": "btn", "data": {"down": False, "button": "left"}}])
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("--qemu-pid", type=int, required=True)
+    parser.add_argument("--qmp", required=True)
+    parser.add_argument("--serial", required=True)
+    parser.add_argument("--out", required=True)
+    parser.add_argument("--started", type=float, required=True, help="time QEMU was started (epoch seconds)")
+    parser.add_argument("--timeout", type=float, default=300)
+    parser.add_argument("--stick-volumes", type=int, required=True, help="volumes on the VOLASSO stick")
+    parser.add_argument("--tap", default="0.5,0.5", help="where to tap, as fractions of width,height")
+    arguments = parser.parse_args()
+    deadline = arguments.started + arguments.timeout
+    qmp = Qmp(arguments.qmp, deadline, arguments.qemu_pid)
+
+    match = None
+    while match is None:
+        if time.time() > deadline:
+            fail(f"no ready line within {arguments.timeout:.0f} s", arguments.serial)
+        try:
+            with open(arguments.serial, "rb") as log:
+                match = READY.search(log.read())
+        except FileNotFoundError:
+            pass
+        if match is None:
+            if not alive(arguments.qemu_pid):
+                fail("QEMU exited before the ready line", arguments.serial)
+            status = qmp.command("query-status")
+            if status.get("status") not in ("running", "prelaunch"):
+                fail(f"QEMU stopped ({status.get('status')}) before the ready line", arguments.serial)
+            time.sleep(0.25)
+    boot_to_ready = time.time() - arguments.started
+    print(f"boot-to-ready: {boot_to_ready:.1f} s (QEMU start to `{match.group(0).decode()}` on serial)")
+
+    width, height, before = screenshot(qmp, arguments.out, "1-ready")
+    lit = lit_fraction(before)
+    print(f"screendump {width}x{height}: {lit:.1%} of pixels lit")
+    if lit < 0.01:
+        fail("the screen is blank after the ready line", arguments.serial)
+
+    x_fraction, y_fraction = (float(value) for value in arguments.tap.split(","))
+    tap_time = time.time()
+    tap(qmp, x_fraction, y_fraction)
+    changed = 0.0
+    while time.time() < tap_time + 30:
+        time.sleep(1)
+        _, _, after = screenshot(qmp, arguments.out, "2-after-tap")
+        changed = changed_fraction(before, after)
+        if changed > 0.0005:
+            break
+    print(f"tap at ({x_fraction}, {y_fraction}): {changed:.2%} of pixels changed after {time.time() - tap_time:.1f} s")
+    if changed <= 0.0005:
+        fail("the UI did not react to the tap", arguments.serial)
+
+    # Lockdown: the console's own escapes must not take the screen away or reboot the guest.
+    time.sleep(2)
+    _, _, settled = screenshot(qmp, arguments.out, "3-settled")
+    for keys in (["ctrl", "alt", "f2"], ["alt", "f2"], ["ctrl", "alt", "delete"], ["alt", "right"]):
+        qmp.command("send-key", keys=[{"type": "qcode", "data": key} for key in keys])
+        time.sleep(0.5)
+    time.sleep(3)
+    _, _, escaped = screenshot(qmp, arguments.out, "4-after-escape-keys")
+    left = changed_fraction(settled, escaped)
+    status = qmp.command("query-status")
+    with open(arguments.serial, "rb") as log:
+        ready_lines = len(READY.findall(log.read()))
+    print(f"after Ctrl-Alt-F2, Alt-F2, Ctrl-Alt-Del, Alt-Right: {left:.2%} of pixels changed, "
+          f"guest {status.get('status')}, {ready_lines} ready line(s)")
+    if status.get("status") != "running" or ready_lines != 1 or left > 0.02:
+        fail("a console key combination left or restarted the kiosk", arguments.serial)
+
+    # New volumes: plug in a USB stick labelled VOLASSO and wait for the import's summary line.
+    plugged = time.time()
+    qmp.command("device_add", driver="usb-storage", bus="xhci.0", drive="stick", id="stick-device")
+    imported = None
+    while imported is None and time.time() < plugged + 90:
+        time.sleep(1)
+        with open(arguments.serial, "rb") as log:
+            imported = IMPORTED.search(log.read())
+    if imported is None:
+        fail("plugging in the VOLASSO stick imported nothing within 90 s", arguments.serial)
+    print(f"USB stick: `{imported.group(0).decode()}` {time.time() - plugged:.1f} s after plugging in")
+    if int(imported.group(1)) != arguments.stick_volumes:
+        fail(f"expected {arguments.stick_volumes} imported volumes", arguments.serial)
+    print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick")
+
+
+if __name__ == "__main__":
+    main()

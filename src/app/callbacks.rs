@@ -1,0 +1,314 @@
+//! What each `Session` callback does to the app's [`State`]. Every callback counts as input
+//! (the idle timeout restarts), changes state, starts slow work elsewhere, and pushes what
+//! changed back to the UI (refresh.rs).
+
+use super::drawing::{FingerPath, PathMeaning};
+use super::refresh;
+use super::ui::{AppWindow, Session};
+use super::{Screen, State, autosave};
+use crate::render::Camera;
+use crate::transfer::{HueTemplate, TemplateType};
+use slint::ComponentHandle;
+use std::cell::RefCell;
+use std::rc::Rc;
+
+/// Degrees the volume turns per pixel of one-finger drag.
+const ORBIT_DEGREES_PER_PIXEL: f32 = 0.4;
+const ZOOM_RANGE: (f32, f32) = (0.25, 8.0);
+
+type Shared = Rc<RefCell<State>>;
+
+/// Makes a callback closure that upgrades the window, restarts the idle timer and runs `body`.
+macro_rules! handler {
+    ($window:expr, $state:expr, $idle:expr, |$w:ident, $s:ident $(, $arg:ident : $ty:ty)*| $body:block) => {{
+        let weak = $window.as_weak();
+        let state = $state.clone();
+        let idle = $idle.clone();
+        move |$($arg: $ty),*| {
+            if let Some($w) = weak.upgrade() {
+                let $s: &Shared = &state;
+                restart_idle_timer(&$w, $s, &idle);
+                $body
+            }
+        }
+    }};
+}
+
+pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    let session = window.global::<Session>();
+    session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
+    session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
+    session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| { open_volume(&w, s, index) }));
+    session.on_lasso_down(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
+        lasso_down(&w, s, panel, [x, y])
+    }));
+    session.on_lasso_move(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
+        lasso_move(&w, s, panel, [x, y])
+    }));
+    session.on_lasso_up(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
+        lasso_up(&w, s, panel, [x, y])
+    }));
+    session.on_step_slice(handler!(window, state, idle, |w, s, panel: i32, delta: i32| {
+        step_slice(&w, s, panel, delta)
+    }));
+    session.on_scrub_slice(handler!(window, state, idle, |w, s, panel: i32, slice: i32| {
+        scrub_slice(&w, s, panel, slice)
+    }));
+    session.on_define_class(handler!(window, state, idle, |w, s| {
+        edit_session(&w, s, |session| session.define_class().map(|_| ()).map_err(|e| e.to_string()))
+    }));
+    session.on_undo(handler!(window, state, idle, |w, s| {
+        edit_session(&w, s, |session| session.undo().map_err(|e| e.to_string()))
+    }));
+    session.on_clear(handler!(window, state, idle, |w, s| {
+        edit_session(&w, s, |session| {
+            session.clear();
+            Ok(())
+        })
+    }));
+    session.on_delete_class(handler!(window, state, idle, |w, s, index: i32| {
+        edit_session(&w, s, |session| session.delete_class(index.max(0) as usize).map_err(|e| e.to_string()))
+    }));
+    session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
+    session.on_choose_template(handler!(window, state, idle, |w, s, name: slint::SharedString| {
+        let rotation = s.borrow().template().rotation_degrees;
+        if let Some(template) = TemplateType::from_name(&name) {
+            set_template(&w, s, HueTemplate::new(template, rotation));
+        }
+    }));
+    session.on_rotate_template(handler!(window, state, idle, |w, s, degrees: i32| {
+        let template = s.borrow().template().template;
+        set_template(&w, s, HueTemplate::new(template, degrees as f32));
+    }));
+    session.on_reset_view(handler!(window, state, idle, |_w, s| {
+        let mut state = s.borrow_mut();
+        state.camera = Camera::default();
+        state.view_dirty = true;
+    }));
+    session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
+        s.borrow_mut().orbit_from = Some([x, y]);
+    }));
+    session.on_view_drag(handler!(window, state, idle, |_w, s, x: f32, y: f32| { orbit(s, [x, y]) }));
+    session.on_view_release(handler!(window, state, idle, |_w, s| {
+        let mut state = s.borrow_mut();
+        state.orbit_from = None;
+        state.view_dirty = true;
+    }));
+    session
+        .on_view_zoom(handler!(window, state, idle, |_w, s, factor: f32| { view_gesture(s, factor, [0.0; 2], 0.0) }));
+    session.on_dismiss_banner(handler!(window, state, idle, |w, s| {
+        s.borrow_mut().banner.clear();
+        refresh::push_status(&w, s);
+    }));
+}
+
+/// Starts the idle timeout again; when it fires, the session is forgotten and the start
+/// screen comes back.
+pub(super) fn restart_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    let Some(timeout) = state.borrow().config.idle_timeout else { return };
+    let weak = window.as_weak();
+    let state = state.clone();
+    idle.start(slint::TimerMode::SingleShot, timeout, move || {
+        if let Some(window) = weak.upgrade() {
+            reset_to_start(&window, &state);
+        }
+    });
+}
+
+fn reset_to_start(window: &AppWindow, state: &Shared) {
+    {
+        let mut state = state.borrow_mut();
+        state.jobs.cancel();
+        state.work = None;
+        state.restore = None;
+        state.chosen_template = None;
+        state.camera = Camera::default();
+        state.banner.clear();
+        state.status.clear();
+        if let Some(dir) = &state.config.session_dir {
+            autosave::remove(dir);
+        }
+    }
+    log::info!("idle timeout: back to the start screen, session cleared");
+    window.global::<Session>().set_view_picture(slint::Image::default());
+    refresh::push_work(window, state);
+    refresh::show_screen(window, Screen::Start);
+}
+
+fn show_chooser(window: &AppWindow, state: &Shared) {
+    {
+        let mut state = state.borrow_mut();
+        if !state.thumbnails_requested {
+            state.thumbnails_requested = true;
+            let sources = state.sources.clone();
+            state.thumbnails_pending = sources.len();
+            state.loader.thumbnails(sources);
+        }
+    }
+    refresh::show_screen(window, Screen::Chooser);
+}
+
+fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
+    {
+        let mut state = state.borrow_mut();
+        let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
+        if state.opening.is_some() {
+            return;
+        }
+        state.jobs.cancel();
+        state.status = format!("Opening {}...", source.name());
+        state.opening = Some(index as usize);
+        state.loader.open(index as usize, source);
+    }
+    refresh::push_status(window, state);
+}
+
+fn lasso_down(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
+    let mut state_ref = state.borrow_mut();
+    let Some(work) = state_ref.work.as_mut() else { return };
+    let mut path = FingerPath::default();
+    path.add(point);
+    work.drawing = Some((panel.max(0) as usize, path));
+    drop(state_ref);
+    refresh::push_lasso(window, state);
+}
+
+fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
+    let mut state_ref = state.borrow_mut();
+    let Some((drawn_on, path)) = state_ref.work.as_mut().and_then(|work| work.drawing.as_mut()) else { return };
+    if *drawn_on != panel.max(0) as usize {
+        return;
+    }
+    path.add(point);
+    drop(state_ref);
+    refresh::push_lasso(window, state);
+}
+
+fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
+    let meaning = {
+        let mut state_ref = state.borrow_mut();
+        let Some(work) = state_ref.work.as_mut() else { return };
+        let Some((drawn_on, mut path)) = work.drawing.take() else { return };
+        if drawn_on != panel.max(0) as usize || point[0] < 0.0 {
+            None
+        } else {
+            path.add(point);
+            work.panels.get(drawn_on).map(|p| (drawn_on, path.meaning(work.loaded.volume.dims, p.axis, p.slice)))
+        }
+    };
+    refresh::push_lasso(window, state);
+    match meaning {
+        Some((_, PathMeaning::Lasso(lasso))) => edit_session(window, state, |session| {
+            session.add_lasso(lasso);
+            Ok(())
+        }),
+        Some((panel, PathMeaning::Swipe(delta))) => step_slice(window, state, panel as i32, delta),
+        Some((_, PathMeaning::Nothing)) => {
+            state.borrow_mut().status = "Draw a loop around what you want to mark".into();
+            refresh::push_status(window, state);
+        }
+        None => {}
+    }
+}
+
+fn step_slice(window: &AppWindow, state: &Shared, panel: i32, delta: i32) {
+    {
+        let mut state = state.borrow_mut();
+        let Some(work) = state.work.as_mut() else { return };
+        let ranking = &work.loaded.entropies;
+        let Some(shown) = work.panels.get_mut(panel.max(0) as usize) else { return };
+        let order = &ranking.axis(shown.axis).order;
+        shown.rank = (shown.rank as i64 + delta as i64).clamp(0, order.len() as i64 - 1) as usize;
+        shown.slice = order[shown.rank];
+    }
+    refresh::push_slice(window, state, panel.max(0) as usize);
+}
+
+fn scrub_slice(window: &AppWindow, state: &Shared, panel: i32, slice: i32) {
+    {
+        let mut state = state.borrow_mut();
+        let Some(work) = state.work.as_mut() else { return };
+        let ranking = &work.loaded.entropies;
+        let Some(shown) = work.panels.get_mut(panel.max(0) as usize) else { return };
+        let order = &ranking.axis(shown.axis).order;
+        let slice = (slice.max(0) as usize).min(order.len() - 1);
+        shown.slice = slice;
+        shown.rank = order.iter().position(|&s| s == slice).unwrap_or(0);
+    }
+    refresh::push_slice(window, state, panel.max(0) as usize);
+}
+
+/// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.
+fn edit_session(
+    window: &AppWindow,
+    state: &Shared,
+    edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), String>,
+) {
+    let result = {
+        let mut state = state.borrow_mut();
+        let Some(work) = state.work.as_mut() else { return };
+        edit(&mut work.session)
+    };
+    match result {
+        Ok(()) => {
+            state.borrow_mut().status.clear();
+            refresh::session_changed(window, state);
+        }
+        Err(message) => {
+            state.borrow_mut().status = message;
+            refresh::push_status(window, state);
+        }
+    }
+}
+
+fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {
+    let toggled = {
+        let mut state = state.borrow_mut();
+        let Some(work) = state.work.as_mut() else { return };
+        work.session.toggle_visible(index.max(0) as usize).is_ok()
+    };
+    if toggled {
+        refresh::styles_changed(window, state);
+        refresh::save(state);
+    }
+}
+
+fn set_template(window: &AppWindow, state: &Shared, template: HueTemplate) {
+    state.borrow_mut().chosen_template = Some(template);
+    refresh::styles_changed(window, state);
+    refresh::save(state);
+}
+
+fn orbit(state: &Shared, to: [f32; 2]) {
+    let mut state = state.borrow_mut();
+    let Some(from) = state.orbit_from else { return };
+    let camera = &mut state.camera;
+    camera.azimuth_degrees -= (to[0] - from[0]) * ORBIT_DEGREES_PER_PIXEL;
+    camera.elevation_degrees =
+        (camera.elevation_degrees + (to[1] - from[1]) * ORBIT_DEGREES_PER_PIXEL).clamp(-89.0, 89.0);
+    state.orbit_from = Some(to);
+    state.view_dirty = true;
+}
+
+pub(super) fn view_gesture(state: &Shared, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
+    let mut state = state.borrow_mut();
+    let extent_mm = state.work.as_ref().map(|work| {
+        let volume = &work.loaded.volume;
+        std::array::from_fn::<f32, 3, _>(|a| (volume.dims[a] as f64 * volume.spacing_mm[a]) as f32)
+    });
+    let [width, height] = state.view_size;
+    let camera = &mut state.camera;
+    if zoom.is_finite() && zoom > 0.0 {
+        camera.zoom = (camera.zoom * zoom).clamp(ZOOM_RANGE.0, ZOOM_RANGE.1);
+    }
+    if let Some(extent_mm) = extent_mm
+        && pan_pixels.iter().all(|p| p.is_finite())
+        && width > 0
+    {
+        camera.pan_by_pixels(pan_pixels[0], pan_pixels[1], extent_mm, width, height);
+    }
+    if turn_degrees.is_finite() {
+        camera.azimuth_degrees -= turn_degrees;
+    }
+    state.view_dirty = true;
+}

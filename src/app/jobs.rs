@@ -1,0 +1,195 @@
+//! Classification in the background: the defined classes' lassos train the classifier, the
+//! whole volume is labelled and the classes get their harmonic styles (paper §3.4-3.5), on a
+//! worker thread, so the UI thread never waits. A new job cancels the one running (new input
+//! makes the old result stale); results of cancelled or superseded jobs are never shown.
+//!
+//! Never: touches the UI; the app polls [`ClassificationJobs::poll`] from its event loop.
+
+use crate::segmentation::{self, SegmentationOptions};
+use crate::strokes::{StrokesFile, TrainingSet};
+use crate::transfer::{ClassTable, HueTemplate};
+use crate::volume::Volume;
+use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
+
+/// A finished classification.
+#[derive(Clone, Debug)]
+pub struct Classified {
+    pub labels: Arc<Vec<u8>>,
+    pub table: ClassTable,
+    /// From "define class" to the result, training and labelling included.
+    pub seconds: f64,
+    pub classified_voxels: usize,
+}
+
+/// What a job ended with.
+#[derive(Debug)]
+pub enum JobOutcome {
+    Done(Classified),
+    Failed(String),
+}
+
+struct RunningJob {
+    generation: u64,
+    cancel: Arc<AtomicBool>,
+    /// Progress in 1/1000ths, written by the worker.
+    progress: Arc<AtomicU32>,
+}
+
+/// Starts, cancels and collects classification jobs; one runs at a time.
+pub struct ClassificationJobs {
+    sender: Sender<(u64, JobOutcome)>,
+    receiver: Receiver<(u64, JobOutcome)>,
+    running: Option<RunningJob>,
+    generation: u64,
+    options: Arc<Mutex<SegmentationOptions>>,
+}
+
+impl Default for ClassificationJobs {
+    fn default() -> Self {
+        let (sender, receiver) = channel();
+        ClassificationJobs {
+            sender,
+            receiver,
+            running: None,
+            generation: 0,
+            options: Arc::new(Mutex::new(SegmentationOptions::default())),
+        }
+    }
+}
+
+impl ClassificationJobs {
+    /// Classifies `volume` with the classes of `strokes`, cancelling any job still running.
+    pub fn start(&mut self, volume: Arc<Volume>, strokes: StrokesFile, template: HueTemplate) {
+        self.cancel();
+        self.generation += 1;
+        let cancel = Arc::new(AtomicBool::new(false));
+        let progress = Arc::new(AtomicU32::new(0));
+        let job = RunningJob { generation: self.generation, cancel: cancel.clone(), progress: progress.clone() };
+        let sender = self.sender.clone();
+        let generation = self.generation;
+        let options = self.options.lock().map(|o| o.clone()).unwrap_or_default();
+        let spawned = std::thread::Builder::new().name("classify".into()).spawn(move || {
+            let outcome = match classify(&volume, &strokes, template, &options, &progress, &cancel) {
+                Ok(classified) => JobOutcome::Done(classified),
+                Err(message) => JobOutcome::Failed(message),
+            };
+            if !cancel.load(Ordering::Relaxed) {
+                let _ = sender.send((generation, outcome));
+            }
+        });
+        match spawned {
+            Ok(_) => self.running = Some(job),
+            Err(error) => {
+                let _ = self.sender.send((generation, JobOutcome::Failed(format!("cannot start a worker: {error}"))));
+                self.running = Some(job);
+            }
+        }
+    }
+
+    /// Stops the running job, if any; its result will not be reported.
+    pub fn cancel(&mut self) {
+        if let Some(job) = self.running.take() {
+            job.cancel.store(true, Ordering::Relaxed);
+        }
+    }
+
+    pub fn busy(&self) -> bool {
+        self.running.is_some()
+    }
+
+    /// The running job's progress in 0..=1.
+    pub fn progress(&self) -> Option<f32> {
+        self.running.as_ref().map(|job| job.progress.load(Ordering::Relaxed) as f32 / 1000.0)
+    }
+
+    /// The running job's outcome once it is done; never blocks.
+    pub fn poll(&mut self) -> Option<JobOutcome> {
+        loop {
+            match self.receiver.try_recv() {
+                Ok((generation, outcome)) => {
+                    if self.running.as_ref().is_some_and(|job| job.generation == generation) {
+                        self.running = None;
+                        return Some(outcome);
+                    }
+                }
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
+            }
+        }
+    }
+}
+
+fn classify(
+    volume: &Volume,
+    strokes: &StrokesFile,
+    template: HueTemplate,
+    options: &SegmentationOptions,
+    progress: &AtomicU32,
+    cancel: &AtomicBool,
+) -> Result<Classified, String> {
+    let started = Instant::now();
+    let training = TrainingSet::from_strokes(strokes, volume.dims).map_err(|e| e.to_string())?;
+    let segmenter = segmentation::train(volume, &training, options).map_err(|e| e.to_string())?;
+    // Training is about a tenth of the work; labelling reports the rest.
+    progress.store(100, Ordering::Relaxed);
+    let report = |fraction: f32| progress.store(100 + (900.0 * fraction.clamp(0.0, 1.0)) as u32, Ordering::Relaxed);
+    let labelled = segmentation::label_volume(volume, &segmenter, options.refinement, &report, cancel)
+        .map_err(|e| e.to_string())?;
+    let table =
+        ClassTable::compute(volume, &labelled.labels, strokes.classes.len(), template).map_err(|e| e.to_string())?;
+    Ok(Classified {
+        labels: Arc::new(labelled.labels),
+        table,
+        seconds: started.elapsed().as_secs_f64(),
+        classified_voxels: labelled.classified_voxels,
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::phantom::{demo_foot_with, lassos_inside};
+    use std::time::Duration;
+
+    fn wait(jobs: &mut ClassificationJobs) -> JobOutcome {
+        for _ in 0..6000 {
+            if let Some(outcome) = jobs.poll() {
+                return outcome;
+            }
+            std::thread::sleep(Duration::from_millis(10));
+        }
+        panic!("the job did not finish in a minute");
+    }
+
+    #[test]
+    fn a_job_labels_the_phantom_and_a_superseded_job_is_never_reported() {
+        let phantom = demo_foot_with([96, 64, 48], 7).unwrap();
+        let strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
+        let volume = Arc::new(phantom.volume);
+        let mut jobs = ClassificationJobs::default();
+        jobs.start(volume.clone(), strokes.clone(), HueTemplate::default_for(2));
+        jobs.start(volume.clone(), strokes, HueTemplate::default_for(2));
+        assert!(jobs.busy());
+        let classified = match wait(&mut jobs) {
+            JobOutcome::Done(classified) => classified,
+            JobOutcome::Failed(message) => panic!("the job failed: {message}"),
+        };
+        assert_eq!(classified.labels.len(), volume.voxel_count());
+        assert_eq!(classified.table.styles.len(), 2);
+        assert!(!jobs.busy());
+        assert!(jobs.poll().is_none(), "the first, cancelled job must not be reported");
+    }
+
+    #[test]
+    fn a_bad_training_set_fails_with_a_message() {
+        let phantom = demo_foot_with([24, 16, 12], 7).unwrap();
+        let mut strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
+        strokes.classes[1].strokes.clear();
+        let mut jobs = ClassificationJobs::default();
+        jobs.start(Arc::new(phantom.volume), strokes, HueTemplate::default_for(2));
+        let JobOutcome::Failed(message) = wait(&mut jobs) else { panic!("an empty class must fail") };
+        assert!(message.contains("Class") || message.contains("class"), "{message}");
+    }
+}

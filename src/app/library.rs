@@ -1,0 +1,224 @@
+//! The volumes the chooser offers: the built-in demo phantom and every volume file or DICOM
+//! folder in the data folder; opening one (with its ranked slices and display window) and
+//! its thumbnail happen on worker threads, and failures come back as messages for a banner.
+//!
+//! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
+
+use crate::slices::{Axis, DisplayWindow, SliceEntropies, slice_entropies, slice_image};
+use crate::transfer::RgbImage;
+use crate::volume::{OpenOptions, Volume, open::detect_format};
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, Sender, channel};
+
+/// The largest side of a thumbnail, in pixels.
+pub const THUMBNAIL_SIDE: usize = 256;
+
+/// The most entries the chooser lists, so a folder of thousands of files stays usable.
+pub const MAX_ENTRIES: usize = 200;
+
+/// Where a volume comes from.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub enum VolumeSource {
+    /// The built-in CT foot phantom.
+    Demo,
+    Path(PathBuf),
+}
+
+impl VolumeSource {
+    /// What autosave writes: "demo" or the path.
+    pub fn key(&self) -> String {
+        match self {
+            VolumeSource::Demo => crate::cli::DEMO_VOLUME.to_string(),
+            VolumeSource::Path(path) => path.display().to_string(),
+        }
+    }
+
+    pub fn from_key(key: &str) -> VolumeSource {
+        if key == crate::cli::DEMO_VOLUME && !Path::new(key).exists() {
+            VolumeSource::Demo
+        } else {
+            VolumeSource::Path(PathBuf::from(key))
+        }
+    }
+
+    pub fn name(&self) -> String {
+        match self {
+            VolumeSource::Demo => "Demo: CT foot phantom".to_string(),
+            VolumeSource::Path(path) => path
+                .file_name()
+                .map(|name| name.to_string_lossy().into_owned())
+                .unwrap_or_else(|| path.display().to_string()),
+        }
+    }
+}
+
+/// The volumes to offer: the demo first, then the data folder's volumes by name.
+pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
+    let mut sources = vec![VolumeSource::Demo];
+    let Some(data_dir) = data_dir else { return sources };
+    let Ok(entries) = std::fs::read_dir(data_dir) else {
+        log::warn!("cannot read the data folder {}", data_dir.display());
+        return sources;
+    };
+    let mut paths: Vec<PathBuf> = entries
+        .filter_map(|entry| entry.ok().map(|e| e.path()))
+        .filter(|path| !path.file_name().is_some_and(|name| name.to_string_lossy().starts_with('.')))
+        .filter(|path| looks_like_volume(path))
+        .collect();
+    paths.sort();
+    paths.truncate(MAX_ENTRIES);
+    sources.extend(paths.into_iter().map(VolumeSource::Path));
+    sources
+}
+
+/// Volume files by name; raw data only with an Open SciVis name (a `.raw` beside a `.mhd` is
+/// the MetaImage's data, not a volume of its own); folders are DICOM series.
+fn looks_like_volume(path: &Path) -> bool {
+    if path.is_dir() {
+        return true;
+    }
+    let name = path.file_name().map(|n| n.to_string_lossy().to_ascii_lowercase()).unwrap_or_default();
+    let known = [".nrrd", ".nhdr", ".mha", ".mhd", ".nii", ".nii.gz", ".dcm"];
+    if known.iter().any(|extension| name.ends_with(extension)) {
+        return true;
+    }
+    name.ends_with(".raw")
+        && path.file_name().and_then(|n| n.to_str()).and_then(crate::volume::raw::parse_name).is_some()
+}
+
+/// An opened volume with what the work screen needs at once.
+pub struct LoadedVolume {
+    pub source: VolumeSource,
+    pub volume: Arc<Volume>,
+    pub entropies: SliceEntropies,
+    pub window: DisplayWindow,
+}
+
+/// Opens `source` and ranks its slices (paper eq. 1).
+pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, String> {
+    let volume = match source {
+        VolumeSource::Demo => crate::phantom::demo_foot().volume,
+        VolumeSource::Path(path) => {
+            detect_format(path, options).map_err(|e| e.to_string())?;
+            crate::volume::open(path, options).map_err(|e| e.to_string())?
+        }
+    };
+    if volume.voxel_count() == 0 {
+        return Err(format!("{} has no voxels", source.name()));
+    }
+    let entropies = slice_entropies(&volume);
+    let window = DisplayWindow::automatic(&volume);
+    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, window })
+}
+
+/// The thumbnail and a one-line description of a loaded volume.
+pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), String> {
+    let volume = &loaded.volume;
+    let slice = loaded.entropies.axis(Axis::Z).top();
+    let grey = slice_image(volume, Axis::Z, slice, loaded.window).map_err(|e| e.to_string())?;
+    let step = (grey.width.max(grey.height)).div_ceil(THUMBNAIL_SIDE).max(1);
+    let (width, height) = (grey.width.div_ceil(step), grey.height.div_ceil(step));
+    let mut pixels = Vec::with_capacity(width * height * 3);
+    for j in 0..height {
+        for i in 0..width {
+            pixels.extend([grey.pixels[(j * step) * grey.width + i * step]; 3]);
+        }
+    }
+    let [x, y, z] = volume.dims;
+    let detail = format!("{x} x {y} x {z}  {}", volume.voxel_type.name());
+    Ok((RgbImage { width, height, pixels }, detail))
+}
+
+/// What the loader thread reports.
+pub enum LoaderEvent {
+    Thumbnail { index: usize, result: Result<(RgbImage, String), String> },
+    Opened { index: usize, result: Result<LoadedVolume, String> },
+}
+
+/// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
+/// volume the user picks on a thread of its own, so a pick never waits behind thumbnails.
+pub struct Loader {
+    options: OpenOptions,
+    sender: Sender<LoaderEvent>,
+    events: Receiver<LoaderEvent>,
+}
+
+impl Loader {
+    pub fn new(options: OpenOptions) -> Loader {
+        let (sender, events) = channel();
+        Loader { options, sender, events }
+    }
+
+    pub fn thumbnails(&self, sources: Vec<VolumeSource>) {
+        let (sender, options) = (self.sender.clone(), self.options.clone());
+        spawn("thumbnails", move || {
+            for (index, source) in sources.iter().enumerate() {
+                let result = load(source, &options).and_then(|loaded| thumbnail(&loaded));
+                if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
+                    return;
+                }
+            }
+        });
+    }
+
+    pub fn open(&self, index: usize, source: VolumeSource) {
+        let (sender, options) = (self.sender.clone(), self.options.clone());
+        let failed = sender.clone();
+        if !spawn("open", move || {
+            let _ = sender.send(LoaderEvent::Opened { index, result: load(&source, &options) });
+        }) {
+            let _ = failed.send(LoaderEvent::Opened { index, result: Err("cannot start a thread to open it".into()) });
+        }
+    }
+
+    pub fn poll(&self) -> Option<LoaderEvent> {
+        self.events.try_recv().ok()
+    }
+}
+
+fn spawn(name: &str, work: impl FnOnce() + Send + 'static) -> bool {
+    match std::thread::Builder::new().name(name.into()).spawn(work) {
+        Ok(_) => true,
+        Err(error) => {
+            log::error!("cannot start the {name} thread: {error}");
+            false
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_data_folder_lists_volumes_after_the_demo_and_skips_other_files() {
+        let folder = tempfile::tempdir().unwrap();
+        for name in ["b.nrrd", "a.nii.gz", "notes.txt", ".hidden.nrrd", "head.mhd", "head.raw", "ct_8x8x8_uint8.raw"] {
+            std::fs::write(folder.path().join(name), b"x").unwrap();
+        }
+        std::fs::create_dir(folder.path().join("series")).unwrap();
+        let names: Vec<String> = scan(Some(folder.path())).iter().map(VolumeSource::name).collect();
+        assert_eq!(names, ["Demo: CT foot phantom", "a.nii.gz", "b.nrrd", "ct_8x8x8_uint8.raw", "head.mhd", "series"]);
+        assert_eq!(scan(Some(&folder.path().join("missing"))), vec![VolumeSource::Demo]);
+    }
+
+    #[test]
+    fn a_bad_file_is_a_message_not_a_panic() {
+        let folder = tempfile::tempdir().unwrap();
+        let path = folder.path().join("broken.nrrd");
+        std::fs::write(&path, b"NRRD0004\ntype: short\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n").unwrap();
+        let error = load(&VolumeSource::Path(path), &OpenOptions::default()).err().unwrap();
+        assert!(!error.is_empty());
+    }
+
+    #[test]
+    fn the_demo_loads_with_a_thumbnail() {
+        let loaded = load(&VolumeSource::Demo, &OpenOptions::default()).unwrap();
+        let (image, detail) = thumbnail(&loaded).unwrap();
+        assert!(image.width <= THUMBNAIL_SIDE && image.height <= THUMBNAIL_SIDE);
+        assert_eq!(image.pixels.len(), image.width * image.height * 3);
+        assert!(detail.starts_with("192 x 128 x 96"), "{detail}");
+        assert_eq!(VolumeSource::from_key(&VolumeSource::Demo.key()), VolumeSource::Demo);
+    }
+}

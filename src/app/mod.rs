@@ -1,0 +1,299 @@
+//! The kiosk app: the Slint UI (`ui/*.slint`) wired to the pipeline. It holds what the user is
+//! doing (the open volume, the three slices shown, the session of classes and lassos, the
+//! camera) and runs everything slow elsewhere: volumes open on a loader thread, the
+//! classifier on a job thread, the 3-D view on a render thread. The UI thread only moves
+//! data between them and Slint, so it never blocks (issue 6).
+//!
+//! Data flow: callbacks (callbacks.rs) change [`State`]; a 16 ms poll timer collects finished
+//! work; `refresh.rs` pushes state into the `Session` global. Beyond the paper (§3.2-3.5),
+//! every lasso reclassifies at once, with the lassos not yet defined as a provisional class,
+//! so the user sees the result of a lasso before deciding to define the class.
+//!
+//! Never: draws pixels itself or reads input devices; the platform (src/kiosk or Slint's own
+//! winit backend) does that.
+
+pub mod autosave;
+mod callbacks;
+pub mod drawing;
+pub mod jobs;
+pub mod library;
+pub mod pictures;
+mod refresh;
+pub mod session;
+pub mod ui;
+pub mod view3d;
+
+use crate::render::Camera;
+use crate::slices::Axis;
+use crate::strokes::StrokesFile;
+use crate::transfer::HueTemplate;
+use crate::volume::OpenOptions;
+use drawing::FingerPath;
+use jobs::{ClassificationJobs, Classified};
+use library::{LoadedVolume, Loader, VolumeSource};
+use session::WorkSession;
+use slint::ComponentHandle;
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::rc::Rc;
+use std::time::Duration;
+use ui::AppWindow;
+use view3d::ViewRenderer;
+
+/// How the app is set up (`volasso ui` options).
+#[derive(Clone, Debug)]
+pub struct AppConfig {
+    /// The folder whose volumes the chooser offers (besides the demo).
+    pub data_dir: Option<PathBuf>,
+    /// Where the session is autosaved; `None`: no autosave.
+    pub session_dir: Option<PathBuf>,
+    /// After this long without a touch the app returns to the start screen and forgets the
+    /// session; `None`: never.
+    pub idle_timeout: Option<Duration>,
+    /// Open this volume at once instead of showing the start screen.
+    pub initial_volume: Option<VolumeSource>,
+    pub open_options: OpenOptions,
+}
+
+impl Default for AppConfig {
+    fn default() -> Self {
+        AppConfig {
+            data_dir: None,
+            session_dir: None,
+            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
+            initial_volume: None,
+            open_options: OpenOptions::default(),
+        }
+    }
+}
+
+/// Two minutes: long enough to think between lassos, short enough that a demo station is
+/// fresh for the next visitor.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// How often finished work is collected.
+const POLL_INTERVAL: Duration = Duration::from_millis(16);
+
+/// The slices the work screen shows, by panel: axial, coronal, sagittal.
+const PANEL_AXES: [Axis; 3] = [Axis::Z, Axis::Y, Axis::X];
+
+/// The screens of `Session.screen`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Screen {
+    Start = 0,
+    Chooser = 1,
+    Work = 2,
+}
+
+/// One slice panel: which axis, and where in that axis's entropy ranking it stands.
+#[derive(Clone, Copy, Debug)]
+struct Panel {
+    axis: Axis,
+    /// 0 = the highest-entropy slice.
+    rank: usize,
+    slice: usize,
+}
+
+/// An open volume and the user's work on it.
+struct Work {
+    loaded: LoadedVolume,
+    session: WorkSession,
+    panels: [Panel; 3],
+    /// The finger path being drawn, on which panel.
+    drawing: Option<(usize, FingerPath)>,
+    classified: Option<Classified>,
+    /// The training data of the newest job started, so an unchanged set is not sent again.
+    requested: Option<StrokesFile>,
+}
+
+/// Everything the callbacks and the poll timer share (on the UI thread only).
+struct State {
+    config: AppConfig,
+    sources: Vec<VolumeSource>,
+    loader: Loader,
+    thumbnails_requested: bool,
+    /// Thumbnails asked for and not yet made.
+    thumbnails_pending: usize,
+    opening: Option<usize>,
+    work: Option<Work>,
+    jobs: ClassificationJobs,
+    renderer: ViewRenderer,
+    camera: Camera,
+    /// The template the user picked; until then each class count gets its default
+    /// ([`HueTemplate::default_for`]).
+    chosen_template: Option<HueTemplate>,
+    /// The last finger position of a one-finger orbit.
+    orbit_from: Option<[f32; 2]>,
+    /// A new 3-D frame is wanted (camera, classes or size changed).
+    view_dirty: bool,
+    /// The size the view was last drawn at.
+    view_size: [u32; 2],
+    banner: String,
+    status: String,
+    /// A session read at start-up, applied once its volume is open.
+    restore: Option<autosave::SavedSession>,
+    slices_model: Rc<slint::VecModel<ui::SliceView>>,
+    classes_model: Rc<slint::VecModel<ui::ClassEntry>>,
+    volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
+}
+
+impl State {
+    /// The classes the classifier is trained on: the defined ones, and the pending lassos as
+    /// a provisional next class.
+    fn training_class_count(&self) -> usize {
+        self.work.as_ref().map_or(0, |work| work.session.classes.len() + usize::from(!work.session.pending.is_empty()))
+    }
+
+    /// The template in use for the current number of classes.
+    fn template(&self) -> HueTemplate {
+        self.chosen_template.unwrap_or_else(|| HueTemplate::default_for(self.training_class_count()))
+    }
+}
+
+/// The running app: the window, its state, and the timers that drive it.
+pub struct App {
+    window: AppWindow,
+    state: Rc<RefCell<State>>,
+    _poll_timer: slint::Timer,
+    idle_timer: Rc<slint::Timer>,
+}
+
+impl App {
+    /// Builds the UI on the current Slint platform. With a saved session in
+    /// `config.session_dir`, its volume opens and its classes come back.
+    pub fn new(config: AppConfig) -> Result<App, slint::PlatformError> {
+        let window = AppWindow::new()?;
+        let sources = library::scan(config.data_dir.as_deref());
+        let restore = config.session_dir.as_deref().and_then(autosave::load);
+        let state = State {
+            loader: Loader::new(config.open_options.clone()),
+            sources,
+            thumbnails_requested: false,
+            thumbnails_pending: 0,
+            opening: None,
+            work: None,
+            jobs: ClassificationJobs::default(),
+            renderer: ViewRenderer::new(),
+            camera: Camera::default(),
+            chosen_template: None,
+            orbit_from: None,
+            view_dirty: false,
+            view_size: [0, 0],
+            banner: String::new(),
+            status: String::new(),
+            restore,
+            slices_model: Rc::new(slint::VecModel::default()),
+            classes_model: Rc::new(slint::VecModel::default()),
+            volumes_model: Rc::new(slint::VecModel::default()),
+            config,
+        };
+        let state = Rc::new(RefCell::new(state));
+        let app = App {
+            window,
+            state: state.clone(),
+            _poll_timer: slint::Timer::default(),
+            idle_timer: Rc::new(slint::Timer::default()),
+        };
+        {
+            let session = app.window.global::<ui::Session>();
+            let state = state.borrow();
+            session.set_slices(state.slices_model.clone().into());
+            session.set_classes(state.classes_model.clone().into());
+            session.set_volumes(state.volumes_model.clone().into());
+        }
+        callbacks::wire(&app.window, &state, &app.idle_timer);
+        let weak = app.window.as_weak();
+        let polled = state.clone();
+        app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
+            if let Some(window) = weak.upgrade() {
+                refresh::poll(&window, &polled);
+            }
+        });
+        app.start_up();
+        Ok(app)
+    }
+
+    fn start_up(&self) {
+        let mut state = self.state.borrow_mut();
+        let source = match (&state.restore, &state.config.initial_volume) {
+            (Some(saved), _) => Some(VolumeSource::from_key(&saved.volume)),
+            (None, Some(source)) => Some(source.clone()),
+            (None, None) => None,
+        };
+        if let Some(source) = source {
+            let index = match state.sources.iter().position(|s| *s == source) {
+                Some(index) => index,
+                None => {
+                    state.sources.push(source.clone());
+                    state.sources.len() - 1
+                }
+            };
+            state.loader.open(index, source);
+            state.opening = Some(index);
+            state.status = "Opening the volume...".into();
+        }
+        drop(state);
+        refresh::push_volumes(&self.window, &self.state);
+        refresh::push_status(&self.window, &self.state);
+        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
+    }
+
+    pub fn window(&self) -> &AppWindow {
+        &self.window
+    }
+
+    /// Shows the window (with Slint's own backend) and runs its event loop until it closes.
+    pub fn run(&self) -> Result<(), slint::PlatformError> {
+        self.window.run()
+    }
+
+    /// A touch happened somewhere: the idle timeout starts again.
+    pub fn note_input(&self) {
+        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
+    }
+
+    /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
+    pub fn is_idle(&self) -> bool {
+        let state = self.state.borrow();
+        state.opening.is_none()
+            && state.thumbnails_pending == 0
+            && !state.jobs.busy()
+            && !state.renderer.busy()
+            && !state.view_dirty
+    }
+
+    /// A two-finger gesture on the 3-D view: `zoom` multiplies the zoom, `pan_pixels` moves the
+    /// picture, `turn_degrees` turns it about the view direction (as azimuth).
+    pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
+        callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
+    }
+
+    /// The app's state by name, for replay scripts' `expect KEY VALUE`: `screen` (start,
+    /// chooser, work), `classes`, `pending`, `volume`, `banner`, `busy`, `classifying`, `classified`,
+    /// `template`, `slice-z` / `slice-y` / `slice-x`.
+    pub fn query(&self, key: &str) -> Option<String> {
+        let state = self.state.borrow();
+        let screen = self.window.global::<ui::Session>().get_screen();
+        let work = state.work.as_ref();
+        let value = match key {
+            "screen" => ["start", "chooser", "work"].get(screen as usize).unwrap_or(&"?").to_string(),
+            "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
+            "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
+            "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
+            "banner" => state.banner.clone(),
+            "busy" => (state.jobs.busy() || state.opening.is_some()).to_string(),
+            "classifying" => state.jobs.busy().to_string(),
+            "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
+            "template" => {
+                let template = state.template();
+                format!("{} {}", template.template.name(), template.rotation_degrees)
+            }
+            _ => {
+                let axis = key.strip_prefix("slice-").and_then(Axis::from_name)?;
+                let panel = work?.panels.iter().find(|panel| panel.axis == axis)?;
+                panel.slice.to_string()
+            }
+        };
+        Some(value)
+    }
+}

@@ -1,0 +1,219 @@
+//! The 3-D view's renderer: a thread that owns the GPU device and the ray caster, draws the
+//! classified volume offscreen and hands back pictures. The UI thread only sends requests and
+//! shows the newest picture, so a slow GPU (lavapipe takes seconds per frame) never blocks it.
+//! Requests are coalesced: while a frame is drawn, newer cameras replace older ones.
+//!
+//! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
+//! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
+//!
+//! Never: touches Slint; never renders on the UI thread.
+
+use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
+use crate::render::{Camera, RayCaster, RenderMode, RenderSettings, gpu};
+use crate::transfer::ClassStyle;
+use crate::volume::Volume;
+use std::sync::Arc;
+use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
+use std::time::{Duration, Instant};
+
+/// The largest side of a picture: beyond it, pictures are drawn smaller and scaled up.
+pub const MAX_PICTURE_SIDE: u32 = 1600;
+
+/// What the renderer is asked to do, in order.
+enum Request {
+    Volume(Arc<Volume>),
+    Labels(Arc<Vec<u8>>, Vec<ClassStyle>),
+    Styles(Vec<ClassStyle>),
+    Frame { id: u64, camera: Camera, size: [u32; 2] },
+}
+
+/// A drawn picture.
+#[derive(Debug)]
+pub struct Picture {
+    pub id: u64,
+    pub image: image::RgbaImage,
+    pub seconds: f64,
+}
+
+/// What comes back from the renderer.
+#[derive(Debug)]
+pub enum RenderReply {
+    Picture(Picture),
+    /// The GPU could not be opened or a frame failed; the rest of the UI goes on.
+    Failed(String),
+}
+
+/// The UI thread's handle on the render thread.
+pub struct ViewRenderer {
+    requests: Sender<Request>,
+    replies: Receiver<RenderReply>,
+    next_id: u64,
+    /// The newest frame asked for and not yet received.
+    awaited: Option<u64>,
+}
+
+impl Default for ViewRenderer {
+    fn default() -> Self {
+        Self::new()
+    }
+}
+
+impl ViewRenderer {
+    /// Starts the render thread; the GPU is opened there, on the first request.
+    pub fn new() -> ViewRenderer {
+        let (requests, request_receiver) = channel();
+        let (reply_sender, replies) = channel();
+        let spawned = std::thread::Builder::new()
+            .name("render".into())
+            .spawn(move || render_thread(request_receiver, reply_sender));
+        if let Err(error) = spawned {
+            log::error!("cannot start the render thread: {error}");
+        }
+        ViewRenderer { requests, replies, next_id: 0, awaited: None }
+    }
+
+    pub fn set_volume(&self, volume: Arc<Volume>) {
+        let _ = self.requests.send(Request::Volume(volume));
+    }
+
+    pub fn set_labels(&self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
+        let _ = self.requests.send(Request::Labels(labels, styles));
+    }
+
+    pub fn set_styles(&self, styles: Vec<ClassStyle>) {
+        let _ = self.requests.send(Request::Styles(styles));
+    }
+
+    /// Asks for a frame of `size` pixels; returns its id.
+    pub fn request_frame(&mut self, camera: Camera, size: [u32; 2]) -> u64 {
+        self.next_id += 1;
+        let scale = (MAX_PICTURE_SIDE as f32 / size[0].max(size[1]).max(1) as f32).min(1.0);
+        let size = size.map(|side| ((side as f32 * scale) as u32).max(1));
+        let _ = self.requests.send(Request::Frame { id: self.next_id, camera, size });
+        self.awaited = Some(self.next_id);
+        self.next_id
+    }
+
+    /// True while a requested frame has not come back.
+    pub fn busy(&self) -> bool {
+        self.awaited.is_some()
+    }
+
+    /// The next reply, if one is ready; never blocks.
+    pub fn poll(&mut self) -> Option<RenderReply> {
+        match self.replies.try_recv() {
+            Ok(reply) => {
+                match &reply {
+                    RenderReply::Picture(picture) if Some(picture.id) == self.awaited => self.awaited = None,
+                    RenderReply::Failed(_) => self.awaited = None,
+                    RenderReply::Picture(_) => {}
+                }
+                Some(reply)
+            }
+            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
+        }
+    }
+}
+
+/// The GPU side: opened lazily, kept for the thread's life.
+struct GpuScene {
+    gpu: gpu::Gpu,
+    ray_caster: RayCaster,
+    target: Option<(OffscreenTarget, [u32; 2])>,
+    has_volume: bool,
+    has_labels: bool,
+}
+
+fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
+    let mut scene: Option<GpuScene> = None;
+    let mut failed = false;
+    loop {
+        let Ok(first) = requests.recv() else { return };
+        // Take everything queued; keep only the newest frame request.
+        let mut batch = vec![first];
+        loop {
+            match requests.recv_timeout(Duration::from_millis(1)) {
+                Ok(request) => batch.push(request),
+                Err(RecvTimeoutError::Timeout) => break,
+                Err(RecvTimeoutError::Disconnected) => return,
+            }
+        }
+        if failed {
+            continue;
+        }
+        if scene.is_none() {
+            match open_scene() {
+                Ok(opened) => scene = Some(opened),
+                Err(message) => {
+                    failed = true;
+                    let _ = replies.send(RenderReply::Failed(message));
+                    continue;
+                }
+            }
+        }
+        let Some(scene) = scene.as_mut() else { continue };
+        let mut frame = None;
+        for request in batch {
+            let result = match request {
+                Request::Volume(volume) => {
+                    scene.has_labels = false;
+                    scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true)
+                }
+                Request::Labels(labels, styles) => scene
+                    .ray_caster
+                    .set_class_table(&styles)
+                    .and_then(|()| scene.ray_caster.set_labels(&labels))
+                    .map(|()| scene.has_labels = true),
+                Request::Styles(styles) => scene.ray_caster.set_class_table(&styles),
+                Request::Frame { id, camera, size } => {
+                    frame = Some((id, camera, size));
+                    Ok(())
+                }
+            };
+            if let Err(error) = result {
+                let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+            }
+        }
+        if let Some((id, camera, size)) = frame {
+            if !(scene.has_volume && scene.has_labels) {
+                continue;
+            }
+            match draw(scene, &camera, size) {
+                Ok(picture) => {
+                    let _ = replies.send(RenderReply::Picture(Picture { id, ..picture }));
+                }
+                Err(message) => {
+                    let _ = replies.send(RenderReply::Failed(message));
+                }
+            }
+        }
+    }
+}
+
+fn open_scene() -> Result<GpuScene, String> {
+    let gpu = gpu::acquire().map_err(|error| format!("3-D view unavailable: {error}"))?;
+    log::info!("3-D view renders on {}", gpu.adapter_name());
+    let ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT)
+        .map_err(|error| format!("3-D view unavailable: {error}"))?;
+    Ok(GpuScene { gpu, ray_caster, target: None, has_volume: false, has_labels: false })
+}
+
+fn draw(scene: &mut GpuScene, camera: &Camera, size: [u32; 2]) -> Result<Picture, String> {
+    let started = Instant::now();
+    if scene.target.as_ref().is_none_or(|(_, target_size)| *target_size != size) {
+        let target = OffscreenTarget::new(&scene.gpu.device, &scene.gpu.queue, size[0], size[1], OFFSCREEN_FORMAT)
+            .map_err(|error| format!("3-D view: {error}"))?;
+        scene.target = Some((target, size));
+    }
+    let Some((target, _)) = scene.target.as_ref() else {
+        return Err("3-D view: no render target".into());
+    };
+    let settings = RenderSettings {
+        mode: RenderMode::Postclassified,
+        background: [0.0, 0.0, 0.0, 1.0],
+        ..RenderSettings::default()
+    };
+    let image =
+        target.capture(&mut scene.ray_caster, camera, &settings).map_err(|error| format!("3-D view: {error}"))?;
+    Ok(Picture { id: 0, image, seconds: started.elapsed().as_secs_f64() })
+}

@@ -1,0 +1,119 @@
+//! `volasso ui [VOLUME]` (and `volasso` alone): the kiosk UI, in a desktop window (winit) or
+//! fullscreen on a DRM display (the appliance). Headless runs go through `volasso replay`.
+
+use super::CliError;
+use crate::app::library::VolumeSource;
+use crate::app::{App, AppConfig};
+use clap::{Args, ValueEnum};
+use std::path::PathBuf;
+use std::time::Duration;
+
+/// Where the UI is drawn.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, Default, ValueEnum)]
+pub enum DisplayChoice {
+    /// A window when a display server is there (DISPLAY or WAYLAND_DISPLAY), else DRM.
+    #[default]
+    Auto,
+    /// A fullscreen desktop window (X11 or Wayland).
+    Window,
+    /// Straight on a DRM/KMS display, no display server (the appliance).
+    Drm,
+}
+
+#[derive(Debug, Args, Default)]
+pub struct UiArgs {
+    /// Open this volume at once (a file, a DICOM folder, or `demo`); without it, the start
+    /// screen and the chooser.
+    pub volume: Option<PathBuf>,
+    /// The folder whose volumes the chooser offers.
+    #[arg(long, env = "VOLASSO_DATA_DIR")]
+    pub data_dir: Option<PathBuf>,
+    /// Where the session is autosaved and restored from; no autosave without it.
+    #[arg(long, env = "VOLASSO_SESSION_DIR")]
+    pub session_dir: Option<PathBuf>,
+    /// Seconds without a touch before the start screen returns and the session is cleared;
+    /// 0 never.
+    #[arg(long, default_value_t = 120)]
+    pub idle_timeout: u64,
+    #[arg(long, value_enum, default_value_t = DisplayChoice::Auto)]
+    pub display: DisplayChoice,
+    /// A window instead of fullscreen (development).
+    #[arg(long)]
+    pub windowed: bool,
+    /// The DRM device (`/dev/dri/cardN`); the first with a connected display when omitted.
+    #[arg(long)]
+    pub card: Option<PathBuf>,
+    /// The touchscreen (`/dev/input/eventN`); the first one found when omitted.
+    #[arg(long)]
+    pub touch: Option<PathBuf>,
+    /// Run without touch input on DRM.
+    #[arg(long)]
+    pub no_touch: bool,
+    /// Turns touch coordinates to match a rotated panel: 0, 90, 180 or 270 degrees.
+    #[arg(long, default_value_t = 0)]
+    pub touch_rotate: i32,
+    #[arg(long)]
+    pub touch_flip_x: bool,
+    #[arg(long)]
+    pub touch_flip_y: bool,
+}
+
+/// `volasso` alone: the UI with its defaults (and the VOLASSO_* environment variables).
+#[derive(Debug, clap::Parser)]
+struct UiOnly {
+    #[command(flatten)]
+    args: UiArgs,
+}
+
+impl UiArgs {
+    pub fn from_environment() -> UiArgs {
+        use clap::Parser;
+        UiOnly::try_parse_from(["volasso"]).map(|only| only.args).unwrap_or_default()
+    }
+}
+
+impl UiArgs {
+    pub fn config(&self) -> AppConfig {
+        AppConfig {
+            data_dir: self.data_dir.clone(),
+            session_dir: self.session_dir.clone(),
+            idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
+            initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_key(&path.to_string_lossy())),
+            ..AppConfig::default()
+        }
+    }
+}
+
+pub fn run(args: &UiArgs) -> Result<(), CliError> {
+    let has_display_server = std::env::var_os("DISPLAY").is_some() || std::env::var_os("WAYLAND_DISPLAY").is_some();
+    match args.display {
+        DisplayChoice::Window => run_window(args),
+        DisplayChoice::Drm => run_drm(args),
+        DisplayChoice::Auto if has_display_server && cfg!(feature = "window") => run_window(args),
+        DisplayChoice::Auto => run_drm(args),
+    }
+}
+
+fn run_window(args: &UiArgs) -> Result<(), CliError> {
+    if !cfg!(feature = "window") {
+        return Err(CliError::Usage("this build has no desktop window support (cargo feature `window`)".into()));
+    }
+    let ui_error = |error: slint::PlatformError| CliError::Usage(format!("cannot open the UI window: {error}"));
+    let app = App::new(args.config()).map_err(ui_error)?;
+    if !args.windowed {
+        use slint::ComponentHandle;
+        app.window().window().set_fullscreen(true);
+    }
+    app.run().map_err(ui_error)
+}
+
+fn run_drm(args: &UiArgs) -> Result<(), CliError> {
+    let touch = crate::kiosk::drm_loop::TouchOptions {
+        device: args.touch.clone(),
+        disabled: args.no_touch,
+        rotation_degrees: args.touch_rotate,
+        flip_x: args.touch_flip_x,
+        flip_y: args.touch_flip_y,
+    };
+    crate::kiosk::drm_loop::run(args.config(), args.card.clone(), touch).map_err(CliError::Usage)
+}

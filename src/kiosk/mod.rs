@@ -1,0 +1,10 @@
+//! The kiosk around the app: the Slint platform that draws with the software renderer
+//! (platform.rs), the routing of touches to the UI (router.rs), the replay harness that drives
+//! the real UI from scripts (harness.rs, replay.rs), and the appliance's loop that shows it on
+//! a DRM display with touch from evdev (drm_loop.rs).
+
+pub mod drm_loop;
+pub mod harness;
+pub mod platform;
+pub mod replay;
+pub mod router;

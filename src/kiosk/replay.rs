@@ -1,0 +1,290 @@
+//! `volasso replay`: runs a touch script against the real UI, headless (issue 7). A script is
+//! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see src/touch/script) or an
+//! event recording (`volasso-events/1` or evemu-record text). Readable commands become
+//! type-B multitouch events of a virtual touchscreen, and every event, scripted or recorded,
+//! goes through the contact tracker and router the appliance uses with a real panel.
+//!
+//! Expectations (`expect KEY VALUE`) compare [`App::query`](crate::app::App::query) keys, plus:
+//! `view-colours N` (the 3-D view shows at least N distinct hues), `view-differs NAME` (the 3-D
+//! view differs from the screenshot NAME taken earlier), and `element NAME` (an element with that
+//! accessible label is on screen).
+
+use super::harness::{FrameTimes, Harness};
+use crate::app::AppConfig;
+use crate::touch::contacts::ContactTracker;
+use crate::touch::event::{DeviceInfo, RawEvent};
+use crate::touch::format::EventsText;
+use crate::touch::mapping::ScreenMapping;
+use crate::touch::script::{self, ElementLocator, Rect, ScriptAction};
+use crate::transfer::RgbImage;
+use std::collections::HashMap;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// How long `wait-idle` may wait for background work, in real time.
+pub const IDLE_TIMEOUT: Duration = Duration::from_secs(300);
+
+/// A replay run's settings.
+#[derive(Clone, Debug)]
+pub struct ReplayOptions {
+    /// Run one after another on the same UI.
+    pub scripts: Vec<PathBuf>,
+    pub screenshots: Option<PathBuf>,
+    /// The events the script compiled to, written as `volasso-events/1` (replayable).
+    pub events_out: Option<PathBuf>,
+    pub size: [u32; 2],
+    pub config: AppConfig,
+}
+
+/// What a run did and measured.
+#[derive(Debug, Default)]
+pub struct ReplayReport {
+    pub steps: usize,
+    pub events: usize,
+    pub failures: Vec<String>,
+    pub screenshots: Vec<PathBuf>,
+    pub frames: FrameTimes,
+    pub frames_while_classifying: FrameTimes,
+    pub script_seconds: f64,
+    pub wall_seconds: f64,
+    /// `screen` at the end (the UI still answers queries).
+    pub final_screen: String,
+}
+
+struct Locator<'a>(&'a Harness);
+
+impl ElementLocator for Locator<'_> {
+    fn screen_size(&self) -> [f32; 2] {
+        self.0.size().map(|side| side as f32)
+    }
+
+    fn element_rect(&self, name: &str) -> Option<Rect> {
+        self.0.element_rect(name).map(|r| Rect { x: r.x, y: r.y, width: r.width, height: r.height })
+    }
+}
+
+/// Runs the scripts; `Err` when one cannot run at all, failed expectations in the report.
+pub fn run(options: &ReplayOptions) -> Result<ReplayReport, String> {
+    let started = Instant::now();
+    let mut harness = Harness::new(options.config.clone(), options.size)?;
+    let mut run = Run {
+        report: ReplayReport::default(),
+        compiled: EventsText::new(&DeviceInfo::virtual_touchscreen()),
+        taken: HashMap::new(),
+    };
+    for script in &options.scripts {
+        run.script(&mut harness, script, options.screenshots.as_deref())?;
+    }
+    if let Some(path) = &options.events_out {
+        let text = run.compiled.finish();
+        crate::atomic_file::write_atomically(path, |writer| std::io::Write::write_all(writer, text.as_bytes()))
+            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+    }
+    let mut report = run.report;
+    report.frames = harness.frame_times.clone();
+    report.frames_while_classifying = harness.frame_times_while_classifying.clone();
+    report.script_seconds = harness.now().as_secs_f64();
+    report.wall_seconds = started.elapsed().as_secs_f64();
+    report.final_screen = harness.app().query("screen").unwrap_or_default();
+    Ok(report)
+}
+
+/// What one run accumulates over its scripts.
+struct Run {
+    report: ReplayReport,
+    compiled: EventsText,
+    taken: HashMap<String, RgbImage>,
+}
+
+impl Run {
+    fn script(&mut self, harness: &mut Harness, path: &Path, screenshots: Option<&Path>) -> Result<(), String> {
+        let text = read_script(path)?;
+        let device = DeviceInfo::virtual_touchscreen();
+        if is_recording(&text) {
+            let recording = crate::touch::read_recording(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let first = recording.events.first().map_or(0, |e| e.time_us);
+            let start = harness.now().as_micros() as u64 + 1_000;
+            let events: Vec<RawEvent> = recording
+                .events
+                .iter()
+                .map(|e| RawEvent { time_us: start + e.time_us.saturating_sub(first), ..*e })
+                .collect();
+            self.feed(harness, &recording.device, &events);
+            return harness.wait_idle(IDLE_TIMEOUT);
+        }
+        let steps = script::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        for step in &steps {
+            self.report.steps += 1;
+            self.compiled.comment(&step.source);
+            let at = |problem: String| format!("{}:{}: {problem}", path.display(), step.line_number);
+            match &step.action {
+                ScriptAction::Touch(command) => {
+                    let start_us = harness.now().as_micros() as u64 + 1_000;
+                    match script::touch_events(command, &Locator(harness), &device, start_us) {
+                        Ok(events) => self.feed(harness, &device, &events),
+                        Err(error) => self.report.failures.push(at(error.to_string())),
+                    }
+                }
+                ScriptAction::Wait { duration_ms } => harness.wait(Duration::from_millis(*duration_ms)),
+                ScriptAction::WaitIdle => {
+                    if let Err(message) = harness.wait_idle(IDLE_TIMEOUT) {
+                        self.report.failures.push(at(message));
+                    }
+                }
+                ScriptAction::Screenshot { name } => {
+                    let image = harness.screenshot();
+                    if let Some(dir) = screenshots {
+                        let file = dir.join(format!("{name}.png"));
+                        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
+                        crate::transfer::write_png(&file, &image).map_err(|e| e.to_string())?;
+                        self.report.screenshots.push(file);
+                    }
+                    self.taken.insert(name.clone(), image);
+                }
+                ScriptAction::Expect { key, value } => {
+                    if let Err(message) = expect(harness, &self.taken, key, value) {
+                        self.report.failures.push(at(message));
+                    }
+                }
+            }
+        }
+        Ok(())
+    }
+
+    /// Sends raw events through a contact tracker for `device` into the harness.
+    fn feed(&mut self, harness: &mut Harness, device: &DeviceInfo, events: &[RawEvent]) {
+        let size = harness.size().map(|side| side as f32);
+        let mut tracker = ContactTracker::new(device, ScreenMapping::new(device, size));
+        let mut fingers = Vec::new();
+        for event in events {
+            self.compiled.event(event);
+            self.report.events += 1;
+            fingers.clear();
+            tracker.feed(event, &mut fingers);
+            for finger in &fingers {
+                harness.finger(finger);
+            }
+            harness.advance_to(Duration::from_micros(event.time_us));
+        }
+        // A recording may end with fingers down; lift them so the next command starts clean.
+        fingers.clear();
+        tracker.cancel_all(harness.now().as_micros() as u64, &mut fingers);
+        for finger in &fingers {
+            harness.finger(finger);
+        }
+    }
+}
+
+fn read_script(path: &std::path::Path) -> Result<String, String> {
+    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the script {}: {e}", path.display()))?;
+    String::from_utf8(bytes).map_err(|_| format!("the script {} is not UTF-8 text", path.display()))
+}
+
+/// Event recordings start with their format line or carry evemu's `E:` event lines.
+fn is_recording(text: &str) -> bool {
+    text.trim_start().starts_with(crate::touch::format::MAGIC)
+        || text.lines().any(|line| line.starts_with("E:") || line.starts_with("N:"))
+}
+
+fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, value: &str) -> Result<(), String> {
+    match key {
+        "view-colours" => {
+            let wanted: usize = value.parse().map_err(|_| format!("view-colours wants a count, not '{value}'"))?;
+            let screen = harness.screenshot();
+            let view = view_pixels(harness, &screen)?;
+            let hues = distinct_hues(&view);
+            if hues >= wanted {
+                Ok(())
+            } else {
+                Err(format!("the 3-D view shows {hues} distinct hues, expected at least {wanted}"))
+            }
+        }
+        "view-differs" => {
+            let earlier = taken.get(value).ok_or(format!("no screenshot named '{value}' was taken"))?;
+            let screen = harness.screenshot();
+            let (now, then) = (view_pixels(harness, &screen)?, view_pixels(harness, earlier)?);
+            let difference = mean_difference(&now, &then);
+            if difference > 1.0 {
+                Ok(())
+            } else {
+                Err(format!("the 3-D view is unchanged since '{value}' (mean difference {difference:.2} levels)"))
+            }
+        }
+        "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
+        _ => {
+            let found = harness.app().query(key).ok_or(format!("unknown expectation key '{key}'"))?;
+            if found == value { Ok(()) } else { Err(format!("{key} is '{found}', expected '{value}'")) }
+        }
+    }
+}
+
+/// The RGB pixels of the 3-D view's rectangle in `screen`.
+fn view_pixels(harness: &Harness, screen: &RgbImage) -> Result<Vec<[u8; 3]>, String> {
+    let rect = harness.element_rect("view").ok_or("the 3-D view is not on screen")?;
+    let (x0, y0) = (rect.x.max(0.0) as usize, rect.y.max(0.0) as usize);
+    let (x1, y1) =
+        (((rect.x + rect.width) as usize).min(screen.width), ((rect.y + rect.height) as usize).min(screen.height));
+    let mut pixels = Vec::with_capacity((x1.saturating_sub(x0)) * (y1.saturating_sub(y0)));
+    for y in y0..y1 {
+        for x in x0..x1 {
+            let p = &screen.pixels[3 * (y * screen.width + x)..][..3];
+            pixels.push([p[0], p[1], p[2]]);
+        }
+    }
+    Ok(pixels)
+}
+
+/// Hues (12 bins of 30 degrees) held by at least 0.2 % of the pixels that are coloured
+/// (saturation and value above a quarter): how many classes the view visibly shows.
+pub fn distinct_hues(pixels: &[[u8; 3]]) -> usize {
+    let mut bins = [0usize; 12];
+    for &[r, g, b] in pixels {
+        let (max, min) = (r.max(g).max(b) as f32, r.min(g).min(b) as f32);
+        if max < 64.0 || (max - min) / max < 0.25 {
+            continue;
+        }
+        let (r, g, b) = (r as f32, g as f32, b as f32);
+        let hue = if max == r {
+            60.0 * ((g - b) / (max - min)).rem_euclid(6.0)
+        } else if max == g {
+            60.0 * ((b - r) / (max - min) + 2.0)
+        } else {
+            60.0 * ((r - g) / (max - min) + 4.0)
+        };
+        bins[((hue / 30.0) as usize).min(11)] += 1;
+    }
+    let threshold = (pixels.len() / 500).max(1);
+    bins.iter().filter(|&&count| count >= threshold).count()
+}
+
+fn mean_difference(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
+    if a.len() != b.len() || a.is_empty() {
+        return f64::INFINITY;
+    }
+    let total: u64 =
+        a.iter().zip(b).flat_map(|(p, q)| (0..3).map(move |c| (p[c] as i32 - q[c] as i32).unsigned_abs() as u64)).sum();
+    total as f64 / (3 * a.len()) as f64
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn distinct_hues_counts_coloured_regions_and_ignores_grey() {
+        let mut pixels = vec![[128u8, 128, 128]; 1000];
+        pixels.extend(vec![[220u8, 30, 30]; 100]);
+        assert_eq!(distinct_hues(&pixels), 1);
+        pixels.extend(vec![[30u8, 200, 220]; 100]);
+        assert_eq!(distinct_hues(&pixels), 2);
+        pixels.extend(vec![[10u8, 10, 60]; 500]);
+        assert_eq!(distinct_hues(&pixels), 2, "dark pixels are not a colour");
+    }
+
+    #[test]
+    fn recordings_are_told_from_scripts() {
+        assert!(is_recording("volasso-events/1\n"));
+        assert!(is_recording("# EVEMU 1.3\nN: panel\nE: 0.000001 0003 0039 0000\n"));
+        assert!(!is_recording("tap Start\nwait-idle\n"));
+    }
+}
