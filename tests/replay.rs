@@ -42,3 +42,69 @@ fn the_whole_workflow_on_the_demo_volume_by_touch() {
     // The idle timeout at the end cleared the autosaved session.
     assert!(!session.join("session.json").exists());
 }
+
+#[test]
+fn the_workflow_on_a_real_256_cubed_volume() {
+    let work = tempfile::tempdir().unwrap();
+    let volume = support::data("engine_256x256x256_uint8.raw");
+    let report = replay(
+        &["replay", script("engine-workflow.touch").to_str().unwrap(), "--volume", volume.to_str().unwrap()],
+        work.path(),
+    );
+    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
+    assert!(report["frames_while_classifying"]["count"].as_u64().unwrap_or(0) > 0, "{report}");
+}
+
+/// 10,000 random type-B events in 60 s with up to 10 fingers, off-screen positions, garbage
+/// codes and SYN_DROPPED in the middle of gestures, then a script that needs a working UI.
+#[test]
+fn a_touch_storm_leaves_the_ui_answering_with_bounded_memory() {
+    use volasso::touch::event::*;
+    let work = tempfile::tempdir().unwrap();
+    let device = DeviceInfo::virtual_touchscreen();
+    let mut text = volasso::touch::format::EventsText::new(&device);
+    let mut random = volasso::rng::SplitMix64::new(2026);
+    let mut time_us = 0u64;
+    let mut tracking = [None::<i32>; 10];
+    let mut next_id = 1;
+    let mut events = 0;
+    while events < 10_000 {
+        time_us += 60_000_000 / 10_000;
+        let slot = random.below(10) as usize;
+        let mut frame = vec![RawEvent::new(time_us, EV_ABS, ABS_MT_SLOT, slot as i32)];
+        match random.below(20) {
+            0 => frame = vec![RawEvent::new(time_us, EV_SYN, SYN_DROPPED, 0)],
+            // Codes the tracker does not use, with any value.
+            1 => {
+                frame.push(RawEvent::new(time_us, EV_ABS, random.below(0x40) as u16, random.below(1 << 20) as i32 - 5))
+            }
+            2..=5 => {
+                let id = if tracking[slot].is_some() { -1 } else { next_id };
+                tracking[slot] = (id >= 0).then_some(id);
+                next_id += 1;
+                frame.push(RawEvent::new(time_us, EV_ABS, ABS_MT_TRACKING_ID, id));
+            }
+            _ => {
+                // Positions a little beyond the axes too: the panel's edge, or a lying device.
+                let x = random.below(36_000) as i32 - 1_500;
+                let y = random.below(36_000) as i32 - 1_500;
+                frame.push(RawEvent::new(time_us, EV_ABS, ABS_MT_POSITION_X, x));
+                frame.push(RawEvent::new(time_us, EV_ABS, ABS_MT_POSITION_Y, y));
+            }
+        }
+        frame.push(RawEvent::new(time_us, EV_SYN, SYN_REPORT, 0));
+        for event in &frame {
+            text.event(event);
+        }
+        events += frame.len();
+    }
+    let storm = work.path().join("storm.events");
+    std::fs::write(&storm, text.finish()).unwrap();
+    let report =
+        replay(&["replay", storm.to_str().unwrap(), script("after-abuse.touch").to_str().unwrap()], work.path());
+    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
+    assert!(report["events"].as_u64().unwrap_or(0) >= 10_000, "{report}");
+    let peak_mb = report["peak_resident_mb"].as_f64().unwrap_or(f64::INFINITY);
+    assert!(peak_mb < 1500.0, "peak resident memory {peak_mb} MB: {report}");
+    eprintln!("touch storm: {report}");
+}
