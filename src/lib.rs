@@ -11,6 +11,7 @@
 //! The command line (`cli`) and, later, the UI and input layers call the pipeline; the pipeline
 //! never knows about them.
 
+pub mod accuracy;
 pub mod atomic_file;
 pub mod classify;
 pub mod cli;

@@ -3,6 +3,7 @@
 //! Each subcommand lives in its own file and calls the pipeline; this module only dispatches,
 //! sets up logging and turns an error into one sentence on stderr with a non-zero status.
 
+mod accuracy;
 mod args;
 mod classify;
 mod import;
@@ -55,6 +56,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Import(args)) => import::run(&args),
         Some(Command::Classify(args)) => classify::run(&args),
         Some(Command::Render(args)) => render::run(&args),
+        Some(Command::Accuracy(args)) => accuracy::run(&args),
         None => Err(CliError::Usage(
             "the kiosk UI is not part of this build yet; try `volasso info demo` or `volasso --help`".into(),
         )),
