@@ -9,7 +9,8 @@
 //! ```
 //!
 //! The command line (`cli`) and, later, the UI and input layers call the pipeline; the pipeline
-//! never knows about them.
+//! never knows about them. `accuracy` measures the pipeline against phantoms with known truth
+//! (issue 9).
 
 pub mod accuracy;
 pub mod atomic_file;

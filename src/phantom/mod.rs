@@ -31,6 +31,12 @@
 //! [`lassos_inside`] draws the lassos a careful user would on the top-entropy slices (so this
 //! module uses `slices` and `strokes`, as a demo session does).
 //!
+//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
+//! MRI brain, 8-bit MRI shells).
+//!
+//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
+//! MRI brain, 8-bit MRI shells).
+//!
 //! Never: reads files, or pretends to be real anatomy beyond a test's needs.
 
 pub mod anatomy;

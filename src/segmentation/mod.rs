@@ -13,6 +13,10 @@
 //! structures that the coarse grid straddles). Elsewhere the voxel takes its neighbours'
 //! common label. [`Refinement::Exact`] evaluates every foreground voxel.
 //!
+//! The classifier is a [`ClassifierKind`]: the paper's SN-SVM (`SegmentationOptions::paper()`,
+//! on the 5-D features) or a random forest; the default is what `volasso accuracy` measured
+//! best (a forest on [`FeatureSet::MultiscaleFine`]).
+//!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
 mod background;
