@@ -11,7 +11,9 @@
 
 This script trains scikit-learn's SVC (LIBSVM, RBF, the same gamma and C, one-vs-one) on the
 same training vectors, predicts the same voxels, and prints one JSON line with both timings,
-their ratio and the label agreement. With --forest it also times a 100-tree random forest.
+their ratio and the label agreement. With --forest it also times a 100-tree random forest and
+reports its agreement with volasso's labels (run volasso with `--classifier forest` to compare
+the two forests).
 
 Usage: python3 scripts/compare_sklearn.py DIR [--forest] [--max-voxels N]
 """
@@ -77,6 +79,9 @@ def main() -> int:
         forest_y = forest.predict(predict_x[subset])
         result["forest_seconds"] = {"train": forest_train, "predict": (time.perf_counter() - started) * scale}
         result["label_agreement_forest_svc"] = float(np.mean(forest_y == svc_y))
+        # With `--classifier forest` (or the default) this checks volasso's own forest against
+        # scikit-learn's on the same lassos and voxels (issue 9).
+        result["label_agreement_forest_volasso"] = float(np.mean(forest_y == volasso_y[subset]))
     print(json.dumps(result))
     return 0
 

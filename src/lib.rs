@@ -10,7 +10,9 @@
 //!
 //! The command line (`cli`), the kiosk UI (`app`, `ui/*.slint`) and its platform and input
 //! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
+//! `accuracy` measures the pipeline against phantoms with known truth (issue 9).
 
+pub mod accuracy;
 pub mod app;
 pub mod atomic_file;
 pub mod classify;

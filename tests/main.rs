@@ -3,6 +3,8 @@
 //! * `formats`: every volume in `../shared/data` opens with the right dimensions, type, spacing
 //!   and values (checked against figures computed independently with numpy).
 //! * `malformed`: broken, truncated and lying files each give one clear error, never a panic.
+//! * `accuracy`: the accuracy harness on small phantoms (issue 9): the default classifier
+//!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, and
 //!   `volasso classify`'s contract and errors (issue 3).
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
@@ -10,6 +12,7 @@
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
+mod accuracy;
 mod classification;
 mod cli;
 mod formats;

@@ -18,6 +18,7 @@
 //! samples, or decides which voxels to classify; those are the caller's.
 
 mod error;
+mod forest;
 mod kernel;
 mod model;
 mod ovo;
@@ -31,6 +32,7 @@ mod spectrum;
 mod test_support;
 
 pub use error::ClassifyError;
+pub use forest::{Forest, ForestParams};
 pub use kernel::Kernel;
 pub use model::Model;
 pub use ovo::{ClassPair, MAX_POINTS_PER_PAIR, PairReport, TrainReport, train, train_with_classes};

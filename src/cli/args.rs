@@ -35,6 +35,8 @@ pub enum Command {
     Replay(super::replay::ReplayArgs),
     /// Record a touchscreen's raw events as volasso-events/1 (Linux evdev).
     Record(RecordArgs),
+    /// Measure classification accuracy on phantoms with known truth (simulated lassos).
+    Accuracy(super::accuracy::AccuracyArgs),
 }
 
 #[derive(Debug, Args)]
@@ -99,6 +101,30 @@ pub enum ClassifierChoice {
     Snsvm,
     /// The classical RBF SVM (eta = 0).
     Svm,
+    /// A random forest (class-balanced bootstraps, Gini splits).
+    Forest,
+}
+
+/// Which voxel features `classify` computes.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum FeatureChoice {
+    /// The paper's 5-D set (intensity, gradient magnitude, three plane means).
+    Paper5,
+    /// 17-D: intensity, smoothing, gradients, Hessian eigenvalues and differences of Gaussians
+    /// at four scales.
+    Multiscale,
+    /// 9-D: the same at the two finest scales (a third of the work).
+    MultiscaleFine,
+}
+
+impl From<FeatureChoice> for crate::features::FeatureSet {
+    fn from(choice: FeatureChoice) -> Self {
+        match choice {
+            FeatureChoice::Paper5 => crate::features::FeatureSet::Paper5,
+            FeatureChoice::Multiscale => crate::features::FeatureSet::Multiscale,
+            FeatureChoice::MultiscaleFine => crate::features::FeatureSet::MultiscaleFine,
+        }
+    }
 }
 
 #[derive(Debug, Args)]
@@ -113,8 +139,17 @@ pub struct ClassifyArgs {
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,
-    #[arg(long, value_enum, default_value_t = ClassifierChoice::Snsvm)]
-    pub classifier: ClassifierChoice,
+    /// The classifier; without it, the measured-best default (`volasso accuracy`): a random
+    /// forest on the fine multi-scale features. `snsvm` and `svm` use the paper's 5-D features
+    /// unless `--features` says otherwise.
+    #[arg(long, value_enum)]
+    pub classifier: Option<ClassifierChoice>,
+    /// The voxel features (default: `paper5` for snsvm and svm, else `multiscale-fine`).
+    #[arg(long, value_enum)]
+    pub features: Option<FeatureChoice>,
+    /// Random forest: number of trees.
+    #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
+    pub trees: Option<u32>,
     /// Training voxels kept per class (stratified over its strokes).
     #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N")]
     pub cap: usize,

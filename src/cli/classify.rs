@@ -12,9 +12,10 @@
 
 use super::CliError;
 use super::args::{ClassifierChoice, ClassifyArgs};
+use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
-use crate::features::{FeatureSlabReader, Standardiser};
-use crate::segmentation::{self, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter};
+use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
+use crate::segmentation::{self, ClassifierKind, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter};
 use crate::strokes::{StrokesFile, TrainingSet};
 use crate::transfer::{self, ClassTable, HueTemplate, class_table_path};
 use crate::volume::{ByteOrder, Volume, VoxelType, nrrd};
@@ -48,7 +49,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     let Some((segmenter, labels)) = result else {
         return Err(CliError::Usage("--repeat must be at least 1".into()));
     };
-    if segmenter.report().hit_cap() {
+    if segmenter.report().is_some_and(|r| r.hit_cap()) {
         log::warn!("the SVM solver hit its iteration cap; the result may be less accurate");
     }
     let median = |k: usize| {
@@ -87,11 +88,16 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "training_cap_per_class": summary.cap_per_class,
         "contested_voxels": summary.contested_voxels,
         "background_threshold": summary.background_threshold,
-        "classifier": match args.classifier { ClassifierChoice::Snsvm => "snsvm", ClassifierChoice::Svm => "svm" },
+        "classifier": match summary.classifier_kind {
+            ClassifierKind::SnSvm if summary.classifier.eta == 0.0 => "svm",
+            ClassifierKind::SnSvm => "snsvm",
+            ClassifierKind::Forest(_) => "forest",
+        },
+        "features": segmenter.feature_set.name(),
         "refinement": match options.refinement { Refinement::Exact => "exact", Refinement::CoarseToFine => "coarse-to-fine" },
         "parameters": parameters_json(&summary.classifier),
-        "support_vectors": report.pairs.iter().map(|p| p.support_vectors).sum::<usize>(),
-        "solver_hit_iteration_cap": report.hit_cap(),
+        "support_vectors": report.map(|r| r.pairs.iter().map(|p| p.support_vectors).sum::<usize>()),
+        "solver_hit_iteration_cap": report.map(|r| r.hit_cap()),
         "seconds": {
             "load": load_seconds,
             "features": features_seconds,
@@ -108,10 +114,22 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     Ok(())
 }
 
-fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
+pub(super) fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
+    let defaults = SegmentationOptions::default();
     let mut classifier = match args.classifier {
-        ClassifierChoice::Snsvm => SnSvmParams::default(),
-        ClassifierChoice::Svm => SnSvmParams::plain_svm(),
+        Some(ClassifierChoice::Svm) => SnSvmParams::plain_svm(),
+        _ => SnSvmParams::default(),
+    };
+    let (classifier_kind, default_features) = match args.classifier {
+        None => (defaults.classifier_kind, defaults.feature_set),
+        Some(ClassifierChoice::Snsvm | ClassifierChoice::Svm) => (ClassifierKind::SnSvm, FeatureSet::Paper5),
+        Some(ClassifierChoice::Forest) => (ClassifierKind::Forest(ForestParams::default()), defaults.feature_set),
+    };
+    let classifier_kind = match (classifier_kind, args.trees) {
+        (ClassifierKind::Forest(params), Some(trees)) => {
+            ClassifierKind::Forest(ForestParams { tree_count: trees as usize, ..params })
+        }
+        (kind, _) => kind,
     };
     let mut kernel_width = KernelWidth::Automatic;
     if let Some(width) = args.kernel_width {
@@ -121,16 +139,18 @@ fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
     if let Some(c) = args.c {
         classifier.c = c;
     }
-    if let (Some(eta), ClassifierChoice::Snsvm) = (args.eta, args.classifier) {
+    if let (Some(eta), Some(ClassifierChoice::Snsvm)) = (args.eta, args.classifier) {
         classifier.eta = eta;
     }
     SegmentationOptions {
+        feature_set: args.features.map_or(default_features, FeatureSet::from),
+        classifier_kind,
         classifier,
         kernel_width,
         max_training_per_class: args.cap,
         background: args.background,
         refinement: if args.exact { Refinement::Exact } else { Refinement::CoarseToFine },
-        ..SegmentationOptions::default()
+        ..defaults
     }
 }
 

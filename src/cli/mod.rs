@@ -3,6 +3,7 @@
 //! Each subcommand lives in its own file and calls the pipeline; this module only dispatches,
 //! sets up logging and turns an error into one sentence on stderr with a non-zero status.
 
+mod accuracy;
 mod args;
 mod classify;
 mod import;
@@ -63,6 +64,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Ui(args)) => ui::run(&args),
         Some(Command::Replay(args)) => replay::run(&args),
         Some(Command::Record(args)) => record::run(&args),
+        Some(Command::Accuracy(args)) => accuracy::run(&args),
         None => ui::run(&ui::UiArgs::from_environment()),
     }
 }

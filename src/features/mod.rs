@@ -20,13 +20,18 @@
 //! Both paths share one arithmetic, so they agree bit for bit. [`Standardiser`] maps features to
 //! zero mean and unit deviation, fitted on the training vectors.
 //!
+//! [`FeatureSet::Multiscale`] (issue 9) adds smoothed intensity, gradients, Hessian eigenvalues
+//! and differences of Gaussians at four scales, computed blockwise (see [`multiscale`]).
+//!
 //! Never: keeps a feature copy of the volume, knows about classes, or trains anything.
 
+pub mod multiscale;
 mod slab;
 mod standardise;
 #[cfg(test)]
 mod tests;
 
+pub use multiscale::Scales;
 pub use slab::{FeatureSlabReader, par_map_slabs, slab_ranges};
 pub use standardise::Standardiser;
 
@@ -34,13 +39,17 @@ use crate::volume::Volume;
 use rayon::prelude::*;
 use std::ops::Range;
 
-/// A choice of per-voxel features. Only the paper's set exists today; multi-scale sets (issue
-/// 9) add variants here.
+/// A choice of per-voxel features.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum FeatureSet {
     /// Intensity, gradient magnitude, and the xy, xz, yz 8-neighbour means (§3.3).
     #[default]
     Paper5,
+    /// Intensity, smoothed intensity, gradient magnitude, Hessian eigenvalues and differences
+    /// of Gaussians at scales 0.8-3.2 voxels (17-D, [`multiscale`]; issue 9).
+    Multiscale,
+    /// The same at the two finest scales, 0.8 and 1.15 voxels (9-D; a third of the work).
+    MultiscaleFine,
 }
 
 impl FeatureSet {
@@ -48,6 +57,7 @@ impl FeatureSet {
     pub fn dim(self) -> usize {
         match self {
             FeatureSet::Paper5 => 5,
+            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => self.scales().map_or(5, Scales::dim),
         }
     }
 
@@ -55,6 +65,34 @@ impl FeatureSet {
     pub fn names(self) -> &'static [&'static str] {
         match self {
             FeatureSet::Paper5 => &["intensity", "gradient magnitude", "mean xy", "mean xz", "mean yz"],
+            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => self.scales().map_or(&[], Scales::names),
+        }
+    }
+
+    /// The command-line name (`--features`).
+    pub fn name(self) -> &'static str {
+        match self {
+            FeatureSet::Paper5 => "paper5",
+            FeatureSet::Multiscale => "multiscale",
+            FeatureSet::MultiscaleFine => "multiscale-fine",
+        }
+    }
+
+    /// The multi-scale cascade this set reads (`None` for the paper's set).
+    pub fn scales(self) -> Option<Scales> {
+        match self {
+            FeatureSet::Paper5 => None,
+            FeatureSet::Multiscale => Some(Scales::Full),
+            FeatureSet::MultiscaleFine => Some(Scales::Fine),
+        }
+    }
+
+    /// Z planes a whole-volume pass should give one worker at a time: the multi-scale blocks
+    /// smooth a halo around their planes, so longer runs of planes waste less.
+    pub fn preferred_slab_depth(self, dims: [usize; 3]) -> usize {
+        match self {
+            FeatureSet::Paper5 => 4,
+            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => multiscale::block_depth(dims),
         }
     }
 }
@@ -113,13 +151,15 @@ pub fn features_of_voxels(
     if let Some(&index) = indices.iter().find(|&&i| i >= voxel_count) {
         return Err(FeatureError::VoxelOutOfRange { index, voxel_count });
     }
+    if let Some(scales) = feature_set.scales() {
+        return multiscale::multiscale_features_of_voxels(volume, scales, indices);
+    }
     let dim = feature_set.dim();
     let mut out = vec![0f32; indices.len() * dim];
-    out.par_chunks_exact_mut(dim).zip(indices.par_iter()).with_min_len(256).for_each(
-        |(row, &index)| match feature_set {
-            FeatureSet::Paper5 => row.copy_from_slice(&features_at(volume, index)),
-        },
-    );
+    out.par_chunks_exact_mut(dim)
+        .zip(indices.par_iter())
+        .with_min_len(256)
+        .for_each(|(row, &index)| row.copy_from_slice(&features_at(volume, index)));
     Ok(out)
 }
 

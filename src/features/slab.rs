@@ -4,6 +4,7 @@
 //! `f32` buffers and rolls them forward, so a slab reads each plane of the volume once through
 //! [`Volume::read_f32`]. [`par_map_slabs`] runs one reader per worker over consecutive slabs.
 
+use super::multiscale::MultiscaleSlabReader;
 use super::{FeatureError, FeatureSet, Neighbourhood, check_slab, inverse_span_mm};
 use crate::volume::Volume;
 use rayon::prelude::*;
@@ -12,6 +13,8 @@ use std::ops::Range;
 /// Computes features for z slabs of one volume, reusing its plane buffers between calls.
 pub struct FeatureSlabReader<'v> {
     volume: &'v Volume,
+    /// The multi-scale set's block reader (`None` for the paper's set).
+    multiscale: Option<MultiscaleSlabReader<'v>>,
     feature_set: FeatureSet,
     /// Three plane buffers and the z plane each holds (`None`: not loaded).
     planes: [Vec<f32>; 3],
@@ -31,6 +34,7 @@ impl<'v> FeatureSlabReader<'v> {
         };
         FeatureSlabReader {
             volume,
+            multiscale: feature_set.scales().map(|scales| MultiscaleSlabReader::new(volume, scales)),
             feature_set,
             planes: [Vec::new(), Vec::new(), Vec::new()],
             plane_z: [None; 3],
@@ -39,6 +43,13 @@ impl<'v> FeatureSlabReader<'v> {
             x_gradient_scale: (0..size_x).map(|x| inverse_span_mm(x, size_x, volume.spacing_mm[0])).collect(),
             y_gradient_scale: (0..size_y).map(|y| inverse_span_mm(y, size_y, volume.spacing_mm[1])).collect(),
         }
+    }
+
+    /// Promises that only voxels at or above `threshold` will be asked for, so that the
+    /// multi-scale set can skip the rest of each block (no effect on the paper's set).
+    pub fn with_foreground_threshold(mut self, threshold: f32) -> Self {
+        self.multiscale = self.multiscale.map(|reader| reader.with_foreground_threshold(threshold));
+        self
     }
 
     pub fn feature_set(&self) -> FeatureSet {
@@ -58,6 +69,16 @@ impl<'v> FeatureSlabReader<'v> {
         let [size_x, size_y, _] = self.volume.dims;
         let plane = size_x * size_y;
         let dim = self.feature_set.dim();
+        if let Some(multiscale) = &mut self.multiscale {
+            let every: Vec<usize> = (0..plane).collect();
+            let mut block = Vec::new();
+            out.clear();
+            for z in z_range {
+                multiscale.compute_selected(z, &every, &mut block);
+                out.extend_from_slice(&block);
+            }
+            return;
+        }
         out.clear();
         out.resize(z_range.len() * plane * dim, 0.0);
         for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
@@ -84,14 +105,11 @@ impl<'v> FeatureSlabReader<'v> {
                     next: [next_minus, next_0, next_plus],
                 }
                 .cut_to(size_x);
-                let feature_set = self.feature_set;
                 let mut emit = |x: usize, x_minus: usize, x_plus: usize, x_scale: f32| {
                     let neighbourhood =
                         rows.neighbourhood([x_minus, x, x_plus], [x_scale, y_gradient_scale, z_gradient_scale]);
                     let voxel_out = &mut row_out[x * dim..(x + 1) * dim];
-                    match feature_set {
-                        FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
-                    }
+                    voxel_out.copy_from_slice(&neighbourhood.paper5());
                 };
                 // The first and last columns clamp; the columns between need no table.
                 for x in [0, size_x - 1] {
@@ -117,6 +135,10 @@ impl<'v> FeatureSlabReader<'v> {
         let [size_x, size_y, _] = self.volume.dims;
         if let Some(&index) = selected.iter().find(|&&i| i >= size_x * size_y) {
             return Err(FeatureError::VoxelOutOfRange { index, voxel_count: size_x * size_y });
+        }
+        if let Some(multiscale) = &mut self.multiscale {
+            multiscale.compute_selected(z, selected, out);
+            return Ok(());
         }
         let dim = self.feature_set.dim();
         out.clear();
@@ -166,9 +188,7 @@ impl<'v> FeatureSlabReader<'v> {
                 ],
                 gradient_scale: [self.x_gradient_scale[x], self.y_gradient_scale[y], z_gradient_scale],
             };
-            match self.feature_set {
-                FeatureSet::Paper5 => voxel_out.copy_from_slice(&neighbourhood.paper5()),
-            }
+            voxel_out.copy_from_slice(&neighbourhood.paper5());
         }
         Ok(())
     }

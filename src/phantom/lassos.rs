@@ -65,7 +65,7 @@ pub fn lassos_inside(phantom: &Phantom, classes: &[u8], per_slice: usize, radius
 
 /// City-block distance (in pixels) of every pixel of a slice to the nearest pixel of another
 /// class or beyond the image border; 1 on a class boundary.
-fn depth_inside_class(geometry: &SliceGeometry, class_at: impl Fn(usize, usize) -> u8) -> Vec<u32> {
+pub(crate) fn depth_inside_class(geometry: &SliceGeometry, class_at: impl Fn(usize, usize) -> u8) -> Vec<u32> {
     let (width, height) = (geometry.width, geometry.height);
     let mut depth = vec![u32::MAX; width * height];
     let mut queue = VecDeque::new();

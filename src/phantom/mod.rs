@@ -31,10 +31,17 @@
 //! [`lassos_inside`] draws the lassos a careful user would on the top-entropy slices (so this
 //! module uses `slices` and `strokes`, as a demo session does).
 //!
+//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
+//! MRI brain, 8-bit MRI shells).
+//!
+//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
+//! MRI brain, 8-bit MRI shells).
+//!
 //! Never: reads files, or pretends to be real anatomy beyond a test's needs.
 
 pub mod anatomy;
-mod lassos;
+pub(crate) mod lassos;
+pub mod procedural;
 #[cfg(test)]
 mod tests;
 
@@ -65,7 +72,7 @@ const MUSCLE_LATTICE_MM: f64 = 12.0;
 /// A generated volume with its ground truth.
 #[derive(Debug)]
 pub struct Phantom {
-    /// Signed 16-bit HU, owned bytes.
+    /// Owned bytes: signed 16-bit HU for the demo foot, see [`procedural`] for the others.
     pub volume: Volume,
     /// The true class of every voxel (x fastest), an index into `class_names`; 0 is air.
     pub truth: Vec<u8>,

@@ -10,10 +10,6 @@ use crate::volume::Volume;
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// z planes per parallel task: enough to amortise the rolling plane buffer, small enough to
-/// balance two to sixteen cores.
-const SLAB_DEPTH: usize = 4;
-
 /// A fine voxel copies its coarse neighbours' common label only when its intensity lies within
 /// their range widened by this fraction of the training intensities' deviation; otherwise it
 /// is evaluated (it may belong to a structure thinner than the coarse grid).
@@ -28,6 +24,9 @@ pub(super) fn label_volume(
 ) -> Result<LabelVolume, SegmentationError> {
     let [size_x, size_y, size_z] = volume.dims;
     let plane = size_x * size_y;
+    // z planes per parallel task: enough to amortise the feature reader's buffers (a rolling
+    // plane buffer, or the multi-scale blocks' halo), few enough to balance the cores.
+    let slab_depth = segmenter.feature_set.preferred_slab_depth(volume.dims);
     let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32;
     let coarse = match refinement {
         Refinement::Exact => None,
@@ -52,7 +51,7 @@ pub(super) fn label_volume(
 
     let mut labels = vec![0u8; volume.voxel_count()];
     let classified = labels
-        .par_chunks_mut(plane * SLAB_DEPTH)
+        .par_chunks_mut(plane * slab_depth)
         .enumerate()
         .map_init(
             || Worker::new(volume, segmenter),
@@ -62,7 +61,7 @@ pub(super) fn label_volume(
                     if cancel.load(Ordering::Relaxed) {
                         return Err(SegmentationError::Cancelled);
                     }
-                    let z = slab * SLAB_DEPTH + offset;
+                    let z = slab * slab_depth + offset;
                     volume.read_z_slice_f32(z, &mut worker.values);
                     worker.selected.clear();
                     for (index, (&value, label)) in worker.values.iter().zip(plane_labels.iter_mut()).enumerate() {
@@ -113,7 +112,8 @@ struct Worker<'a> {
 impl<'a> Worker<'a> {
     fn new(volume: &'a Volume, segmenter: &'a Segmenter) -> Worker<'a> {
         Worker {
-            reader: FeatureSlabReader::new(volume, segmenter.feature_set),
+            reader: FeatureSlabReader::new(volume, segmenter.feature_set)
+                .with_foreground_threshold(segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32),
             segmenter,
             values: vec![0.0; volume.dims[0] * volume.dims[1]],
             selected: Vec::new(),
@@ -130,7 +130,7 @@ impl<'a> Worker<'a> {
         self.reader.compute_selected(z, &self.selected, &mut self.features)?;
         self.segmenter.standardiser.apply_in_place(&mut self.features)?;
         self.predicted.resize(self.selected.len(), 0);
-        self.segmenter.model.predict_block(&self.features, &mut self.predicted)?;
+        self.segmenter.classifier.predict_block(&self.features, &mut self.predicted)?;
         for (&index, &label) in self.selected.iter().zip(&self.predicted) {
             plane_labels[index] = label;
         }
@@ -170,10 +170,13 @@ impl CoarseGrid {
         let [size_x, _, _] = volume.dims;
         let coarse_plane = self.dims[0] * self.dims[1];
         let [coarse_x, coarse_y, _] = self.dims;
+        // Neighbouring coarse planes on one worker share its feature reader's block.
+        let planes_per_task = segmenter.feature_set.preferred_slab_depth(volume.dims).div_ceil(2);
         self.labels
             .par_chunks_mut(coarse_plane)
             .zip(self.values.par_chunks_mut(coarse_plane))
             .enumerate()
+            .with_min_len(planes_per_task)
             .map_init(
                 || Worker::new(volume, segmenter),
                 |worker, (cz, (labels, values))| -> Result<(), SegmentationError> {

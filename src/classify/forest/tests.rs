@@ -1,0 +1,122 @@
+use super::*;
+use crate::rng::SplitMix64;
+
+/// Two Gaussian blobs per class in 3-D (class k centred at +-2k along feature k % 3).
+fn blobs(per_class: usize, classes: u8, seed: u64) -> (Vec<f32>, Vec<u8>) {
+    let mut rng = SplitMix64::new(seed);
+    let (mut samples, mut labels) = (Vec::new(), Vec::new());
+    for class in 1..=classes {
+        for i in 0..per_class {
+            let sign = if i % 2 == 0 { 1.0 } else { -1.0 };
+            let mut vector = [rng.next_gaussian() * 0.5, rng.next_gaussian() * 0.5, rng.next_gaussian() * 0.5];
+            vector[class as usize % 3] += sign * 2.0 * class as f32;
+            samples.extend_from_slice(&vector);
+            labels.push(class);
+        }
+    }
+    (samples, labels)
+}
+
+#[test]
+fn separates_held_out_blobs_and_xor() {
+    let (train, train_labels) = blobs(60, 3, 1);
+    let (test, test_labels) = blobs(200, 3, 2);
+    let forest = Forest::train(&train, 3, &train_labels, &[1, 2, 3], &ForestParams::default()).unwrap();
+    let mut predicted = vec![0u8; test_labels.len()];
+    forest.predict_block(&test, &mut predicted).unwrap();
+    let correct = predicted.iter().zip(&test_labels).filter(|(a, b)| a == b).count();
+    assert!(correct as f64 / test_labels.len() as f64 > 0.97, "{correct} of {}", test_labels.len());
+
+    // XOR of two features: no single split separates it, the trees' depth must.
+    let mut rng = SplitMix64::new(3);
+    let (mut samples, mut labels) = (Vec::new(), Vec::new());
+    for _ in 0..400 {
+        let (a, b) = (rng.next_f64() as f32 * 2.0 - 1.0, rng.next_f64() as f32 * 2.0 - 1.0);
+        samples.extend_from_slice(&[a, b]);
+        labels.push(if (a > 0.0) == (b > 0.0) { 1 } else { 2 });
+    }
+    let forest = Forest::train(&samples, 2, &labels, &[1, 2], &ForestParams::default()).unwrap();
+    let queries = [0.5f32, 0.5, -0.5, -0.5, 0.5, -0.5, -0.5, 0.5];
+    let mut out = [0u8; 4];
+    forest.predict_block(&queries, &mut out).unwrap();
+    assert_eq!(out, [1, 1, 2, 2]);
+}
+
+#[test]
+fn extrapolates_as_the_nearest_extreme_class() {
+    // One feature: class 1 at 0..1, class 2 at 2..3. Far beyond either end, the forest keeps
+    // the class of that end (an RBF SVM decays towards its bias there).
+    let samples: Vec<f32> =
+        (0..100).map(|i| if i < 50 { i as f32 / 50.0 } else { 2.0 + (i - 50) as f32 / 50.0 }).collect();
+    let labels: Vec<u8> = (0..100).map(|i| if i < 50 { 1 } else { 2 }).collect();
+    let forest = Forest::train(&samples, 1, &labels, &[1, 2], &ForestParams::default()).unwrap();
+    let mut out = [0u8; 2];
+    forest.predict_block(&[-100.0, 100.0], &mut out).unwrap();
+    assert_eq!(out, [1, 2]);
+}
+
+#[test]
+fn class_balance_keeps_a_small_class() {
+    // 300 samples of class 1 around 0, 12 of class 2 around 1.5, overlapping tails. Balanced
+    // bootstraps give class 2 its share of the boundary.
+    let mut rng = SplitMix64::new(5);
+    let (mut samples, mut labels) = (Vec::new(), Vec::new());
+    for _ in 0..300 {
+        samples.push(rng.next_gaussian());
+        labels.push(1);
+    }
+    for _ in 0..12 {
+        samples.push(1.5 + 0.3 * rng.next_gaussian());
+        labels.push(2);
+    }
+    let balanced = Forest::train(&samples, 1, &labels, &[1, 2], &ForestParams::default()).unwrap();
+    let mut out = [0u8; 1];
+    balanced.predict_block(&[1.6], &mut out).unwrap();
+    assert_eq!(out, [2]);
+}
+
+#[test]
+fn deterministic_and_parallel_prediction_agrees() {
+    let (train, labels) = blobs(40, 4, 7);
+    let params = ForestParams { tree_count: 16, ..ForestParams::default() };
+    let first = Forest::train(&train, 3, &labels, &[1, 2, 3, 4], &params).unwrap();
+    let second = Forest::train(&train, 3, &labels, &[1, 2, 3, 4], &params).unwrap();
+    assert_eq!(first.node_count(), second.node_count());
+    let (test, _) = blobs(3000, 4, 8);
+    let (mut a, mut b, mut c) = (vec![0u8; 12000], vec![0u8; 12000], vec![0u8; 12000]);
+    first.predict_block(&test, &mut a).unwrap();
+    second.predict_block(&test, &mut b).unwrap();
+    first.predict_block_parallel(&test, &mut c).unwrap();
+    assert_eq!(a, b);
+    assert_eq!(a, c);
+    let other = Forest::train(&train, 3, &labels, &[1, 2, 3, 4], &ForestParams { seed: 99, ..params }).unwrap();
+    let mut d = vec![0u8; 12000];
+    other.predict_block(&test, &mut d).unwrap();
+    assert!(a.iter().zip(&d).filter(|(x, y)| x == y).count() > 11000);
+}
+
+#[test]
+fn refuses_bad_input() {
+    let bad = |params: ForestParams| match params.check() {
+        Err(ClassifyError::InvalidParameter { name, .. }) => name,
+        other => panic!("{other:?}"),
+    };
+    assert_eq!(bad(ForestParams { tree_count: 0, ..ForestParams::default() }), "tree count");
+    assert_eq!(bad(ForestParams { min_samples_split: 1, ..ForestParams::default() }), "min samples per split");
+    assert_eq!(bad(ForestParams { features_per_split: Some(0), ..ForestParams::default() }), "features per split");
+    let params = ForestParams::default();
+    assert!(matches!(
+        Forest::train(&[0.0, 1.0], 1, &[1, 1], &[1, 2], &params),
+        Err(ClassifyError::EmptyClass { class_id: 2 })
+    ));
+    assert!(matches!(
+        Forest::train(&[0.0, 1.0], 1, &[1, 3], &[1, 2], &params),
+        Err(ClassifyError::UnknownLabel { sample: 1, label: 3, .. })
+    ));
+    assert!(matches!(
+        Forest::train(&[0.0, f32::NAN], 1, &[1, 2], &[1, 2], &params),
+        Err(ClassifyError::NonFiniteSample { sample: 1, .. })
+    ));
+    let forest = Forest::train(&[0.0, 1.0], 1, &[1, 2], &[1, 2], &params).unwrap();
+    assert!(forest.predict_block(&[0.0, 1.0, 2.0], &mut [0u8; 2]).is_err());
+}
