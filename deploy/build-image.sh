@@ -73,11 +73,11 @@ mkdir -p "$work" "$(dirname "$out")"
 root="$work/root"
 
 # Packages: systemd and the kernel to boot; Mesa's Vulkan drivers (radv/anv for a real GPU,
-# lavapipe as the fallback) and GL/GBM for wgpu; fonts for Slint's software renderer; kbd to
+# lavapipe as the fallback) and GL/GBM for wgpu; fontconfig and fonts for Slint's text layout; kbd to
 # load the keymap that removes console switching; e2fsprogs to check the data partition.
 packages=(systemd systemd-sysv udev kmod linux-image-amd64 initramfs-tools zstd systemd-boot-efi
     mesa-vulkan-drivers libvulkan1 libgl1-mesa-dri libegl1 libegl-mesa0 libgbm1
-    fonts-dejavu-core fontconfig-config kbd e2fsprogs dosfstools exfatprogs)
+    libfontconfig1 libfreetype6 fonts-dejavu-core fontconfig-config kbd e2fsprogs dosfstools exfatprogs)
 include=$(IFS=,; echo "${packages[*]}")
 
 stage "mmdebstrap $suite (root file system)"
