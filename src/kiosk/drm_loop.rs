@@ -91,7 +91,7 @@ fn deliver(app: &App, window: &KioskWindow, routed: &mut Vec<Routed>) {
     }
 }
 
-fn view_rect(app: &App) -> Option<super::router::ScreenRect> {
+fn view_rect(app: &App) -> Option<crate::touch::script::Rect> {
     super::harness::element_rect(app, "view")
 }
 

@@ -7,9 +7,10 @@
 //! work (loading, classifying, rendering) runs in real time, and `wait_idle` waits for it.
 
 use super::platform::{Clock, KioskWindow};
-use super::router::{Routed, ScreenRect, TouchRouter};
+use super::router::{Routed, TouchRouter};
 use crate::app::{App, AppConfig};
 use crate::touch::contacts::FingerEvent;
+use crate::touch::script::Rect;
 use crate::transfer::RgbImage;
 use i_slint_backend_testing::ElementHandle;
 use slint::Rgb8Pixel;
@@ -45,10 +46,10 @@ impl FrameTimes {
 
 /// Where the element of `app` with accessible label `label` is on screen (the first with a
 /// size), in logical pixels (the kiosk's scale factor is 1, so also screen pixels).
-pub fn element_rect(app: &App, label: &str) -> Option<ScreenRect> {
+pub fn element_rect(app: &App, label: &str) -> Option<Rect> {
     ElementHandle::find_by_accessible_label(app.window(), label).find_map(|element| {
         let (position, size) = (element.absolute_position(), element.size());
-        (size.width > 0.0 && size.height > 0.0).then_some(ScreenRect {
+        (size.width > 0.0 && size.height > 0.0).then_some(Rect {
             x: position.x,
             y: position.y,
             width: size.width,
@@ -106,7 +107,7 @@ impl Harness {
     }
 
     /// Where the element with accessible label `label` is on screen (the first visible one).
-    pub fn element_rect(&self, label: &str) -> Option<ScreenRect> {
+    pub fn element_rect(&self, label: &str) -> Option<Rect> {
         element_rect(&self.app, label)
     }
 

@@ -59,7 +59,7 @@ impl ElementLocator for Locator<'_> {
     }
 
     fn element_rect(&self, name: &str) -> Option<Rect> {
-        self.0.element_rect(name).map(|r| Rect { x: r.x, y: r.y, width: r.width, height: r.height })
+        self.0.element_rect(name)
     }
 }
 

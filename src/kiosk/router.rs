@@ -8,23 +8,9 @@
 
 use crate::touch::contacts::{FingerEvent, FingerPhase};
 use crate::touch::gestures::{Gesture, GestureRecognizer};
+use crate::touch::script::Rect;
 use slint::LogicalPosition;
 use slint::platform::{PointerEventButton, WindowEvent};
-
-/// A rectangle on the screen, in pixels.
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct ScreenRect {
-    pub x: f32,
-    pub y: f32,
-    pub width: f32,
-    pub height: f32,
-}
-
-impl ScreenRect {
-    pub fn contains(&self, point: [f32; 2]) -> bool {
-        point[0] >= self.x && point[1] >= self.y && point[0] < self.x + self.width && point[1] < self.y + self.height
-    }
-}
 
 /// What the router asks of the app: pointer events for Slint, gestures for the 3-D view.
 pub enum Routed {
@@ -69,7 +55,7 @@ const MAX_FINGERS: usize = 10;
 
 impl TouchRouter {
     /// Routes one finger event; `view` is where the 3-D view is on screen, if shown.
-    pub fn route(&mut self, event: &FingerEvent, view: Option<ScreenRect>, out: &mut Vec<Routed>) {
+    pub fn route(&mut self, event: &FingerEvent, view: Option<Rect>, out: &mut Vec<Routed>) {
         let position = LogicalPosition::new(event.position[0], event.position[1]);
         match event.phase {
             FingerPhase::Down => {

@@ -55,6 +55,11 @@ impl Rect {
     pub fn point(&self, fraction: [f32; 2]) -> [f32; 2] {
         [self.x + fraction[0] * self.width, self.y + fraction[1] * self.height]
     }
+
+    /// True when `point` lies inside (left and top edges included).
+    pub fn contains(&self, point: [f32; 2]) -> bool {
+        point[0] >= self.x && point[1] >= self.y && point[0] < self.x + self.width && point[1] < self.y + self.height
+    }
 }
 
 /// What the UI tells the script runner about its screen.
