@@ -12,6 +12,9 @@ deploy=$(cd "$(dirname "$0")" && pwd)
 # Fresh timestamps, clamped to SOURCE_DATE_EPOCH later: a checkout's own mtimes vary.
 cp -a --no-preserve=ownership,timestamps "$deploy/rootfs/." "$root/"
 install -m 0755 "$binary" "$root/usr/bin/volasso"
+# The release profile keeps line tables for developers' backtraces (about 140 MB); the
+# appliance keeps the symbols (function names in a panic's backtrace) and drops the rest.
+strip --strip-debug "$root/usr/bin/volasso"
 # A library the binary links but the image lacks would only show as a crash loop at boot.
 if chroot "$root" ldd /usr/bin/volasso | grep "not found"; then
     echo "error: /usr/bin/volasso needs libraries the image lacks (above): add their packages to build-image.sh" >&2

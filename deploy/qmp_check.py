@@ -5,7 +5,8 @@ Waits for `volasso: ready WxH` on the serial log, screendumps the UI, taps it th
 input-send-event (the virtio tablet), screendumps until the screen changes, then presses the
 console's escape keys (Ctrl-Alt-F2, Alt-F2, Ctrl-Alt-Del) and checks the UI stays. Writes
 PNG screenshots to --out. Last, it hot-plugs the USB stick QEMU holds as drive `stick` and
-waits for the import's summary line. Exits non-zero with the reason on stderr when a check fails.
+waits for the import's summary line and for the imported volumes' cards in the chooser, then
+opens the demo's card and waits for the work screen. Exits non-zero with the reason on stderr when a check fails.
 Standard library only (runs on the bare host).
 """
 
@@ -206,7 +207,35 @@ def main():
     print(f"USB stick: `{imported.group(0).decode()}` {time.time() - plugged:.1f} s after plugging in")
     if int(imported.group(1)) != arguments.stick_volumes:
         fail(f"expected {arguments.stick_volumes} imported volumes", arguments.serial)
-    print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick")
+    # The chooser lists the data folder again every 2 s: the new cards must appear.
+    shown = wait_for_change(qmp, arguments.out, "5-imported-volumes", escaped, 30)
+    if shown is None:
+        fail("the imported volumes did not appear in the chooser within 30 s", arguments.serial)
+    print(f"chooser: the imported volumes' cards appeared {time.time() - plugged:.1f} s after plugging in")
+
+    # The demo's card (the first) opens the work screen: slices, class bar, 3-D view.
+    tap(qmp, 0.13, 0.3)
+    opened = time.time()
+    work = wait_for_change(qmp, arguments.out, "6-work-screen", shown, 90)
+    if work is None:
+        fail("tapping the demo's card did not open the work screen within 90 s", arguments.serial)
+    time.sleep(5)
+    screenshot(qmp, arguments.out, "7-work-screen-settled")
+    print(f"demo card: the work screen appeared {time.time() - opened - 5:.1f} s after the tap")
+    print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick "
+          "whose volumes appear in the chooser, opens the demo")
+
+
+def wait_for_change(qmp, out, name, before, seconds):
+    """Screendumps every second until the screen differs from `before` by more than 0.05 % of
+    its pixels; the pixels then, or None after `seconds`."""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        time.sleep(1)
+        _, _, now = screenshot(qmp, out, name)
+        if changed_fraction(before, now) > 0.0005:
+            return now
+    return None
 
 
 if __name__ == "__main__":

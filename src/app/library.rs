@@ -72,6 +72,21 @@ pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
     sources
 }
 
+/// The sources of a new listing `found` that `known` lacks, with the chooser index each gets
+/// when appended, up to [`MAX_ENTRIES`] besides the demo. Volumes only ever append: the
+/// chooser's indices stay valid for thumbnails and opens in flight, and a file that vanished
+/// keeps its card and says so when opened.
+pub fn appeared(known: &[VolumeSource], found: Vec<VolumeSource>) -> Vec<(usize, VolumeSource)> {
+    let room = (MAX_ENTRIES + 1).saturating_sub(known.len());
+    found
+        .into_iter()
+        .filter(|source| !known.contains(source))
+        .take(room)
+        .enumerate()
+        .map(|(offset, source)| (known.len() + offset, source))
+        .collect()
+}
+
 /// Volume files by name; raw data only with an Open SciVis name (a `.raw` beside a `.mhd` is
 /// the MetaImage's data, not a volume of its own); folders are DICOM series.
 fn looks_like_volume(path: &Path) -> bool {
@@ -150,10 +165,12 @@ impl Loader {
         Loader { options, sender, events }
     }
 
-    pub fn thumbnails(&self, sources: Vec<VolumeSource>) {
+    /// Thumbnails of `sources`, each reported under its index in the chooser.
+    pub fn thumbnails(&self, sources: Vec<(usize, VolumeSource)>) {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         spawn("thumbnails", move || {
-            for (index, source) in sources.iter().enumerate() {
+            for (index, source) in sources {
+                let source = &source;
                 let result = load(source, &options).and_then(|loaded| thumbnail(&loaded));
                 if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
                     return;
@@ -201,6 +218,21 @@ mod tests {
         let names: Vec<String> = scan(Some(folder.path())).iter().map(VolumeSource::name).collect();
         assert_eq!(names, ["Demo: CT foot phantom", "a.nii.gz", "b.nrrd", "ct_8x8x8_uint8.raw", "head.mhd", "series"]);
         assert_eq!(scan(Some(&folder.path().join("missing"))), vec![VolumeSource::Demo]);
+    }
+
+    #[test]
+    fn volumes_copied_in_later_are_appended_after_the_known_ones() {
+        let folder = tempfile::tempdir().unwrap();
+        std::fs::write(folder.path().join("b.nrrd"), b"x").unwrap();
+        let known = scan(Some(folder.path()));
+        assert!(appeared(&known, scan(Some(folder.path()))).is_empty());
+        // A name sorting before the known one still goes to the end, so indices stay valid.
+        std::fs::write(folder.path().join("a.nrrd"), b"x").unwrap();
+        let added = appeared(&known, scan(Some(folder.path())));
+        assert_eq!(added, vec![(2, VolumeSource::Path(folder.path().join("a.nrrd")))]);
+        let full: Vec<VolumeSource> =
+            (0..=MAX_ENTRIES).map(|i| VolumeSource::Path(format!("{i}.nrrd").into())).collect();
+        assert!(appeared(&full, scan(Some(folder.path()))).is_empty());
     }
 
     #[test]

@@ -74,6 +74,10 @@ pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 /// How often finished work is collected.
 const POLL_INTERVAL: Duration = Duration::from_millis(16);
 
+/// The data folder is listed again every this many polls (2 s), so that volumes copied there
+/// while the app runs (a USB import on the appliance) appear in the chooser.
+const RESCAN_POLLS: u32 = 125;
+
 /// The slices the work screen shows, by panel: axial, coronal, sagittal.
 const PANEL_AXES: [Axis; 3] = [Axis::Z, Axis::Y, Axis::X];
 
@@ -110,6 +114,8 @@ struct Work {
 struct State {
     config: AppConfig,
     sources: Vec<VolumeSource>,
+    /// Polls since the data folder was last listed.
+    polls_since_scan: u32,
     loader: Loader,
     thumbnails_requested: bool,
     /// Thumbnails asked for and not yet made.
@@ -168,6 +174,7 @@ impl App {
         let state = State {
             loader: Loader::new(config.open_options.clone()),
             sources,
+            polls_since_scan: 0,
             thumbnails_requested: false,
             thumbnails_pending: 0,
             opening: None,

@@ -59,6 +59,37 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     }
     request_frame_if_needed(window, state);
     push_status(window, state);
+    rescan_data_folder(state);
+}
+
+/// Appends the volumes that appeared in the data folder since the last listing (with their
+/// thumbnails, once the chooser has asked for thumbnails). Counted in polls, so that the
+/// replay harness's clock drives it like every other timer.
+fn rescan_data_folder(state: &Shared) {
+    let mut state = state.borrow_mut();
+    state.polls_since_scan += 1;
+    if state.polls_since_scan < super::RESCAN_POLLS || state.config.data_dir.is_none() {
+        return;
+    }
+    state.polls_since_scan = 0;
+    let found = super::library::scan(state.config.data_dir.as_deref());
+    let added = super::library::appeared(&state.sources, found);
+    if added.is_empty() {
+        return;
+    }
+    log::info!("{} new volume(s) in the data folder", added.len());
+    for (_, source) in &added {
+        state.sources.push(source.clone());
+        state.volumes_model.push(VolumeCard {
+            name: source.name().into(),
+            detail: "".into(),
+            thumbnail: slint::Image::default(),
+        });
+    }
+    if state.thumbnails_requested {
+        state.thumbnails_pending += added.len();
+        state.loader.thumbnails(added);
+    }
 }
 
 fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
