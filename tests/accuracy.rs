@@ -9,7 +9,10 @@ use volasso::segmentation::{self, Refinement, SegmentationOptions};
 fn the_fine_multiscale_forest_beats_a_forest_on_the_paper_features_and_is_not_below_the_svm() {
     let cases: Vec<Case> = PhantomKind::ALL.iter().map(|&kind| Case { kind, seed: 5 }).collect();
     let methods = [Method::SvmPaper5, Method::ForestPaper5, Method::ForestMultiscaleFine];
-    let outcomes = accuracy::evaluate(&cases, &methods, &UserModel::default(), true, |outcome| {
+    // Full-size phantoms: at the quick size (half the voxels per axis) the thinnest
+    // structures are one or two voxels wide, lassos there hold a handful of voxels, and the
+    // comparison says more about the phantom than about the methods.
+    let outcomes = accuracy::evaluate(&cases, &methods, &UserModel::default(), false, |outcome| {
         println!("{}", report::row(outcome));
     })
     .unwrap();
@@ -25,9 +28,10 @@ fn the_fine_multiscale_forest_beats_a_forest_on_the_paper_features_and_is_not_be
     }
 }
 
-/// Measured on the quick phantoms at seed 5: default 0.740, forest on the paper's features
-/// 0.689 (mean macro Dice); the default is above the plain SVM on every case by 0.04 to 0.33.
-/// Everything is seeded, so the margins guard against regressions, not against chance.
+/// Measured on the full-size phantoms at seed 5 (release build): the fine multi-scale forest
+/// 0.788, the forest on the paper's features 0.719 (mean macro Dice); the fine forest is above
+/// the plain SVM on every case, by 0.043 to 0.132. Everything is seeded, so the margins guard
+/// against regressions, not against chance.
 const MARGIN_OVER_FOREST: f64 = 0.04;
 const SVM_TOLERANCE: f64 = 0.0;
 

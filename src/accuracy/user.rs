@@ -5,7 +5,9 @@
 //! find the class's pixels there eroded by `erosion_pixels` (a user stays inside the outline;
 //! a class too thin for that uses its deepest pixels), pick a random centre among them, and
 //! grow a closed finger-shaped outline (a circle whose radius wobbles with the angle) until it
-//! encloses the class's share of the voxel budget. The lasso keeps the pixels inside the
+//! encloses the class's share of the voxel budget. Where the eroded pixels cannot supply that
+//! share (a thin ribbon erodes to a broken ridge), the user erodes less, down to the class's
+//! own pixels, as a person tracing a thin structure does. The lasso keeps the pixels inside the
 //! outline that are connected to the centre within the allowed pixels. A sloppy user's allowed
 //! pixels reach `sloppy_pixels` beyond the class's true border instead (lassos that cross it).
 //! Voxels claimed by two classes are dropped from both, as `TrainingSet` does.
@@ -145,17 +147,46 @@ fn draw_lasso(
     }
     let deepest = inside.iter().map(|&k| depth[k]).max().unwrap_or(1);
     let needed_depth = (user.erosion_pixels + 1).min(deepest);
-    let mut allowed: Vec<bool> = vec![false; width * height];
-    for &k in &inside {
-        allowed[k] = depth[k] >= needed_depth;
-    }
-    let centres: Vec<usize> = inside.iter().copied().filter(|&k| allowed[k]).collect();
+    let centres: Vec<usize> = inside.iter().copied().filter(|&k| depth[k] >= needed_depth).collect();
     let centre = centres[rng.below(centres.len() as u64) as usize];
-    if user.sloppy_pixels > 0 {
-        allowed = dilate(&inside, width, height, user.sloppy_pixels);
-    }
     // The finger's wobble: two harmonics with random phases.
     let (phase_a, phase_b) = (rng.next_f64() * std::f64::consts::TAU, rng.next_f64() * std::f64::consts::TAU);
+    // A careful user stays `erosion_pixels` inside the outline where the structure is wide
+    // enough; on a thin one (a cortex ribbon, a skin layer) that leaves a broken ridge of a few
+    // pixels, so the user keeps closer to the border, down to the structure itself, until the
+    // lasso holds its share of the budget.
+    let mut best: Vec<usize> = Vec::new();
+    for min_depth in (1..=needed_depth).rev() {
+        let allowed: Vec<bool> = if user.sloppy_pixels > 0 {
+            dilate(&inside, width, height, user.sloppy_pixels)
+        } else {
+            let mut allowed = vec![false; width * height];
+            for &k in &inside {
+                allowed[k] = depth[k] >= min_depth;
+            }
+            allowed
+        };
+        let region = grow_outline(centre, width, height, &allowed, target_voxels, (phase_a, phase_b));
+        if region.len() > best.len() {
+            best = region;
+        }
+        if best.len() >= target_voxels || user.sloppy_pixels > 0 {
+            break;
+        }
+    }
+    best.into_iter().map(|k| geometry.voxel_index(k % width, k / width)).collect()
+}
+
+/// The pixels of `allowed` connected to `centre` inside a finger-drawn outline around it, the
+/// outline grown until it holds `target_voxels` of them (or reaches 60 pixels).
+fn grow_outline(
+    centre: usize,
+    width: usize,
+    height: usize,
+    allowed: &[bool],
+    target_voxels: usize,
+    (phase_a, phase_b): (f64, f64),
+) -> Vec<usize> {
     let (centre_i, centre_j) = ((centre % width) as f64, (centre / width) as f64);
     let mut radius = 1.5;
     loop {
@@ -167,7 +198,7 @@ fn draw_lasso(
         };
         let region = connected_within(centre, width, height, |k| allowed[k] && outline(k % width, k / width));
         if region.len() >= target_voxels || radius > 60.0 {
-            return region.into_iter().map(|k| geometry.voxel_index(k % width, k / width)).collect();
+            return region;
         }
         radius *= 1.15;
     }
