@@ -14,8 +14,9 @@
 //! common label. [`Refinement::Exact`] evaluates every foreground voxel.
 //!
 //! The classifier is a [`ClassifierKind`]: the paper's SN-SVM (`SegmentationOptions::paper()`,
-//! on the 5-D features) or a random forest; the default is what `volasso accuracy` measured
-//! best (a forest on [`FeatureSet::MultiscaleFine`]).
+//! on the 5-D features, also the default) or a random forest. `volasso accuracy` measures a
+//! forest on [`FeatureSet::MultiscaleFine`] best, but it does not yet fit the latency budget
+//! (see [`SegmentationOptions::default`]).
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
@@ -89,10 +90,11 @@ impl SegmentationOptions {
 
 impl Default for SegmentationOptions {
     fn default() -> Self {
-        // The paper's SN-SVM on the 5-D features. Measured with `volasso accuracy` (issue 9), a
-        // forest on the fine multi-scale features scores better on the tuning cases (mean
-        // macro Dice 0.753 against 0.709) but takes 3 to 6 times the issue-3 time budget
-        // (672 ms against 123 ms on the engine), which every lasso in the UI would pay; it is
+        // The paper's SN-SVM on the 5-D features. Measured with `volasso accuracy` (issue 9,
+        // benches/README.md), a forest on the fine multi-scale features scores better on the
+        // held-out cases (mean macro Dice 0.806 against 0.742, and 0.726 for a forest on the
+        // 5-D features) but takes about 3 times the issue-3 time budget (354 ms against 114 ms
+        // on the engine), which every lasso in the UI would pay; it is
         // `--classifier forest --features multiscale-fine` until it is fast enough.
         SegmentationOptions {
             feature_set: FeatureSet::Paper5,
