@@ -178,8 +178,8 @@ def main():
         fail("the UI did not react to the tap", arguments.serial)
 
     # Lockdown: the console's own escapes must not take the screen away or reboot the guest.
-    time.sleep(2)
-    _, _, settled = screenshot(qmp, arguments.out, "3-settled")
+    # Thumbnails load on a thread: wait until two screendumps 2 s apart agree.
+    settled = wait_until_stable(qmp, arguments.out, "3-settled", 90)
     for keys in (["ctrl", "alt", "f2"], ["alt", "f2"], ["ctrl", "alt", "delete"], ["alt", "right"]):
         qmp.command("send-key", keys=[{"type": "qcode", "data": key} for key in keys])
         time.sleep(0.5)
@@ -224,6 +224,19 @@ def main():
     print(f"demo card: the work screen appeared {time.time() - opened - 5:.1f} s after the tap")
     print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick "
           "whose volumes appear in the chooser, opens the demo")
+
+
+def wait_until_stable(qmp, out, name, seconds):
+    """Screendumps every 2 s until two in a row agree (or `seconds` pass); the last pixels."""
+    _, _, previous = screenshot(qmp, out, name)
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        time.sleep(2)
+        _, _, now = screenshot(qmp, out, name)
+        if now == previous:
+            return now
+        previous = now
+    return previous
 
 
 def wait_for_change(qmp, out, name, before, seconds):

@@ -17,7 +17,7 @@ deploy="$repository/deploy"
 image="$deploy/out/volasso.img"
 accel=tcg
 gpu=virtio
-timeout_seconds=480
+timeout_seconds=720
 while [ $# -gt 0 ]; do
     case "$1" in
         --image) image=$2; shift 2 ;;
