@@ -265,6 +265,10 @@ fn vote(model: &Model, values: &[f32], votes: &mut [u32], strength: &mut [f32]) 
     if values.iter().any(|v| v.is_nan()) {
         return 0;
     }
+    // Two classes (the common case): the one pair's sign decides, as the general count would.
+    if let ([(first, second)], [f]) = (model.pair_positions.as_slice(), values) {
+        return model.class_ids[if *f > 0.0 { *first } else { *second }];
+    }
     votes.fill(0);
     strength.fill(0.0);
     for (&(first, second), &f) in model.pair_positions.iter().zip(values) {

@@ -193,6 +193,22 @@ impl<'v> FeatureSlabReader<'v> {
         Ok(())
     }
 
+    /// The physical values of z plane `z` (x fastest). For the paper's set this is the plane
+    /// buffer that [`compute_selected`](Self::compute_selected) for the same `z` then uses, so a
+    /// caller that selects voxels by value reads each plane once.
+    pub fn plane(&mut self, z: usize) -> Result<&[f32], FeatureError> {
+        check_slab(self.volume, &(z..z + 1))?;
+        if self.multiscale.is_some() {
+            // The multi-scale reader keeps blocks, not planes; the plane buffers are free.
+            let plane = self.volume.dims[0] * self.volume.dims[1];
+            self.planes[0].resize(plane, 0.0);
+            self.volume.read_z_slice_f32(z, &mut self.planes[0]);
+            return Ok(&self.planes[0]);
+        }
+        let [_, current, _] = self.load_planes_around(z);
+        Ok(&self.planes[current])
+    }
+
     /// Makes the buffers hold planes z-1, z, z+1 (clamped) and returns which buffer holds each.
     /// Moving forward one plane reads one new plane.
     fn load_planes_around(&mut self, z: usize) -> [usize; 3] {

@@ -88,15 +88,25 @@ impl Standardiser {
     pub fn apply_in_place(&self, vectors: &mut [f32]) -> Result<(), FeatureError> {
         self.check(vectors)?;
         let dim = self.dim();
-        let scale: Vec<f32> = self.std.iter().map(|s| (1.0 / s) as f32).collect();
-        let shift: Vec<f32> = self.mean.iter().map(|&m| m as f32).collect();
-        let low: Vec<f32> = self.training_low.iter().map(|&l| l as f32).collect();
-        let high: Vec<f32> = self.training_high.iter().map(|&h| h as f32).collect();
-        for row in vectors.chunks_exact_mut(dim) {
-            for (k, v) in row.iter_mut().enumerate() {
-                *v = (v.clamp(low[k], high[k]) - shift[k]) * scale[k];
+        // The per-feature constants repeated over a run of rows, so that the loop over a run is
+        // one flat, vectorisable pass (per-row loops of `dim` are not).
+        const ROWS_PER_RUN: usize = 16;
+        let repeat = |per_feature: &[f64], map: fn(f64) -> f32| -> Vec<f32> {
+            per_feature.iter().map(|&v| map(v)).cycle().take(dim * ROWS_PER_RUN).collect()
+        };
+        let scale = repeat(&self.std, |s| (1.0 / s) as f32);
+        let shift = repeat(&self.mean, |m| m as f32);
+        let low = repeat(&self.training_low, |l| l as f32);
+        let high = repeat(&self.training_high, |h| h as f32);
+        let standardise = |run: &mut [f32]| {
+            for (((v, low), high), (shift, scale)) in run.iter_mut().zip(&low).zip(&high).zip(shift.iter().zip(&scale))
+            {
+                *v = (v.clamp(*low, *high) - shift) * scale;
             }
-        }
+        };
+        let mut runs = vectors.chunks_exact_mut(dim * ROWS_PER_RUN);
+        runs.by_ref().for_each(standardise);
+        standardise(runs.into_remainder());
         Ok(())
     }
 

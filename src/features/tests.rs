@@ -174,6 +174,30 @@ fn the_standardiser_centres_and_scales_and_passes_constant_features() {
 }
 
 #[test]
+fn standardising_in_place_clamps_each_feature_in_long_blocks_and_keeps_nan() {
+    let dim = 3;
+    let training: Vec<f32> = (0..30).map(|i| (i * 7 % 11) as f32 * (1 + i % dim) as f32).collect();
+    let standardiser = Standardiser::fit(&training, dim).unwrap();
+    // 37 rows: two runs of 16 and a remainder, with values beyond the training range.
+    let mut block: Vec<f32> = (0..37 * dim).map(|i| (i as f32 - 40.0) * 0.9).collect();
+    block[50] = f32::NAN;
+    let expected: Vec<f32> = block
+        .iter()
+        .enumerate()
+        .map(|(i, &v)| {
+            let k = i % dim;
+            let clamped = v.clamp(standardiser.training_low[k] as f32, standardiser.training_high[k] as f32);
+            (clamped - standardiser.mean[k] as f32) * (1.0 / standardiser.std[k]) as f32
+        })
+        .collect();
+    standardiser.apply_in_place(&mut block).unwrap();
+    assert!(block[50].is_nan());
+    for (i, (a, b)) in block.iter().zip(&expected).enumerate() {
+        assert!(i == 50 || a == b, "value {i}: {a} != {b}");
+    }
+}
+
+#[test]
 fn the_standardiser_refuses_bad_training_vectors() {
     assert_eq!(Standardiser::fit(&[], 5), Err(FeatureError::NoVectors));
     assert_eq!(Standardiser::fit(&[1.0; 7], 5), Err(FeatureError::Ragged { length: 7, dim: 5 }));

@@ -1,13 +1,15 @@
 //! Whole-volume labelling, exact or coarse-to-fine (see the module doc of `segmentation`).
 //!
-//! Work is split into z slabs run in parallel; each slab reads its planes once, selects the
-//! voxels to evaluate, computes only their features ([`FeatureSlabReader::compute_selected`]),
+//! Work is split into z slabs run in parallel; each slab reads its planes once (the feature
+//! reader's plane buffers serve both the voxel selection and the features), selects the voxels
+//! to evaluate, computes only their features ([`FeatureSlabReader::compute_selected`]),
 //! standardises them and hands the block to [`crate::classify::Model::predict_block`].
 
 use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
 use crate::volume::Volume;
 use rayon::prelude::*;
+use std::ops::RangeInclusive;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// A fine voxel copies its coarse neighbours' common label only when its intensity lies within
@@ -30,7 +32,10 @@ pub(super) fn label_volume(
     let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32;
     let coarse = match refinement {
         Refinement::Exact => None,
-        Refinement::CoarseToFine => Some(CoarseGrid::new(volume.dims)),
+        Refinement::CoarseToFine if segmenter.summary.used_per_class.len() <= RowNeighbours::MAX_CLASSES => {
+            Some(CoarseGrid::new(volume.dims))
+        }
+        Refinement::CoarseToFine => None,
     };
     let steps = size_z + coarse.as_ref().map_or(0, |c| c.dims[2]);
     let done = AtomicUsize::new(0);
@@ -57,28 +62,42 @@ pub(super) fn label_volume(
         .par_chunks_mut(plane * slab_depth)
         .enumerate()
         .map_init(
-            || Worker::new(volume, segmenter),
-            |worker, (slab, slab_labels)| -> Result<usize, SegmentationError> {
+            || (Worker::new(volume, segmenter), RowNeighbours::default()),
+            |(worker, row_neighbours), (slab, slab_labels)| -> Result<usize, SegmentationError> {
                 let mut classified = 0;
                 for (offset, plane_labels) in slab_labels.chunks_mut(plane).enumerate() {
                     if cancel.load(Ordering::Relaxed) {
                         return Err(SegmentationError::Cancelled);
                     }
                     let z = slab * slab_depth + offset;
-                    volume.read_z_slice_f32(z, &mut worker.values);
+                    let values = worker.reader.plane(z)?;
                     worker.selected.clear();
-                    let rows = worker.values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
+                    let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
                     for (y, (row_values, row_labels)) in rows.enumerate() {
-                        for (x, (&value, label)) in row_values.iter().zip(row_labels.iter_mut()).enumerate() {
+                        // A vectorised test first: most rows of a scan are air.
+                        if !any_at_or_above(row_values, threshold) {
+                            continue;
+                        }
+                        let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
+                        let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
+                        let mut summarised = false;
+                        let row = row_values.iter().zip(row_labels.iter_mut()).enumerate();
+                        for (x, (&value, label)) in row.take(last + 1).skip(first) {
                             // NaN is never above the threshold: it is background.
                             if value.is_nan() || value < threshold {
-                                *label = 0;
                                 continue;
                             }
                             classified += 1;
                             let inherited = match &coarse {
                                 None => None,
-                                Some(grid) => grid.inherited_label(x, y, z, value, tolerance),
+                                Some(grid) => {
+                                    // Summarised at the row's first foreground voxel.
+                                    if !summarised {
+                                        row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
+                                        summarised = true;
+                                    }
+                                    row_neighbours.inherited_label(x, value, tolerance)
+                                }
                             };
                             match inherited {
                                 Some(class) => *label = class,
@@ -87,7 +106,10 @@ pub(super) fn label_volume(
                         }
                     }
                     evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
-                    worker.evaluate(z, plane_labels)?;
+                    worker.evaluate(z)?;
+                    for (&index, &label) in worker.selected.iter().zip(&worker.predicted) {
+                        plane_labels[index] = label;
+                    }
                     tick(1);
                 }
                 Ok(classified)
@@ -109,12 +131,16 @@ pub(super) fn label_volume(
     })
 }
 
-/// Per-thread buffers: the plane's values, the voxels selected in it, their features and
-/// labels.
+/// Whether any of `values` is at least `threshold`, in chunks the compiler vectorises.
+fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
+    values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
+}
+
+/// Per-thread buffers: the feature reader (which also holds the plane values), the voxels
+/// selected in a plane, their features and predicted labels.
 struct Worker<'a> {
     reader: FeatureSlabReader<'a>,
     segmenter: &'a Segmenter,
-    values: Vec<f32>,
     selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
@@ -126,15 +152,15 @@ impl<'a> Worker<'a> {
             reader: FeatureSlabReader::new(volume, segmenter.feature_set)
                 .with_foreground_threshold(segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32),
             segmenter,
-            values: vec![0.0; volume.dims[0] * volume.dims[1]],
             selected: Vec::new(),
             features: Vec::new(),
             predicted: Vec::new(),
         }
     }
 
-    /// Classifies the `selected` voxels of plane `z` and writes their labels.
-    fn evaluate(&mut self, z: usize, plane_labels: &mut [u8]) -> Result<(), SegmentationError> {
+    /// Classifies the `selected` voxels of plane `z` into `predicted` (same order).
+    fn evaluate(&mut self, z: usize) -> Result<(), SegmentationError> {
+        self.predicted.clear();
         if self.selected.is_empty() {
             return Ok(());
         }
@@ -142,11 +168,15 @@ impl<'a> Worker<'a> {
         self.segmenter.standardiser.apply_in_place(&mut self.features)?;
         self.predicted.resize(self.selected.len(), 0);
         self.segmenter.classifier.predict_block(&self.features, &mut self.predicted)?;
-        for (&index, &label) in self.selected.iter().zip(&self.predicted) {
-            plane_labels[index] = label;
-        }
         Ok(())
     }
+}
+
+/// The one or two coarse coordinates next to fine coordinate `p` along an axis of
+/// `coarse_size` coarse voxels: an odd coordinate lies between two (one at the far border).
+#[inline]
+fn coarse_neighbours(p: usize, coarse_size: usize) -> ([usize; 2], usize) {
+    if p % 2 == 1 && p / 2 + 1 < coarse_size { ([p / 2, p / 2 + 1], 2) } else { ([p / 2, p / 2], 1) }
 }
 
 /// Labels and intensities of every second voxel along each axis (even coordinates).
@@ -161,11 +191,6 @@ impl CoarseGrid {
         let dims = fine.map(|d| d.div_ceil(2));
         let count = dims.iter().product();
         CoarseGrid { dims, labels: vec![0; count], values: vec![0.0; count] }
-    }
-
-    #[inline]
-    fn index(&self, cx: usize, cy: usize, cz: usize) -> usize {
-        cx + self.dims[0] * (cy + self.dims[1] * cz)
     }
 
     /// Classifies every coarse voxel above the threshold.
@@ -189,32 +214,31 @@ impl CoarseGrid {
             .enumerate()
             .with_min_len(planes_per_task)
             .map_init(
-                || Worker::new(volume, segmenter),
-                |worker, (cz, (labels, values))| -> Result<(), SegmentationError> {
+                || (Worker::new(volume, segmenter), Vec::new()),
+                |(worker, coarse_indices), (cz, (labels, values))| -> Result<(), SegmentationError> {
                     if cancel.load(Ordering::Relaxed) {
                         return Err(SegmentationError::Cancelled);
                     }
                     let z = 2 * cz;
-                    volume.read_z_slice_f32(z, &mut worker.values);
+                    let plane_values = worker.reader.plane(z)?;
                     worker.selected.clear();
+                    coarse_indices.clear();
                     for cy in 0..coarse_y {
                         for cx in 0..coarse_x {
                             let index = 2 * cx + size_x * 2 * cy;
-                            let value = worker.values[index];
-                            values[cx + coarse_x * cy] = value;
+                            let value = plane_values[index];
+                            let coarse_index = cx + coarse_x * cy;
+                            values[coarse_index] = value;
                             if value >= threshold {
                                 worker.selected.push(index);
+                                coarse_indices.push(coarse_index);
                             }
                         }
                     }
                     evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
-                    // Evaluate into a scratch plane, then keep the coarse voxels.
-                    let mut plane_labels = vec![0u8; worker.values.len()];
-                    worker.evaluate(z, &mut plane_labels)?;
-                    for cy in 0..coarse_y {
-                        for cx in 0..coarse_x {
-                            labels[cx + coarse_x * cy] = plane_labels[2 * cx + size_x * 2 * cy];
-                        }
+                    worker.evaluate(z)?;
+                    for (&coarse_index, &label) in coarse_indices.iter().zip(&worker.predicted) {
+                        labels[coarse_index] = label;
                     }
                     tick(1);
                     Ok(())
@@ -222,40 +246,145 @@ impl CoarseGrid {
             )
             .collect::<Result<(), SegmentationError>>()
     }
+}
 
-    /// The label a fine voxel (itself above the background threshold) takes from its coarse
-    /// neighbours, or `None` when it must be evaluated: its foreground neighbours disagree or
-    /// there are none, or `value` lies outside their intensity range widened by `tolerance`.
-    /// Background neighbours do not veto: at a surface the voxel's own intensity already says
-    /// it is foreground, and a partial-volume voxel there falls outside the interior's range.
-    #[inline]
-    fn inherited_label(&self, x: usize, y: usize, z: usize, value: f32, tolerance: f32) -> Option<u8> {
-        // An odd coordinate lies between two coarse voxels (one at the far border).
-        let neighbours = |p: usize, coarse_size: usize| -> ([usize; 2], usize) {
-            if p % 2 == 1 && p / 2 + 1 < coarse_size { ([p / 2, p / 2 + 1], 2) } else { ([p / 2, p / 2], 1) }
-        };
-        let (xs, nx) = neighbours(x, self.dims[0]);
-        let (ys, ny) = neighbours(y, self.dims[1]);
-        let (zs, nz) = neighbours(z, self.dims[2]);
-        let mut common = None;
-        let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
+/// What the coarse voxels around one fine row say, per coarse column: which classes the
+/// foreground coarse voxels in the (up to four) coarse rows next to the fine row have (a bit
+/// per class), and their intensity range. Summarising a row once makes each fine voxel's test
+/// two lookups; the summary is branch-free so that it vectorises.
+#[derive(Default)]
+struct RowNeighbours {
+    classes: Vec<u32>,
+    low: Vec<f32>,
+    high: Vec<f32>,
+    coarse_size_x: usize,
+}
+
+impl RowNeighbours {
+    /// Classes a bit set can hold: class k is bit k - 1 of a `u32`. With more classes the
+    /// volume is labelled exactly.
+    const MAX_CLASSES: usize = 31;
+
+    /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
+    /// `columns` (clamped to the grid; the others keep stale values and must not be asked for).
+    fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>) {
+        let [coarse_x, coarse_y, coarse_z] = grid.dims;
+        self.coarse_size_x = coarse_x;
+        self.classes.resize(coarse_x, 0);
+        self.low.resize(coarse_x, f32::INFINITY);
+        self.high.resize(coarse_x, f32::NEG_INFINITY);
+        let columns = *columns.start()..(*columns.end() + 1).min(coarse_x);
+        let classes = &mut self.classes[columns.clone()];
+        let low = &mut self.low[columns.clone()];
+        let high = &mut self.high[columns.clone()];
+        classes.fill(0);
+        low.fill(f32::INFINITY);
+        high.fill(f32::NEG_INFINITY);
+        let (ys, ny) = coarse_neighbours(y, coarse_y);
+        let (zs, nz) = coarse_neighbours(z, coarse_z);
         for &cz in &zs[..nz] {
             for &cy in &ys[..ny] {
-                for &cx in &xs[..nx] {
-                    let index = self.index(cx, cy, cz);
-                    let label = self.labels[index];
-                    if label == 0 {
-                        continue;
-                    }
-                    if common.is_some_and(|c| c != label) {
-                        return None;
-                    }
-                    common = Some(label);
-                    low = low.min(self.values[index]);
-                    high = high.max(self.values[index]);
+                let start = coarse_x * (cy + coarse_y * cz);
+                let row_labels = &grid.labels[start + columns.start..start + columns.end];
+                let row_values = &grid.values[start + columns.start..start + columns.end];
+                let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
+                for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
+                    // Label 0 (background) sets no bit and leaves the range alone.
+                    *classes |= 1u32.wrapping_shl(u32::from(label)) >> 1;
+                    let foreground = label != 0;
+                    *low = low.min(if foreground { value } else { f32::INFINITY });
+                    *high = high.max(if foreground { value } else { f32::NEG_INFINITY });
                 }
             }
         }
-        (value >= low - tolerance && value <= high + tolerance).then_some(common).flatten()
+    }
+
+    /// The label a fine voxel at column `x` (itself above the background threshold) takes from
+    /// its coarse neighbours, or `None` when it must be evaluated: its foreground neighbours
+    /// disagree or there are none, or `value` lies outside their intensity range widened by
+    /// `tolerance`. Background neighbours do not veto: at a surface the voxel's own intensity
+    /// already says it is foreground, and a partial-volume voxel there falls outside the
+    /// interior's range.
+    #[inline]
+    fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+        let ([left, right], _) = coarse_neighbours(x, self.coarse_size_x);
+        let classes = self.classes[left] | self.classes[right];
+        let low = self.low[left].min(self.low[right]);
+        let high = self.high[left].max(self.high[right]);
+        if !classes.is_power_of_two() || value < low - tolerance || value > high + tolerance {
+            return None;
+        }
+        u8::try_from(classes.trailing_zeros() + 1).ok()
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
+    /// labels and values, summarised for fine row 0 of plane 0.
+    fn summary(labels: [u8; 2], values: [f32; 2]) -> RowNeighbours {
+        let grid = CoarseGrid { dims: [2, 1, 1], labels: labels.to_vec(), values: values.to_vec() };
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=1);
+        row
+    }
+
+    #[test]
+    fn a_fine_voxel_between_agreeing_neighbours_inherits_their_label() {
+        let row = summary([2, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(2, 20.5, 1.0), Some(2), "within the tolerance");
+    }
+
+    #[test]
+    fn disagreement_or_an_intensity_outside_the_range_means_evaluate() {
+        let row = summary([1, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), None, "neighbours disagree");
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
+        let row = summary([3, 3], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 25.0, 1.0), None, "brighter than both");
+        assert_eq!(row.inherited_label(1, 5.0, 1.0), None, "darker than both");
+    }
+
+    #[test]
+    fn background_neighbours_neither_vote_nor_veto() {
+        let row = summary([0, 4], [0.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 20.0, 0.0), Some(4));
+        assert_eq!(row.inherited_label(0, 20.0, 0.0), None, "no foreground neighbour");
+        let row = summary([0, 0], [0.0, 0.0]);
+        assert_eq!(row.inherited_label(1, 0.0, 10.0), None);
+    }
+
+    #[test]
+    fn the_highest_class_a_bit_set_holds_is_inherited() {
+        let class = RowNeighbours::MAX_CLASSES as u8;
+        let row = summary([class, class], [1.0, 1.0]);
+        assert_eq!(row.inherited_label(1, 1.0, 0.0), Some(class));
+    }
+
+    #[test]
+    fn rows_are_summarised_per_plane_and_row() {
+        // Coarse 1 x 2 x 2: fine row 1 of plane 1 sits between all four coarse voxels.
+        let grid = CoarseGrid { dims: [1, 2, 2], labels: vec![1, 1, 1, 2], values: vec![5.0; 4] };
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1));
+        row.summarise(&grid, 1, 1, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
+        row.summarise(&grid, 2, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
+    }
+
+    #[test]
+    fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
+        let mut values = vec![0.0f32; 200];
+        assert!(!any_at_or_above(&values, 1.0));
+        values[137] = f32::NAN;
+        assert!(!any_at_or_above(&values, 1.0));
+        values[199] = 1.0;
+        assert!(any_at_or_above(&values, 1.0));
     }
 }

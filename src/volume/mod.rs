@@ -251,25 +251,39 @@ impl Volume {
         let bytes = self.bytes.as_slice();
         let (slope, intercept) = (self.scale.slope, self.scale.intercept);
         let identity = self.scale.is_identity();
+        // The byte order and the scale are decided outside the loops, so that each loop is
+        // one tight conversion the compiler can vectorise (this runs on every plane of every
+        // classification).
         macro_rules! convert {
             ($t:ty, $n:expr) => {{
                 let src = &bytes[start * $n..(start + out.len()) * $n];
-                for (o, chunk) in out.iter_mut().zip(src.chunks_exact($n)) {
+                let pairs = out.iter_mut().zip(src.chunks_exact($n));
+                let raw = |chunk: &[u8]| {
                     let mut raw = [0u8; $n];
                     raw.copy_from_slice(chunk);
-                    let v = match self.byte_order {
-                        ByteOrder::Little => <$t>::from_le_bytes(raw),
-                        ByteOrder::Big => <$t>::from_be_bytes(raw),
-                    } as f64;
-                    *o = if identity { v as f32 } else { (v * slope + intercept) as f32 };
+                    raw
+                };
+                match (self.byte_order, identity) {
+                    (ByteOrder::Little, true) => {
+                        pairs.for_each(|(o, chunk)| *o = <$t>::from_le_bytes(raw(chunk)) as f64 as f32)
+                    }
+                    (ByteOrder::Little, false) => pairs.for_each(|(o, chunk)| {
+                        *o = (<$t>::from_le_bytes(raw(chunk)) as f64 * slope + intercept) as f32
+                    }),
+                    (ByteOrder::Big, _) => pairs.for_each(|(o, chunk)| {
+                        let v = <$t>::from_be_bytes(raw(chunk)) as f64;
+                        *o = if identity { v as f32 } else { (v * slope + intercept) as f32 };
+                    }),
                 }
             }};
         }
         match self.voxel_type {
             VoxelType::U8 => {
                 let src = &bytes[start..start + out.len()];
-                for (o, &b) in out.iter_mut().zip(src) {
-                    *o = if identity { b as f32 } else { (b as f64 * slope + intercept) as f32 };
+                if identity {
+                    out.iter_mut().zip(src).for_each(|(o, &b)| *o = f32::from(b));
+                } else {
+                    out.iter_mut().zip(src).for_each(|(o, &b)| *o = (f64::from(b) * slope + intercept) as f32);
                 }
             }
             VoxelType::I8 => convert!(i8, 1),
