@@ -127,7 +127,9 @@ pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
 pub fn block_depth(dims: [usize; 3]) -> usize {
     let plane_bytes = (dims[0] * dims[1]).max(1) * 4;
     let planes = BLOCK_BUDGET_BYTES / plane_bytes;
-    (planes.saturating_sub(78) / 6).clamp(MIN_BLOCK_DEPTH, MAX_BLOCK_DEPTH)
+    // Even, so that a block holds whole pairs of planes: the coarse pass of coarse-to-fine
+    // labelling (every second plane) then maps onto blocks without straddling them.
+    (planes.saturating_sub(78) / 6).clamp(MIN_BLOCK_DEPTH, MAX_BLOCK_DEPTH) & !1
 }
 
 /// Extra voxels needed around the core by stage k's output (k = 0 is the raw values): the
@@ -268,11 +270,43 @@ impl MultiscaleBlock {
         self.stages[stage][((z - z_range.start) * ny + y) * nx + x]
     }
 
+    /// The 3 x 3 x 3 values of stage `stage` around local `p` (clamped into the region), x
+    /// fastest: index (dz + 1) * 9 + (dy + 1) * 3 + (dx + 1). Away from the region's faces
+    /// (nearly every voxel) they are read with fixed strides, without clamping each one.
+    #[inline(always)]
+    fn cube(&self, stage: usize, p: [isize; 3]) -> [f32; 27] {
+        let [nx, ny, _] = self.size;
+        let z_range = &self.stage_z[stage];
+        let [x, y, z] = p;
+        let interior = x >= 1
+            && y >= 1
+            && z >= 1
+            && (x as usize) + 1 < nx
+            && (y as usize) + 1 < ny
+            && (z as usize) > z_range.start
+            && (z as usize) + 1 < z_range.end;
+        let mut cube = [0f32; 27];
+        if interior {
+            let centre = ((z as usize - z_range.start) * ny + y as usize) * nx + x as usize;
+            let (row, plane) = (nx, nx * ny);
+            let values = &self.stages[stage][centre - plane - row - 1..=centre + plane + row + 1];
+            for (k, line) in cube.chunks_exact_mut(3).enumerate() {
+                let start = (k / 3) * plane + (k % 3) * row;
+                line.copy_from_slice(&values[start..start + 3]);
+            }
+        } else {
+            for (k, value) in cube.iter_mut().enumerate() {
+                let (dx, dy, dz) = ((k % 3) as isize - 1, ((k / 3) % 3) as isize - 1, (k / 9) as isize - 1);
+                *value = self.at(stage, x + dx, y + dy, z + dz);
+            }
+        }
+        cube
+    }
+
     /// The features of absolute voxel (x, y, z), which must lie in the core, into `out`
     /// (`Scales::dim` values).
     pub fn features_at(&self, voxel: [usize; 3], out: &mut [f32]) {
         let local = std::array::from_fn::<isize, 3, _>(|a| (voxel[a] - self.origin[a]) as isize);
-        let [x, y, z] = local;
         // 1 / (mm spanned by the clamped central difference) per axis, as in the paper's set.
         let inverse_span: [f32; 3] = std::array::from_fn(|a| {
             let p = voxel[a];
@@ -280,53 +314,53 @@ impl MultiscaleBlock {
             if span == 0 { 0.0 } else { 1.0 / (span as f32 * self.spacing_mm[a]) }
         });
         let stage_count = self.scales.stage_count();
-        out[0] = self.at(0, x, y, z);
+        out[0] = self.at(0, local[0], local[1], local[2]);
+        let mut hessians = [[0f32; 3]; 2];
         for stage in 1..=stage_count {
-            let centre = self.at(stage, x, y, z);
-            let gx = (self.at(stage, x + 1, y, z) - self.at(stage, x - 1, y, z)) * inverse_span[0];
-            let gy = (self.at(stage, x, y + 1, z) - self.at(stage, x, y - 1, z)) * inverse_span[1];
-            let gz = (self.at(stage, x, y, z + 1) - self.at(stage, x, y, z - 1)) * inverse_span[2];
+            let cube = self.cube(stage, local);
+            let centre = cube[CUBE_CENTRE];
+            let difference =
+                |a: usize| (cube[CUBE_CENTRE + CUBE_STRIDE[a]] - cube[CUBE_CENTRE - CUBE_STRIDE[a]]) * inverse_span[a];
+            let (gx, gy, gz) = (difference(0), difference(1), difference(2));
             out[stage] = centre;
             out[stage_count + stage] = (gx * gx + gy * gy + gz * gz).sqrt();
+            if stage % 2 == 0 {
+                hessians[stage / 2 - 1] = self.hessian_eigenvalues(&cube);
+            }
         }
         match self.scales {
             Scales::Fine => {
-                out[5..8].copy_from_slice(&self.hessian_eigenvalues(2, local));
+                out[5..8].copy_from_slice(&hessians[0]);
                 out[8] = out[0] - out[2];
             }
             Scales::Full => {
-                out[9..12].copy_from_slice(&self.hessian_eigenvalues(2, local));
-                out[12..15].copy_from_slice(&self.hessian_eigenvalues(4, local));
+                out[9..12].copy_from_slice(&hessians[0]);
+                out[12..15].copy_from_slice(&hessians[1]);
                 out[15] = out[0] - out[2];
                 out[16] = out[2] - out[4];
             }
         }
     }
 
-    /// Eigenvalues (ascending) of the Hessian of stage `stage` at local `p`, from second
-    /// differences of clamped neighbours, in value units per mm^2.
-    fn hessian_eigenvalues(&self, stage: usize, p: [isize; 3]) -> [f32; 3] {
-        let value = |d: [isize; 3]| self.at(stage, p[0] + d[0], p[1] + d[1], p[2] + d[2]) as f64;
-        let centre = value([0, 0, 0]);
+    /// Eigenvalues (ascending) of the Hessian at the centre of `cube` (see [`Self::cube`]),
+    /// from second differences, in value units per mm^2.
+    fn hessian_eigenvalues(&self, cube: &[f32; 27]) -> [f32; 3] {
+        let value = |offset: isize| cube[(CUBE_CENTRE as isize + offset) as usize] as f64;
+        let stride = CUBE_STRIDE.map(|s| s as isize);
+        let centre = value(0);
         let spacing = self.spacing_mm.map(|s| s as f64);
-        let unit = |a: usize, step: isize| {
-            let mut d = [0isize; 3];
-            d[a] = step;
-            d
-        };
-        let second = |a: usize| (value(unit(a, 1)) - 2.0 * centre + value(unit(a, -1))) / (spacing[a] * spacing[a]);
+        let second = |a: usize| (value(stride[a]) - 2.0 * centre + value(-stride[a])) / (spacing[a] * spacing[a]);
         let mixed = |a: usize, b: usize| {
-            let corner = |sa: isize, sb: isize| {
-                let mut d = [0isize; 3];
-                d[a] = sa;
-                d[b] = sb;
-                value(d)
-            };
+            let corner = |sa: isize, sb: isize| value(sa * stride[a] + sb * stride[b]);
             (corner(1, 1) - corner(1, -1) - corner(-1, 1) + corner(-1, -1)) / (4.0 * spacing[a] * spacing[b])
         };
         symmetric_eigenvalues([second(0), second(1), second(2), mixed(0, 1), mixed(0, 2), mixed(1, 2)])
     }
 }
+
+/// The centre of a [`MultiscaleBlock::cube`] and the index steps along x, y and z.
+const CUBE_CENTRE: usize = 13;
+const CUBE_STRIDE: [usize; 3] = [1, 3, 9];
 
 impl Drop for MultiscaleBlock {
     fn drop(&mut self) {
@@ -353,13 +387,47 @@ pub fn symmetric_eigenvalues([a, b, c, d, e, f]: [f64; 6]) -> [f32; 3] {
     let p2 = (a - q).powi(2) + (b - q).powi(2) + (c - q).powi(2) + 2.0 * off;
     let p = (p2 / 6.0).sqrt();
     // B = (A - qI) / p; r = det(B) / 2 lies in [-1, 1] up to rounding.
-    let (ba, bb, bc, bd, be, bf) = ((a - q) / p, (b - q) / p, (c - q) / p, d / p, e / p, f / p);
+    let inverse_p = 1.0 / p;
+    let (ba, bb, bc, bd, be, bf) =
+        ((a - q) * inverse_p, (b - q) * inverse_p, (c - q) * inverse_p, d * inverse_p, e * inverse_p, f * inverse_p);
     let determinant = ba * (bb * bc - bf * bf) - bd * (bd * bc - bf * be) + be * (bd * bf - bb * be);
-    let phi = (determinant / 2.0).clamp(-1.0, 1.0).acos() / 3.0;
-    let high = q + 2.0 * p * phi.cos();
-    let low = q + 2.0 * p * (phi + 2.0 * std::f64::consts::PI / 3.0).cos();
+    // phi = acos(r) / 3 lies in [0, pi / 3]; cos(phi + 2 pi / 3) = -cos(phi) / 2 -
+    // sin(phi) sqrt(3) / 2. Polynomials instead of libm's acos and cos: this runs for every
+    // classified voxel, and 1e-7 relative error is far below what the classifier resolves.
+    let phi = acos_polynomial((determinant / 2.0).clamp(-1.0, 1.0)) / 3.0;
+    let cos_phi = cos_polynomial(phi);
+    let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
+    let high = q + 2.0 * p * cos_phi;
+    let low = q + 2.0 * p * (-0.5 * cos_phi - 0.5 * 3f64.sqrt() * sin_phi);
     let middle = 3.0 * q - high - low;
     [low as f32, middle as f32, high as f32]
+}
+
+/// acos(x) for x in [-1, 1], absolute error below 1e-7 (Abramowitz and Stegun 4.4.46:
+/// sqrt(1 - x) times a degree-7 polynomial on [0, 1], and acos(-x) = pi - acos(x)).
+pub fn acos_polynomial(x: f64) -> f64 {
+    const COEFFICIENTS: [f64; 8] = [
+        1.570_796_305_0,
+        -0.214_598_801_6,
+        0.088_978_987_4,
+        -0.050_174_304_6,
+        0.030_891_881_0,
+        -0.017_088_125_6,
+        0.006_670_090_1,
+        -0.001_262_491_1,
+    ];
+    let magnitude = x.abs().min(1.0);
+    let polynomial = COEFFICIENTS.iter().rev().fold(0.0, |sum, &c| sum * magnitude + c);
+    let angle = (1.0 - magnitude).sqrt() * polynomial;
+    if x < 0.0 { std::f64::consts::PI - angle } else { angle }
+}
+
+/// cos(x) for x in [0, pi / 3] (Taylor series to x^12: error below 1e-10 there).
+pub fn cos_polynomial(x: f64) -> f64 {
+    // 1 - x^2/2! + x^4/4! - ... + x^12/12!, by Horner in x^2: 1 - x^2/(2*1) (1 - x^2/(4*3) (...)).
+    const INVERSE_STEPS: [f64; 6] = [1.0 / 2.0, 1.0 / 12.0, 1.0 / 30.0, 1.0 / 56.0, 1.0 / 90.0, 1.0 / 132.0];
+    let x2 = x * x;
+    INVERSE_STEPS.iter().rev().fold(1.0, |sum, &inverse| 1.0 - sum * x2 * inverse)
 }
 
 /// `out[i]` = mean of `input[clamp(i + d)]` for d in -radius..=radius, summed in order of d

@@ -145,3 +145,34 @@ fn block_depth_respects_the_budget_where_it_can() {
     assert!((6 * engine + 78) * 256 * 256 * 4 <= BLOCK_BUDGET_BYTES, "{engine}");
     assert_eq!(block_depth([1024, 1024, 300]), MIN_BLOCK_DEPTH);
 }
+
+#[test]
+fn polynomial_acos_and_cos_match_the_library() {
+    for k in 0..=2000 {
+        let x = -1.0 + k as f64 / 1000.0;
+        assert!((acos_polynomial(x) - x.acos()).abs() < 1e-7, "acos({x})");
+    }
+    for k in 0..=1000 {
+        let x = k as f64 / 1000.0 * std::f64::consts::FRAC_PI_3;
+        assert!((cos_polynomial(x) - x.cos()).abs() < 1e-10, "cos({x})");
+    }
+}
+
+#[test]
+fn eigenvalues_of_random_symmetric_matrices_match_their_invariants() {
+    // Trace, the sum of principal 2x2 minors and the determinant are the elementary symmetric
+    // functions of the eigenvalues.
+    for seed in 0..200u64 {
+        let entry = |k: u64| (crate::rng::hash64(seed, k) % 2001) as f64 / 100.0 - 10.0;
+        let [a, b, c, d, e, f] = std::array::from_fn(|k| entry(k as u64));
+        let [l0, l1, l2] = symmetric_eigenvalues([a, b, c, d, e, f]).map(f64::from);
+        assert!(l0 <= l1 && l1 <= l2);
+        let scale = 1.0 + a.abs() + b.abs() + c.abs() + d.abs() + e.abs() + f.abs();
+        let trace = a + b + c;
+        let minors = a * b + a * c + b * c - d * d - e * e - f * f;
+        let determinant = a * (b * c - f * f) - d * (d * c - f * e) + e * (d * f - b * e);
+        assert!((l0 + l1 + l2 - trace).abs() < 1e-4 * scale, "seed {seed}");
+        assert!((l0 * l1 + l0 * l2 + l1 * l2 - minors).abs() < 1e-4 * scale * scale, "seed {seed}");
+        assert!((l0 * l1 * l2 - determinant).abs() < 1e-4 * scale * scale * scale, "seed {seed}");
+    }
+}

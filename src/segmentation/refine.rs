@@ -141,6 +141,7 @@ fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
 struct Worker<'a> {
     reader: FeatureSlabReader<'a>,
     segmenter: &'a Segmenter,
+    size_x: usize,
     selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
@@ -152,10 +153,47 @@ impl<'a> Worker<'a> {
             reader: FeatureSlabReader::new(volume, segmenter.feature_set)
                 .with_foreground_threshold(segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32),
             segmenter,
+            size_x: volume.dims[0],
             selected: Vec::new(),
             features: Vec::new(),
             predicted: Vec::new(),
         }
+    }
+
+    /// Classifies the voxels of fine plane `z` (even) that lie on the coarse grid and above the
+    /// threshold, into that coarse plane's `labels`, and records the plane's `values`
+    /// (`coarse_size` x by y). `coarse_indices` is scratch.
+    fn classify_coarse_plane(
+        &mut self,
+        z: usize,
+        coarse_size: [usize; 2],
+        threshold: f32,
+        coarse_indices: &mut Vec<usize>,
+        labels: &mut [u8],
+        values: &mut [f32],
+    ) -> Result<(), SegmentationError> {
+        let [coarse_x, coarse_y] = coarse_size;
+        let size_x = self.size_x;
+        let plane_values = self.reader.plane(z)?;
+        self.selected.clear();
+        coarse_indices.clear();
+        for cy in 0..coarse_y {
+            for cx in 0..coarse_x {
+                let index = 2 * cx + size_x * 2 * cy;
+                let value = plane_values[index];
+                let coarse_index = cx + coarse_x * cy;
+                values[coarse_index] = value;
+                if value >= threshold {
+                    self.selected.push(index);
+                    coarse_indices.push(coarse_index);
+                }
+            }
+        }
+        self.evaluate(z)?;
+        for (&coarse_index, &label) in coarse_indices.iter().zip(&self.predicted) {
+            labels[coarse_index] = label;
+        }
+        Ok(())
     }
 
     /// Classifies the `selected` voxels of plane `z` into `predicted` (same order).
@@ -203,44 +241,34 @@ impl CoarseGrid {
         tick: &(dyn Fn(usize) + Sync),
         evaluated: &AtomicUsize,
     ) -> Result<(), SegmentationError> {
-        let [size_x, _, _] = volume.dims;
         let coarse_plane = self.dims[0] * self.dims[1];
         let [coarse_x, coarse_y, _] = self.dims;
-        // Neighbouring coarse planes on one worker share its feature reader's block.
+        // A task's coarse planes are the even planes of one slab (the multi-scale reader's
+        // block, whose depth is even), so that no block is smoothed by two tasks.
         let planes_per_task = segmenter.feature_set.preferred_slab_depth(volume.dims).div_ceil(2);
         self.labels
-            .par_chunks_mut(coarse_plane)
-            .zip(self.values.par_chunks_mut(coarse_plane))
+            .par_chunks_mut(coarse_plane * planes_per_task)
+            .zip(self.values.par_chunks_mut(coarse_plane * planes_per_task))
             .enumerate()
-            .with_min_len(planes_per_task)
             .map_init(
                 || (Worker::new(volume, segmenter), Vec::new()),
-                |(worker, coarse_indices), (cz, (labels, values))| -> Result<(), SegmentationError> {
-                    if cancel.load(Ordering::Relaxed) {
-                        return Err(SegmentationError::Cancelled);
-                    }
-                    let z = 2 * cz;
-                    let plane_values = worker.reader.plane(z)?;
-                    worker.selected.clear();
-                    coarse_indices.clear();
-                    for cy in 0..coarse_y {
-                        for cx in 0..coarse_x {
-                            let index = 2 * cx + size_x * 2 * cy;
-                            let value = plane_values[index];
-                            let coarse_index = cx + coarse_x * cy;
-                            values[coarse_index] = value;
-                            if value >= threshold {
-                                worker.selected.push(index);
-                                coarse_indices.push(coarse_index);
-                            }
+                |(worker, coarse_indices), (task, (task_labels, task_values))| -> Result<(), SegmentationError> {
+                    let planes = task_labels.chunks_mut(coarse_plane).zip(task_values.chunks_mut(coarse_plane));
+                    for (offset, (labels, values)) in planes.enumerate() {
+                        worker.classify_coarse_plane(
+                            2 * (task * planes_per_task + offset),
+                            [coarse_x, coarse_y],
+                            threshold,
+                            coarse_indices,
+                            labels,
+                            values,
+                        )?;
+                        evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
+                        tick(1);
+                        if cancel.load(Ordering::Relaxed) {
+                            return Err(SegmentationError::Cancelled);
                         }
                     }
-                    evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
-                    worker.evaluate(z)?;
-                    for (&coarse_index, &label) in coarse_indices.iter().zip(&worker.predicted) {
-                        labels[coarse_index] = label;
-                    }
-                    tick(1);
                     Ok(())
                 },
             )
