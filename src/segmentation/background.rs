@@ -31,8 +31,8 @@ impl Background {
 }
 
 /// Otsu's threshold (the split that maximises the between-class variance) over a 256-bin
-/// histogram of the finite values (of every fourth z plane in volumes of 64 planes or more);
-/// the lower edge of the first bin above the split.
+/// histogram of the finite values (of every second to fourth z plane, keeping at least 16
+/// planes); the lower edge of the first bin above the split.
 pub fn otsu_threshold(volume: &Volume) -> f64 {
     const BINS: usize = 256;
     let range = volume.value_range();
@@ -41,9 +41,9 @@ pub fn otsu_threshold(volume: &Volume) -> f64 {
     }
     let width = (range.max - range.min) / BINS as f64;
     let plane = volume.dims[0] * volume.dims[1];
-    // Every fourth z plane (at least 16 planes): the split between air and everything else is
-    // a property of the histogram's shape, which a quarter of the planes shows as well.
-    let stride = if volume.dims[2] >= 64 { 4 } else { 1 };
+    // Every second to fourth z plane, at least 16 planes: the split between air and everything
+    // else is a property of the histogram's shape, which a sample of the planes shows as well.
+    let stride = (volume.dims[2] / 16).clamp(1, 4);
     let bin_of = |value: f64| (((value - range.min) / width) as usize).min(BINS - 1);
     let planes: Vec<usize> = (0..volume.dims[2]).step_by(stride).collect();
     let histogram = match stored_value_counts(volume, &planes) {

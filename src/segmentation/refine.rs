@@ -80,30 +80,24 @@ pub(super) fn label_volume(
                         }
                         let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
                         let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
-                        let mut summarised = false;
-                        let row = row_values.iter().zip(row_labels.iter_mut()).enumerate();
-                        for (x, (&value, label)) in row.take(last + 1).skip(first) {
-                            // NaN is never above the threshold: it is background.
-                            if value.is_nan() || value < threshold {
-                                continue;
+                        // Room for every voxel of the span; the row fills a prefix.
+                        let start = worker.selected.len();
+                        worker.selected.resize(start + last + 1 - first, 0);
+                        let row = Row {
+                            first,
+                            first_index: first + size_x * y,
+                            values: &row_values[first..=last],
+                            labels: &mut row_labels[first..=last],
+                        };
+                        let (selected, foreground) = match &coarse {
+                            Some(grid) => {
+                                row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
+                                row_neighbours.label_row(row, threshold, tolerance, &mut worker.selected[start..])
                             }
-                            classified += 1;
-                            let inherited = match &coarse {
-                                None => None,
-                                Some(grid) => {
-                                    // Summarised at the row's first foreground voxel.
-                                    if !summarised {
-                                        row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
-                                        summarised = true;
-                                    }
-                                    row_neighbours.inherited_label(x, value, tolerance)
-                                }
-                            };
-                            match inherited {
-                                Some(class) => *label = class,
-                                None => worker.selected.push(x + size_x * y),
-                            }
-                        }
+                            None => row.select_foreground(threshold, &mut worker.selected[start..]),
+                        };
+                        worker.selected.truncate(start + selected);
+                        classified += foreground;
                     }
                     evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
                     worker.evaluate(z)?;
@@ -327,28 +321,97 @@ impl RowNeighbours {
         }
     }
 
-    /// The label a fine voxel at column `x` (itself above the background threshold) takes from
-    /// its coarse neighbours, or `None` when it must be evaluated: its foreground neighbours
-    /// disagree or there are none, or `value` lies outside their intensity range widened by
-    /// `tolerance`. Background neighbours do not veto: at a surface the voxel's own intensity
-    /// already says it is foreground, and a partial-volume voxel there falls outside the
-    /// interior's range.
-    #[inline]
-    fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
-        let ([left, right], _) = coarse_neighbours(x, self.coarse_size_x);
-        let classes = self.classes[left] | self.classes[right];
-        let low = self.low[left].min(self.low[right]);
-        let high = self.high[left].max(self.high[right]);
-        if !classes.is_power_of_two() || value < low - tolerance || value > high + tolerance {
-            return None;
+    /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
+    /// and writes the plane indices of the others, which must be evaluated, to the front of
+    /// `selected` (at least as long as the row). Returns how many it wrote and how many
+    /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
+    /// on one class and its intensity lies within theirs widened by `tolerance`. Background
+    /// neighbours do not veto: at a surface the voxel's own intensity already says it is
+    /// foreground, and a partial-volume voxel there falls outside the interior's range.
+    /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
+    fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
+        let last_column = self.coarse_size_x - 1;
+        let (first, first_index) = (row.first, row.first_index);
+        let (mut count, mut foreground_count) = (0, 0);
+        for (offset, values, labels) in row.chunks_with_foreground(threshold) {
+            for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
+                let x = first + offset + k;
+                let left = x / 2;
+                // An odd column lies between two coarse columns (one at the far border).
+                let right = (left + (x & 1)).min(last_column);
+                let classes = self.classes[left] | self.classes[right];
+                let low = self.low[left].min(self.low[right]) - tolerance;
+                let high = self.high[left].max(self.high[right]) + tolerance;
+                // NaN is never above the threshold: it is background.
+                let foreground = value >= threshold;
+                let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
+                *label = if foreground & inherits { classes.trailing_zeros() as u8 + 1 } else { 0 };
+                selected[count] = first_index + offset + k;
+                count += usize::from(foreground & !inherits);
+                foreground_count += usize::from(foreground);
+            }
         }
-        u8::try_from(classes.trailing_zeros() + 1).ok()
+        (count, foreground_count)
+    }
+}
+
+/// A span of one fine row: its voxels' values and labels from column `first` on, and the
+/// plane index of that first voxel.
+struct Row<'a> {
+    first: usize,
+    first_index: usize,
+    values: &'a [f32],
+    labels: &'a mut [u8],
+}
+
+impl<'a> Row<'a> {
+    /// Voxels per chunk that [`Row::chunks_with_foreground`] tests at once.
+    const CHUNK: usize = 32;
+
+    /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
+    /// air inside the span (between the parts of an object, or noise above the threshold
+    /// scattered through the air) are skipped a vectorised test at a time.
+    fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
+        self.values
+            .chunks(Self::CHUNK)
+            .zip(self.labels.chunks_mut(Self::CHUNK))
+            .enumerate()
+            .filter(move |(_, (values, _))| any_at_or_above(values, threshold))
+            .map(|(chunk, (values, labels))| (chunk * Self::CHUNK, values, labels))
+    }
+
+    /// Writes the plane indices of the foreground voxels to the front of `selected` (exact
+    /// labelling: every one is evaluated); returns their count twice, as
+    /// [`RowNeighbours::label_row`] does.
+    fn select_foreground(self, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
+        let first_index = self.first_index;
+        let mut count = 0;
+        for (offset, values, _) in self.chunks_with_foreground(threshold) {
+            for (k, &value) in values.iter().enumerate() {
+                selected[count] = first_index + offset + k;
+                count += usize::from(value >= threshold);
+            }
+        }
+        (count, count)
     }
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    impl RowNeighbours {
+        /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
+        fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+            let (mut values, mut labels, mut selected) = ([value], [0u8], [usize::MAX]);
+            let row = Row { first: x, first_index: x, values: &mut values, labels: &mut labels };
+            match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
+                (0, 1) => Some(labels[0]),
+                (1, 1) if selected[0] == x => None,
+                other => panic!("unexpected outcome {other:?}"),
+            }
+        }
+    }
 
     /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
     /// labels and values, summarised for fine row 0 of plane 0.
@@ -404,6 +467,16 @@ mod tests {
         assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
         row.summarise(&grid, 2, 0, 0..=0);
         assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
+    }
+
+    #[test]
+    fn exact_rows_select_every_foreground_voxel_and_no_nan() {
+        let values = [5.0, 1.0, f32::NAN, 7.0, 3.0];
+        let mut labels = [9u8; 5];
+        let mut selected = [0usize; 5];
+        let row = Row { first: 2, first_index: 102, values: &values, labels: &mut labels };
+        assert_eq!(row.select_foreground(3.0, &mut selected), (3, 3));
+        assert_eq!(&selected[..3], &[102, 105, 106]);
     }
 
     #[test]
