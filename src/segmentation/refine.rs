@@ -80,9 +80,8 @@ pub(super) fn label_volume(
                         }
                         let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
                         let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
-                        // Room for every voxel of the span; the row fills a prefix.
-                        let start = worker.selected.len();
-                        worker.selected.resize(start + last + 1 - first, 0);
+                        // Room for every voxel of a row (sized once); the row fills a prefix.
+                        worker.row_selected.resize(size_x, 0);
                         let row = Row {
                             first,
                             first_index: first + size_x * y,
@@ -92,11 +91,11 @@ pub(super) fn label_volume(
                         let (selected, foreground) = match &coarse {
                             Some(grid) => {
                                 row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
-                                row_neighbours.label_row(row, threshold, tolerance, &mut worker.selected[start..])
+                                row_neighbours.label_row(row, threshold, tolerance, &mut worker.row_selected)
                             }
-                            None => row.select_foreground(threshold, &mut worker.selected[start..]),
+                            None => row.select_foreground(threshold, &mut worker.row_selected),
                         };
-                        worker.selected.truncate(start + selected);
+                        worker.selected.extend_from_slice(&worker.row_selected[..selected]);
                         classified += foreground;
                     }
                     evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
@@ -137,6 +136,8 @@ struct Worker<'a> {
     segmenter: &'a Segmenter,
     size_x: usize,
     selected: Vec<usize>,
+    /// One row's selection before it joins `selected`.
+    row_selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
 }
@@ -149,6 +150,7 @@ impl<'a> Worker<'a> {
             segmenter,
             size_x: volume.dims[0],
             selected: Vec::new(),
+            row_selected: Vec::new(),
             features: Vec::new(),
             predicted: Vec::new(),
         }
