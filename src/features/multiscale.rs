@@ -27,7 +27,7 @@
 //! voxels are grouped into 16^3 tiles and each tile's bounding box is one block. Sums run in
 //! the same order in every block, so both paths give the same bits for the same voxel. Each
 //! thread keeps its last block's buffers for the next pass (at most the budget per thread).
-//! Memory per worker: engine 256^2 planes, depth 29: 63 MiB (full set), 34 MiB (fine set);
+//! Memory per worker: engine 256^2 planes, depth 28: 62 MiB (full set), 33 MiB (fine set);
 //! 512^2 planes fall to the minimum depth 4 and exceed the budget (about 100 MiB).
 //!
 //! Never: keeps a float copy of the whole volume, or knows about classes.
