@@ -170,8 +170,7 @@ impl Loader {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         spawn("thumbnails", move || {
             for (index, source) in sources {
-                let source = &source;
-                let result = load(source, &options).and_then(|loaded| thumbnail(&loaded));
+                let result = load(&source, &options).and_then(|loaded| thumbnail(&loaded));
                 if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
                     return;
                 }

@@ -80,8 +80,6 @@ pub(super) fn label_volume(
                         }
                         let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
                         let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
-                        // Room for every voxel of a row (sized once); the row fills a prefix.
-                        worker.row_selected.resize(size_x, 0);
                         let row = Row {
                             first,
                             first_index: first + size_x * y,
@@ -136,7 +134,8 @@ struct Worker<'a> {
     segmenter: &'a Segmenter,
     size_x: usize,
     selected: Vec<usize>,
-    /// One row's selection before it joins `selected`.
+    /// One row's selection before it joins `selected` (room for a whole row; a row fills a
+    /// prefix).
     row_selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
@@ -150,7 +149,7 @@ impl<'a> Worker<'a> {
             segmenter,
             size_x: volume.dims[0],
             selected: Vec::new(),
-            row_selected: Vec::new(),
+            row_selected: vec![0; volume.dims[0]],
             features: Vec::new(),
             predicted: Vec::new(),
         }
@@ -206,11 +205,17 @@ impl<'a> Worker<'a> {
     }
 }
 
-/// The one or two coarse coordinates next to fine coordinate `p` along an axis of
-/// `coarse_size` coarse voxels: an odd coordinate lies between two (one at the far border).
+/// The coarse coordinates next to fine coordinate `p` along an axis of `coarse_size` coarse
+/// voxels: an odd coordinate lies between two, an even one (or an odd one at the far border)
+/// on one, which the pair then holds twice.
 #[inline]
-fn coarse_neighbours(p: usize, coarse_size: usize) -> ([usize; 2], usize) {
-    if p % 2 == 1 && p / 2 + 1 < coarse_size { ([p / 2, p / 2 + 1], 2) } else { ([p / 2, p / 2], 1) }
+fn coarse_neighbours(p: usize, coarse_size: usize) -> [usize; 2] {
+    [p / 2, (p / 2 + p % 2).min(coarse_size - 1)]
+}
+
+/// The distinct coordinates of a [`coarse_neighbours`] pair.
+fn distinct(pair: &[usize; 2]) -> &[usize] {
+    if pair[0] == pair[1] { &pair[..1] } else { pair }
 }
 
 /// Labels and intensities of every second voxel along each axis (even coordinates).
@@ -304,10 +309,9 @@ impl RowNeighbours {
         classes.fill(0);
         low.fill(f32::INFINITY);
         high.fill(f32::NEG_INFINITY);
-        let (ys, ny) = coarse_neighbours(y, coarse_y);
-        let (zs, nz) = coarse_neighbours(z, coarse_z);
-        for &cz in &zs[..nz] {
-            for &cy in &ys[..ny] {
+        let (ys, zs) = (coarse_neighbours(y, coarse_y), coarse_neighbours(z, coarse_z));
+        for &cz in distinct(&zs) {
+            for &cy in distinct(&ys) {
                 let start = coarse_x * (cy + coarse_y * cz);
                 let row_labels = &grid.labels[start + columns.start..start + columns.end];
                 let row_values = &grid.values[start + columns.start..start + columns.end];
@@ -332,15 +336,12 @@ impl RowNeighbours {
     /// foreground, and a partial-volume voxel there falls outside the interior's range.
     /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
     fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
-        let last_column = self.coarse_size_x - 1;
         let (first, first_index) = (row.first, row.first_index);
         let (mut count, mut foreground_count) = (0, 0);
         for (offset, values, labels) in row.chunks_with_foreground(threshold) {
             for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
                 let x = first + offset + k;
-                let left = x / 2;
-                // An odd column lies between two coarse columns (one at the far border).
-                let right = (left + (x & 1)).min(last_column);
+                let [left, right] = coarse_neighbours(x, self.coarse_size_x);
                 let classes = self.classes[left] | self.classes[right];
                 let low = self.low[left].min(self.low[right]) - tolerance;
                 let high = self.high[left].max(self.high[right]) + tolerance;
