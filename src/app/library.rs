@@ -123,6 +123,8 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
         return Err(format!("{} has no voxels", source.name()));
     }
     let entropies = slice_entropies(&volume);
+    // Here, off the interactive path: every training on the volume needs it.
+    volume.otsu_threshold();
     let window = DisplayWindow::automatic(&volume);
     Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, window })
 }

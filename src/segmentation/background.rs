@@ -1,12 +1,12 @@
 //! The background threshold: voxels below it are air (label 0) and are never evaluated.
 //!
-//! Automatic rule: Otsu's threshold of the volume's 256-bin histogram (it splits air from
-//! everything else in CT and MRI alike), lowered to the lowest training intensity so that
+//! Automatic rule: Otsu's threshold of the volume's 256-bin histogram
+//! ([`Volume::otsu_threshold`], computed once per volume; it splits air from everything else
+//! in CT and MRI alike), lowered to the lowest training intensity so that
 //! nothing the user marked as a class can fall into the background. A user who lassoes air
 //! as a class therefore gets every voxel classified.
 
-use crate::volume::{ByteOrder, Volume, VoxelType};
-use rayon::prelude::*;
+use crate::volume::Volume;
 
 /// How the background is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -23,179 +23,28 @@ impl Background {
     /// The threshold for `volume`, given the lowest intensity among the training voxels.
     pub fn threshold(self, volume: &Volume, lowest_training_value: f64) -> Option<f64> {
         match self {
-            Background::Automatic => Some(otsu_threshold(volume).min(lowest_training_value)),
+            Background::Automatic => Some(volume.otsu_threshold().min(lowest_training_value)),
             Background::Below(value) => Some(value),
             Background::None => None,
         }
     }
 }
 
-/// Otsu's threshold (the split that maximises the between-class variance) over a 256-bin
-/// histogram of the finite values (of every second to fourth z plane, keeping at least 16
-/// planes); the lower edge of the first bin above the split.
-pub fn otsu_threshold(volume: &Volume) -> f64 {
-    const BINS: usize = 256;
-    let range = volume.value_range();
-    if range.max <= range.min {
-        return range.min;
-    }
-    let width = (range.max - range.min) / BINS as f64;
-    let plane = volume.dims[0] * volume.dims[1];
-    // Every second to fourth z plane, at least 16 planes: the split between air and everything
-    // else is a property of the histogram's shape, which a sample of the planes shows as well.
-    let stride = (volume.dims[2] / 16).clamp(1, 4);
-    let bin_of = |value: f64| (((value - range.min) / width) as usize).min(BINS - 1);
-    let planes: Vec<usize> = (0..volume.dims[2]).step_by(stride).collect();
-    let histogram = match stored_value_counts(volume, &planes) {
-        // 8- and 16-bit integers: count each stored value, then bin the distinct values.
-        Some(counts) => {
-            let mut histogram = vec![0u64; BINS];
-            for (raw, &count) in counts.iter().enumerate().filter(|(_, c)| **c > 0) {
-                histogram
-                    [bin_of(stored_value(volume.voxel_type, raw) * volume.scale.slope + volume.scale.intercept)] +=
-                    count;
-            }
-            histogram
-        }
-        None => planes
-            .par_iter()
-            .fold(
-                || (vec![0u64; BINS], vec![0f32; plane]),
-                |(mut histogram, mut buffer), &z| {
-                    volume.read_z_slice_f32(z, &mut buffer);
-                    for &value in &buffer {
-                        if value.is_finite() {
-                            histogram[bin_of(value as f64)] += 1;
-                        }
-                    }
-                    (histogram, buffer)
-                },
-            )
-            .map(|(histogram, _)| histogram)
-            .reduce(|| vec![0u64; BINS], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect()),
-    };
-    let total: u64 = histogram.iter().sum();
-    let total_sum: f64 = histogram.iter().enumerate().map(|(i, &c)| i as f64 * c as f64).sum();
-    let (mut below_count, mut below_sum) = (0f64, 0f64);
-    let mut variances = vec![-1f64; BINS - 1];
-    for (bin, &count) in histogram.iter().enumerate().take(BINS - 1) {
-        below_count += count as f64;
-        below_sum += bin as f64 * count as f64;
-        let above_count = total as f64 - below_count;
-        if below_count == 0.0 || above_count == 0.0 {
-            continue;
-        }
-        let mean_below = below_sum / below_count;
-        let mean_above = (total_sum - below_sum) / above_count;
-        variances[bin] = below_count * above_count * (mean_below - mean_above).powi(2);
-    }
-    // Empty bins between two populations give a plateau of equal variance; split in its middle,
-    // not at its start, so noise on either side matters least.
-    let best = variances.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let first = variances.iter().position(|&v| v >= best * (1.0 - 1e-12)).unwrap_or(0);
-    let last = first + variances[first..].iter().take_while(|&&v| v >= best * (1.0 - 1e-12)).count() - 1;
-    range.min + ((first + last) as f64 / 2.0 + 1.0) * width
-}
-
-/// How often each stored value occurs in z planes `planes`, indexed by the value's bits as
-/// an unsigned integer (two's complement for signed types); `None` for types wider than 16
-/// bits. Counting the raw bytes skips the per-voxel conversion to float, the cost of the pass.
-fn stored_value_counts(volume: &Volume, planes: &[usize]) -> Option<Vec<u64>> {
-    let size = volume.voxel_type.size_bytes();
-    if !matches!(volume.voxel_type, VoxelType::U8 | VoxelType::I8 | VoxelType::U16 | VoxelType::I16) {
-        return None;
-    }
-    let plane_bytes = volume.dims[0] * volume.dims[1] * size;
-    let bytes = volume.raw_bytes();
-    let table = 1usize << (8 * size);
-    let big_endian = volume.byte_order == ByteOrder::Big;
-    let counts = planes
-        .par_iter()
-        .fold(
-            || vec![0u64; table],
-            |mut counts, &z| {
-                let plane = &bytes[z * plane_bytes..(z + 1) * plane_bytes];
-                if size == 1 {
-                    // Four interleaved tables: runs of one value (air) would otherwise make
-                    // every increment wait for the previous one.
-                    let mut lanes = [[0u32; 256]; 4];
-                    for quad in plane.chunks(4) {
-                        for (lane, &byte) in lanes.iter_mut().zip(quad) {
-                            lane[byte as usize] += 1;
-                        }
-                    }
-                    for lane in &lanes {
-                        for (count, &n) in counts.iter_mut().zip(lane) {
-                            *count += n as u64;
-                        }
-                    }
-                } else {
-                    for pair in plane.chunks_exact(2) {
-                        let raw = if big_endian { [pair[1], pair[0]] } else { [pair[0], pair[1]] };
-                        counts[u16::from_le_bytes(raw) as usize] += 1;
-                    }
-                }
-                counts
-            },
-        )
-        .reduce(|| vec![0u64; table], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect());
-    Some(counts)
-}
-
-/// The stored value whose bits, read as an unsigned integer, are `raw` (see
-/// [`stored_value_counts`]).
-fn stored_value(voxel_type: VoxelType, raw: usize) -> f64 {
-    match voxel_type {
-        VoxelType::I8 => raw as u8 as i8 as f64,
-        VoxelType::I16 => raw as u16 as i16 as f64,
-        _ => raw as f64,
-    }
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::{ValueScale, VoxelBytes};
     use std::path::Path;
 
     #[test]
-    fn otsu_splits_two_populations_between_them() {
+    fn the_automatic_threshold_never_drops_training_voxels_into_the_background() {
         // 70% air around -1000, 30% tissue around 40.
         let values: Vec<f32> =
             (0..1000).map(|i| if i % 10 < 7 { -1000.0 + (i % 7) as f32 } else { 40.0 + (i % 3) as f32 }).collect();
         let volume = Volume::from_f32([10, 10, 10], [1.0; 3], &values, Path::new("t")).unwrap();
-        let threshold = otsu_threshold(&volume);
-        assert!(threshold > -990.0 && threshold <= 40.0, "{threshold}");
+        let otsu = volume.otsu_threshold();
+        assert_eq!(Background::Automatic.threshold(&volume, 1000.0), Some(otsu));
         assert_eq!(Background::Automatic.threshold(&volume, -995.0), Some(-995.0), "training voxels stay classified");
+        assert_eq!(Background::Below(3.0).threshold(&volume, -995.0), Some(3.0));
         assert_eq!(Background::None.threshold(&volume, 0.0), None);
-    }
-
-    #[test]
-    fn counting_stored_values_gives_the_threshold_of_the_float_path() {
-        // The same values stored as i16 (big-endian, scaled) and as f32 split identically.
-        let stored: Vec<i16> = (0..4096).map(|i| if i % 5 < 3 { -20 + (i % 11) } else { 600 + (i % 97) }).collect();
-        let values: Vec<f32> = stored.iter().map(|&v| v as f32 * 2.0 - 1024.0).collect();
-        let floats = Volume::from_f32([16, 16, 16], [1.0; 3], &values, Path::new("f")).unwrap();
-        let stored: Vec<u8> = stored.iter().flat_map(|v| v.to_be_bytes()).collect();
-        let scale = ValueScale { slope: 2.0, intercept: -1024.0 };
-        let shorts = Volume::new(
-            [16; 3],
-            [1.0; 3],
-            VoxelType::I16,
-            ByteOrder::Big,
-            scale,
-            VoxelBytes::Owned(stored),
-            Path::new("s"),
-        )
-        .unwrap();
-        assert!(stored_value_counts(&floats, &[0]).is_none());
-        assert_eq!(stored_value_counts(&shorts, &[0, 1]).map(|c| c.iter().sum::<u64>()), Some(512));
-        assert_eq!(otsu_threshold(&shorts), otsu_threshold(&floats));
-    }
-
-    #[test]
-    fn a_constant_volume_has_its_value_as_threshold() {
-        let volume = Volume::from_f32([2, 2, 2], [1.0; 3], &[5.0; 8], Path::new("t")).unwrap();
-        assert_eq!(otsu_threshold(&volume), 5.0);
     }
 }

@@ -23,7 +23,7 @@
 mod background;
 mod refine;
 
-pub use background::{Background, otsu_threshold};
+pub use background::Background;
 
 use crate::classify::{
     self, ClassifyError, Forest, ForestParams, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport,

@@ -74,21 +74,19 @@ pub(super) fn label_volume(
                     worker.selected.clear();
                     let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
                     for (y, (row_values, row_labels)) in rows.enumerate() {
-                        // A vectorised test first: most rows of a scan are air.
-                        if !any_at_or_above(row_values, threshold) {
+                        // Most rows of a scan are air, and most of the rest is air too.
+                        let Some(span) = worker.foreground_chunks.mark(row_values, threshold) else {
                             continue;
-                        }
-                        let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
-                        let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
+                        };
                         let row = Row {
-                            first,
-                            first_index: first + size_x * y,
-                            values: &row_values[first..=last],
-                            labels: &mut row_labels[first..=last],
+                            first_index: size_x * y,
+                            values: row_values,
+                            labels: row_labels,
+                            chunks: &worker.foreground_chunks,
                         };
                         let (selected, foreground) = match &coarse {
                             Some(grid) => {
-                                row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
+                                row_neighbours.summarise(grid, y, z, span.start / 2..=span.end / 2 + 1);
                                 row_neighbours.label_row(row, threshold, tolerance, &mut worker.row_selected)
                             }
                             None => row.select_foreground(threshold, &mut worker.row_selected),
@@ -137,6 +135,8 @@ struct Worker<'a> {
     /// One row's selection before it joins `selected` (room for a whole row; a row fills a
     /// prefix).
     row_selected: Vec<usize>,
+    /// Which chunks of the current row hold foreground.
+    foreground_chunks: ForegroundChunks,
     features: Vec<f32>,
     predicted: Vec<u8>,
 }
@@ -150,6 +150,7 @@ impl<'a> Worker<'a> {
             size_x: volume.dims[0],
             selected: Vec::new(),
             row_selected: vec![0; volume.dims[0]],
+            foreground_chunks: ForegroundChunks::default(),
             features: Vec::new(),
             predicted: Vec::new(),
         }
@@ -336,11 +337,11 @@ impl RowNeighbours {
     /// foreground, and a partial-volume voxel there falls outside the interior's range.
     /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
     fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
-        let (first, first_index) = (row.first, row.first_index);
+        let first_index = row.first_index;
         let (mut count, mut foreground_count) = (0, 0);
-        for (offset, values, labels) in row.chunks_with_foreground(threshold) {
+        for (offset, values, labels) in row.chunks_with_foreground() {
             for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
-                let x = first + offset + k;
+                let x = offset + k;
                 let [left, right] = coarse_neighbours(x, self.coarse_size_x);
                 let classes = self.classes[left] | self.classes[right];
                 let low = self.low[left].min(self.low[right]) - tolerance;
@@ -349,7 +350,7 @@ impl RowNeighbours {
                 let foreground = value >= threshold;
                 let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
                 *label = if foreground & inherits { classes.trailing_zeros() as u8 + 1 } else { 0 };
-                selected[count] = first_index + offset + k;
+                selected[count] = first_index + x;
                 count += usize::from(foreground & !inherits);
                 foreground_count += usize::from(foreground);
             }
@@ -358,29 +359,50 @@ impl RowNeighbours {
     }
 }
 
-/// A span of one fine row: its voxels' values and labels from column `first` on, and the
-/// plane index of that first voxel.
+/// Which fixed-size chunks of a row hold a foreground voxel: one vectorised test per chunk,
+/// so that the labelling loops visit only those (air surrounds an object and lies between
+/// its parts; noise above the threshold can be scattered through it).
+#[derive(Default)]
+struct ForegroundChunks {
+    flags: Vec<bool>,
+}
+
+impl ForegroundChunks {
+    /// Voxels per chunk.
+    const SIZE: usize = 32;
+
+    /// Marks the chunks of `values` that hold a voxel at or above `threshold`; returns the
+    /// columns from the first marked chunk's start to the last one's end, or `None` when no
+    /// chunk is marked.
+    fn mark(&mut self, values: &[f32], threshold: f32) -> Option<std::ops::Range<usize>> {
+        self.flags.clear();
+        self.flags.extend(values.chunks(Self::SIZE).map(|chunk| any_at_or_above(chunk, threshold)));
+        let first = self.flags.iter().position(|&flag| flag)?;
+        let last = self.flags.iter().rposition(|&flag| flag).unwrap_or(first);
+        Some(first * Self::SIZE..((last + 1) * Self::SIZE).min(values.len()))
+    }
+}
+
+/// One fine row: its voxels' values and labels, the plane index of its first voxel, and which
+/// of its chunks hold foreground ([`ForegroundChunks::mark`] on these values).
 struct Row<'a> {
-    first: usize,
     first_index: usize,
     values: &'a [f32],
     labels: &'a mut [u8],
+    chunks: &'a ForegroundChunks,
 }
 
 impl<'a> Row<'a> {
-    /// Voxels per chunk that [`Row::chunks_with_foreground`] tests at once.
-    const CHUNK: usize = 32;
-
-    /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
-    /// air inside the span (between the parts of an object, or noise above the threshold
-    /// scattered through the air) are skipped a vectorised test at a time.
-    fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
+    /// The row's chunks that hold a foreground voxel, with the column of their first voxel.
+    fn chunks_with_foreground(self) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
+        let size = ForegroundChunks::SIZE;
         self.values
-            .chunks(Self::CHUNK)
-            .zip(self.labels.chunks_mut(Self::CHUNK))
+            .chunks(size)
+            .zip(self.labels.chunks_mut(size))
+            .zip(&self.chunks.flags)
             .enumerate()
-            .filter(move |(_, (values, _))| any_at_or_above(values, threshold))
-            .map(|(chunk, (values, labels))| (chunk * Self::CHUNK, values, labels))
+            .filter(|(_, (_, flag))| **flag)
+            .map(move |(chunk, ((values, labels), _))| (chunk * size, values, labels))
     }
 
     /// Writes the plane indices of the foreground voxels to the front of `selected` (exact
@@ -389,7 +411,7 @@ impl<'a> Row<'a> {
     fn select_foreground(self, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         let first_index = self.first_index;
         let mut count = 0;
-        for (offset, values, _) in self.chunks_with_foreground(threshold) {
+        for (offset, values, _) in self.chunks_with_foreground() {
             for (k, &value) in values.iter().enumerate() {
                 selected[count] = first_index + offset + k;
                 count += usize::from(value >= threshold);
@@ -406,10 +428,15 @@ mod tests {
     impl RowNeighbours {
         /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
         fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
-            let (mut values, mut labels, mut selected) = ([value], [0u8], [usize::MAX]);
-            let row = Row { first: x, first_index: x, values: &mut values, labels: &mut labels };
+            // NaN is background: only voxel x is foreground.
+            let mut values = vec![f32::NAN; x + 1];
+            values[x] = value;
+            let (mut labels, mut selected) = (vec![0u8; x + 1], vec![usize::MAX; x + 1]);
+            let mut chunks = ForegroundChunks::default();
+            chunks.mark(&values, f32::NEG_INFINITY);
+            let row = Row { first_index: 0, values: &values, labels: &mut labels, chunks: &chunks };
             match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
-                (0, 1) => Some(labels[0]),
+                (0, 1) => Some(labels[x]),
                 (1, 1) if selected[0] == x => None,
                 other => panic!("unexpected outcome {other:?}"),
             }
@@ -474,12 +501,30 @@ mod tests {
 
     #[test]
     fn exact_rows_select_every_foreground_voxel_and_no_nan() {
-        let values = [5.0, 1.0, f32::NAN, 7.0, 3.0];
-        let mut labels = [9u8; 5];
-        let mut selected = [0usize; 5];
-        let row = Row { first: 2, first_index: 102, values: &values, labels: &mut labels };
+        let values = [0.0, 0.0, 5.0, 1.0, f32::NAN, 7.0, 3.0];
+        let mut labels = [9u8; 7];
+        let mut selected = [0usize; 7];
+        let mut chunks = ForegroundChunks::default();
+        assert_eq!(chunks.mark(&values, 3.0), Some(0..7));
+        let row = Row { first_index: 100, values: &values, labels: &mut labels, chunks: &chunks };
         assert_eq!(row.select_foreground(3.0, &mut selected), (3, 3));
         assert_eq!(&selected[..3], &[102, 105, 106]);
+    }
+
+    #[test]
+    fn foreground_chunks_span_the_chunks_that_hold_foreground() {
+        let mut values = vec![0.0f32; 100];
+        let mut chunks = ForegroundChunks::default();
+        assert_eq!(chunks.mark(&values, 1.0), None, "all air");
+        values[40] = 2.0;
+        values[97] = 1.0;
+        assert_eq!(chunks.mark(&values, 1.0), Some(32..100), "the last chunk is short");
+        assert_eq!(chunks.flags, [false, true, false, true]);
+        let mut labels = vec![0u8; 100];
+        let mut selected = vec![0usize; 100];
+        let row = Row { first_index: 1000, values: &values, labels: &mut labels, chunks: &chunks };
+        assert_eq!(row.select_foreground(1.0, &mut selected), (2, 2));
+        assert_eq!(&selected[..2], &[1040, 1097]);
     }
 
     #[test]

@@ -16,6 +16,7 @@
 pub mod cache;
 pub mod dicom;
 pub mod error;
+pub mod histogram;
 pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
@@ -138,6 +139,8 @@ pub struct Volume {
     pub source: PathBuf,
     bytes: VoxelBytes,
     range: ValueRange,
+    /// [`Volume::otsu_threshold`], once asked for.
+    otsu: std::sync::OnceLock<f64>,
 }
 
 impl Volume {
@@ -181,6 +184,7 @@ impl Volume {
             source: source.to_path_buf(),
             bytes,
             range: ValueRange { min: 0.0, max: 0.0, non_finite_voxels: 0 },
+            otsu: std::sync::OnceLock::new(),
         };
         volume.range = volume.compute_range();
         Ok(volume)
@@ -219,6 +223,13 @@ impl Volume {
     /// The range of physical values, computed once when the volume was opened.
     pub fn value_range(&self) -> ValueRange {
         self.range
+    }
+
+    /// Otsu's threshold of the value histogram (see [`histogram`]): computed on the first
+    /// call (a pass over a sample of the planes), then kept. A caller that wants the cost out
+    /// of an interactive path (training on every lasso) asks once when it opens the volume.
+    pub fn otsu_threshold(&self) -> f64 {
+        *self.otsu.get_or_init(|| histogram::otsu_threshold(self))
     }
 
     /// True when the bytes are a memory map of a file (not a copy in RAM).
