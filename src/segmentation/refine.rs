@@ -9,7 +9,7 @@ use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
 use crate::volume::Volume;
 use rayon::prelude::*;
-use std::ops::RangeInclusive;
+use std::ops::Range;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// A fine voxel copies its coarse neighbours' common label only when its intensity lies within
@@ -86,8 +86,8 @@ pub(super) fn label_volume(
                         };
                         let (selected, foreground) = match &coarse {
                             Some(grid) => {
-                                row_neighbours.summarise(grid, y, z, span.start / 2..=span.end / 2 + 1);
-                                row_neighbours.label_row(row, threshold, tolerance, &mut worker.row_selected)
+                                row_neighbours.summarise(grid, y, z, span, tolerance);
+                                row_neighbours.label_row(row, threshold, &mut worker.row_selected)
                             }
                             None => row.select_foreground(threshold, &mut worker.row_selected),
                         };
@@ -278,16 +278,34 @@ impl CoarseGrid {
     }
 }
 
-/// What the coarse voxels around one fine row say, per coarse column: which classes the
-/// foreground coarse voxels in the (up to four) coarse rows next to the fine row have (a bit
-/// per class), and their intensity range. Summarising a row once makes each fine voxel's test
-/// two lookups; the summary is branch-free so that it vectorises.
+/// What the coarse voxels around one fine row say about each of its voxels: which classes its
+/// foreground coarse neighbours have (a bit per class) and their intensity range, widened by
+/// the tolerance. Built once per row (per coarse column over the up to four coarse rows next
+/// to the fine row, then spread to the fine columns: an even column sits on one coarse
+/// column, an odd one between two), so that labelling the row reads contiguous arrays
+/// without an index computation per voxel. Branch-free, so that it vectorises.
 #[derive(Default)]
 struct RowNeighbours {
+    /// Per coarse column (scratch for [`RowNeighbours::summarise`]).
+    coarse: NeighbourSummary,
+    /// Per fine column; current for the columns last summarised.
+    fine: NeighbourSummary,
+}
+
+/// Class bit sets and intensity ranges, one entry per column.
+#[derive(Default)]
+struct NeighbourSummary {
     classes: Vec<u32>,
     low: Vec<f32>,
     high: Vec<f32>,
-    coarse_size_x: usize,
+}
+
+impl NeighbourSummary {
+    fn resize(&mut self, columns: usize) {
+        self.classes.resize(columns, 0);
+        self.low.resize(columns, f32::INFINITY);
+        self.high.resize(columns, f32::NEG_INFINITY);
+    }
 }
 
 impl RowNeighbours {
@@ -295,18 +313,22 @@ impl RowNeighbours {
     /// volume is labelled exactly.
     const MAX_CLASSES: usize = 31;
 
-    /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
-    /// `columns` (clamped to the grid; the others keep stale values and must not be asked for).
-    fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>) {
+    /// Summarises the coarse neighbours of fine row `y` of fine plane `z` for the fine
+    /// columns `columns` (the others keep stale values and must not be asked for), with the
+    /// intensity ranges widened by `tolerance`.
+    fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: Range<usize>, tolerance: f32) {
         let [coarse_x, coarse_y, coarse_z] = grid.dims;
-        self.coarse_size_x = coarse_x;
-        self.classes.resize(coarse_x, 0);
-        self.low.resize(coarse_x, f32::INFINITY);
-        self.high.resize(coarse_x, f32::NEG_INFINITY);
-        let columns = *columns.start()..(*columns.end() + 1).min(coarse_x);
-        let classes = &mut self.classes[columns.clone()];
-        let low = &mut self.low[columns.clone()];
-        let high = &mut self.high[columns.clone()];
+        if columns.is_empty() {
+            return;
+        }
+        // The coarse columns next to the fine ones: from the first's left neighbour to the
+        // last's right one.
+        let coarse_columns =
+            coarse_neighbours(columns.start, coarse_x)[0]..coarse_neighbours(columns.end - 1, coarse_x)[1] + 1;
+        self.coarse.resize(coarse_x);
+        let classes = &mut self.coarse.classes[coarse_columns.clone()];
+        let low = &mut self.coarse.low[coarse_columns.clone()];
+        let high = &mut self.coarse.high[coarse_columns.clone()];
         classes.fill(0);
         low.fill(f32::INFINITY);
         high.fill(f32::NEG_INFINITY);
@@ -314,8 +336,8 @@ impl RowNeighbours {
         for &cz in distinct(&zs) {
             for &cy in distinct(&ys) {
                 let start = coarse_x * (cy + coarse_y * cz);
-                let row_labels = &grid.labels[start + columns.start..start + columns.end];
-                let row_values = &grid.values[start + columns.start..start + columns.end];
+                let row_labels = &grid.labels[start + coarse_columns.start..start + coarse_columns.end];
+                let row_values = &grid.values[start + coarse_columns.start..start + coarse_columns.end];
                 let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
                 for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
                     // Label 0 (background) sets no bit and leaves the range alone.
@@ -326,31 +348,46 @@ impl RowNeighbours {
                 }
             }
         }
+        self.fine.resize(columns.end.max(self.fine.classes.len()));
+        let coarse = &self.coarse;
+        let fine_columns = self.fine.classes[columns.clone()]
+            .iter_mut()
+            .zip(&mut self.fine.low[columns.clone()])
+            .zip(&mut self.fine.high[columns.clone()]);
+        for (x, ((classes, low), high)) in columns.clone().zip(fine_columns) {
+            let [left, right] = coarse_neighbours(x, coarse_x);
+            *classes = coarse.classes[left] | coarse.classes[right];
+            *low = coarse.low[left].min(coarse.low[right]) - tolerance;
+            *high = coarse.high[left].max(coarse.high[right]) + tolerance;
+        }
     }
 
     /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
     /// and writes the plane indices of the others, which must be evaluated, to the front of
     /// `selected` (at least as long as the row). Returns how many it wrote and how many
     /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
-    /// on one class and its intensity lies within theirs widened by `tolerance`. Background
-    /// neighbours do not veto: at a surface the voxel's own intensity already says it is
-    /// foreground, and a partial-volume voxel there falls outside the interior's range.
-    /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
-    fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
+    /// on one class and its intensity lies within their widened range (the row's summary,
+    /// which must cover its foreground chunks). Background neighbours do not veto: at a
+    /// surface the voxel's own intensity already says it is foreground, and a partial-volume
+    /// voxel there falls outside the interior's range. Branch-free per voxel: at boundaries
+    /// the outcomes alternate unpredictably.
+    fn label_row(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         let first_index = row.first_index;
         let (mut count, mut foreground_count) = (0, 0);
         for (offset, values, labels) in row.chunks_with_foreground() {
-            for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
-                let x = offset + k;
-                let [left, right] = coarse_neighbours(x, self.coarse_size_x);
-                let classes = self.classes[left] | self.classes[right];
-                let low = self.low[left].min(self.low[right]) - tolerance;
-                let high = self.high[left].max(self.high[right]) + tolerance;
+            let columns = offset..offset + values.len();
+            let summary = self.fine.classes[columns.clone()]
+                .iter()
+                .zip(&self.fine.low[columns.clone()])
+                .zip(&self.fine.high[columns]);
+            for (k, ((&value, label), ((&classes, &low), &high))) in
+                values.iter().zip(labels.iter_mut()).zip(summary).enumerate()
+            {
                 // NaN is never above the threshold: it is background.
                 let foreground = value >= threshold;
                 let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
                 *label = if foreground & inherits { classes.trailing_zeros() as u8 + 1 } else { 0 };
-                selected[count] = first_index + x;
+                selected[count] = first_index + offset + k;
                 count += usize::from(foreground & !inherits);
                 foreground_count += usize::from(foreground);
             }
@@ -425,78 +462,98 @@ impl<'a> Row<'a> {
 mod tests {
     use super::*;
 
-    impl RowNeighbours {
-        /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
-        fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
-            // NaN is background: only voxel x is foreground.
-            let mut values = vec![f32::NAN; x + 1];
-            values[x] = value;
-            let (mut labels, mut selected) = (vec![0u8; x + 1], vec![usize::MAX; x + 1]);
-            let mut chunks = ForegroundChunks::default();
-            chunks.mark(&values, f32::NEG_INFINITY);
-            let row = Row { first_index: 0, values: &values, labels: &mut labels, chunks: &chunks };
-            match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
-                (0, 1) => Some(labels[x]),
-                (1, 1) if selected[0] == x => None,
-                other => panic!("unexpected outcome {other:?}"),
-            }
+    /// The label fine voxel `x` (of row `y`, plane `z`) of value `value` inherits from `grid`
+    /// with intensity tolerance `tolerance`, or `None` when it is evaluated.
+    fn inherited_label(grid: &CoarseGrid, [x, y, z]: [usize; 3], value: f32, tolerance: f32) -> Option<u8> {
+        // NaN is background: only voxel x is foreground.
+        let mut values = vec![f32::NAN; x + 1];
+        values[x] = value;
+        let (mut labels, mut selected) = (vec![0u8; x + 1], vec![usize::MAX; x + 1]);
+        let mut chunks = ForegroundChunks::default();
+        let span = chunks.mark(&values, f32::NEG_INFINITY)?;
+        let mut neighbours = RowNeighbours::default();
+        neighbours.summarise(grid, y, z, span, tolerance);
+        let row = Row { first_index: 0, values: &values, labels: &mut labels, chunks: &chunks };
+        match neighbours.label_row(row, f32::NEG_INFINITY, &mut selected) {
+            (0, 1) => Some(labels[x]),
+            (1, 1) if selected[0] == x => None,
+            other => panic!("unexpected outcome {other:?}"),
         }
     }
 
     /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
-    /// labels and values, summarised for fine row 0 of plane 0.
-    fn summary(labels: [u8; 2], values: [f32; 2]) -> RowNeighbours {
-        let grid = CoarseGrid { dims: [2, 1, 1], labels: labels.to_vec(), values: values.to_vec() };
-        let mut row = RowNeighbours::default();
-        row.summarise(&grid, 0, 0, 0..=1);
-        row
+    /// labels and values.
+    fn grid(labels: [u8; 2], values: [f32; 2]) -> CoarseGrid {
+        CoarseGrid { dims: [2, 1, 1], labels: labels.to_vec(), values: values.to_vec() }
+    }
+
+    /// [`inherited_label`] of voxel `x` of fine row 0 of plane 0.
+    fn inherited(grid: &CoarseGrid, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+        inherited_label(grid, [x, 0, 0], value, tolerance)
     }
 
     #[test]
     fn a_fine_voxel_between_agreeing_neighbours_inherits_their_label() {
-        let row = summary([2, 2], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(2));
-        assert_eq!(row.inherited_label(1, 15.0, 0.0), Some(2));
-        assert_eq!(row.inherited_label(2, 20.5, 1.0), Some(2), "within the tolerance");
+        let grid = grid([2, 2], [10.0, 20.0]);
+        assert_eq!(inherited(&grid, 0, 10.0, 0.0), Some(2));
+        assert_eq!(inherited(&grid, 1, 15.0, 0.0), Some(2));
+        assert_eq!(inherited(&grid, 2, 20.5, 1.0), Some(2), "within the tolerance");
+        assert_eq!(inherited(&grid, 3, 20.0, 0.0), Some(2), "the far border has one coarse column");
     }
 
     #[test]
     fn disagreement_or_an_intensity_outside_the_range_means_evaluate() {
-        let row = summary([1, 2], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 15.0, 0.0), None, "neighbours disagree");
-        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
-        let row = summary([3, 3], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 25.0, 1.0), None, "brighter than both");
-        assert_eq!(row.inherited_label(1, 5.0, 1.0), None, "darker than both");
+        let mixed = grid([1, 2], [10.0, 20.0]);
+        assert_eq!(inherited(&mixed, 1, 15.0, 0.0), None, "neighbours disagree");
+        assert_eq!(inherited(&mixed, 0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
+        assert_eq!(inherited(&mixed, 2, 20.0, 0.0), Some(2));
+        let agreeing = grid([3, 3], [10.0, 20.0]);
+        assert_eq!(inherited(&agreeing, 1, 25.0, 1.0), None, "brighter than both");
+        assert_eq!(inherited(&agreeing, 1, 5.0, 1.0), None, "darker than both");
     }
 
     #[test]
     fn background_neighbours_neither_vote_nor_veto() {
-        let row = summary([0, 4], [0.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 20.0, 0.0), Some(4));
-        assert_eq!(row.inherited_label(0, 20.0, 0.0), None, "no foreground neighbour");
-        let row = summary([0, 0], [0.0, 0.0]);
-        assert_eq!(row.inherited_label(1, 0.0, 10.0), None);
+        let half = grid([0, 4], [0.0, 20.0]);
+        assert_eq!(inherited(&half, 1, 20.0, 0.0), Some(4));
+        assert_eq!(inherited(&half, 0, 20.0, 0.0), None, "no foreground neighbour");
+        let air = grid([0, 0], [0.0, 0.0]);
+        assert_eq!(inherited(&air, 1, 0.0, 10.0), None);
     }
 
     #[test]
     fn the_highest_class_a_bit_set_holds_is_inherited() {
         let class = RowNeighbours::MAX_CLASSES as u8;
-        let row = summary([class, class], [1.0, 1.0]);
-        assert_eq!(row.inherited_label(1, 1.0, 0.0), Some(class));
+        assert_eq!(inherited(&grid([class, class], [1.0, 1.0]), 1, 1.0, 0.0), Some(class));
     }
 
     #[test]
     fn rows_are_summarised_per_plane_and_row() {
         // Coarse 1 x 2 x 2: fine row 1 of plane 1 sits between all four coarse voxels.
         let grid = CoarseGrid { dims: [1, 2, 2], labels: vec![1, 1, 1, 2], values: vec![5.0; 4] };
-        let mut row = RowNeighbours::default();
-        row.summarise(&grid, 0, 0, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1));
-        row.summarise(&grid, 1, 1, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
-        row.summarise(&grid, 2, 0, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
+        assert_eq!(inherited_label(&grid, [0, 0, 0], 5.0, 0.0), Some(1));
+        assert_eq!(inherited_label(&grid, [0, 1, 1], 5.0, 0.0), None);
+        assert_eq!(inherited_label(&grid, [0, 2, 0], 5.0, 0.0), Some(1), "the far border has one coarse row");
+    }
+
+    #[test]
+    fn a_summary_row_matches_the_per_voxel_rule() {
+        // A long fine row (several chunks) over coarse columns with mixed labels: every
+        // voxel's outcome is what its two coarse neighbours say.
+        let coarse_x = 40;
+        let labels: Vec<u8> = (0..coarse_x).map(|c| [1, 1, 2, 0, 2, 2, 2][c % 7]).collect();
+        let values: Vec<f32> = (0..coarse_x).map(|c| (c % 5) as f32 * 10.0).collect();
+        let grid = CoarseGrid { dims: [coarse_x, 1, 1], labels: labels.clone(), values: values.clone() };
+        for x in 0..2 * coarse_x - 1 {
+            let value = (x % 9) as f32 * 5.0;
+            let [left, right] = coarse_neighbours(x, coarse_x);
+            let foreground: Vec<usize> = distinct(&[left, right]).iter().copied().filter(|&c| labels[c] != 0).collect();
+            let agree = !foreground.is_empty() && foreground.iter().all(|&c| labels[c] == labels[foreground[0]]);
+            let low = foreground.iter().map(|&c| values[c]).fold(f32::INFINITY, f32::min) - 1.0;
+            let high = foreground.iter().map(|&c| values[c]).fold(f32::NEG_INFINITY, f32::max) + 1.0;
+            let expected = (agree && value >= low && value <= high).then(|| labels[foreground[0]]);
+            assert_eq!(inherited(&grid, x, value, 1.0), expected, "fine column {x}");
+        }
     }
 
     #[test]
