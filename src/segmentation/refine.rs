@@ -157,8 +157,9 @@ impl<'a> Worker<'a> {
     }
 
     /// Classifies the voxels of fine plane `z` (even) that lie on the coarse grid and above the
-    /// threshold, into that coarse plane's `labels`, and records the plane's `values`
-    /// (`coarse_size` x by y). `coarse_indices` is scratch.
+    /// threshold, into that coarse plane's `labels` (`coarse_size` x by y, zero on entry), and
+    /// records their `values` (the only ones [`RowNeighbours::summarise`] reads).
+    /// `coarse_indices` is scratch.
     fn classify_coarse_plane(
         &mut self,
         z: usize,
@@ -174,13 +175,17 @@ impl<'a> Worker<'a> {
         self.selected.clear();
         coarse_indices.clear();
         for cy in 0..coarse_y {
+            let row = &plane_values[size_x * 2 * cy..][..size_x];
+            // Air rows stay as they are: label 0, and a background voxel's value is never read.
+            if !any_at_or_above(row, threshold) {
+                continue;
+            }
             for cx in 0..coarse_x {
-                let index = 2 * cx + size_x * 2 * cy;
-                let value = plane_values[index];
+                let value = row[2 * cx];
                 let coarse_index = cx + coarse_x * cy;
                 values[coarse_index] = value;
                 if value >= threshold {
-                    self.selected.push(index);
+                    self.selected.push(2 * cx + size_x * 2 * cy);
                     coarse_indices.push(coarse_index);
                 }
             }
