@@ -15,9 +15,6 @@ use super::error::ClassifyError;
 use super::kernel::Kernel;
 use super::ovo::{ClassPair, TrainReport};
 
-/// Width of one panel of the packed prediction layout (see [`Model::packed_panels`]).
-pub(crate) const PANEL_WIDTH: usize = 16;
-
 /// A trained one-vs-one SN-SVM. `Send + Sync`: prediction only reads it.
 #[derive(Debug, Clone)]
 pub struct Model {
@@ -38,10 +35,6 @@ pub struct Model {
     pub(crate) coefficients: Vec<f32>,
     /// P.
     pub(crate) biases: Vec<f32>,
-    /// The same X and Γ packed for SIMD: panel q holds, for the points q*16 .. q*16+15, first
-    /// dim rows of 16 coordinates, then P rows of 16 coefficients. The last panel is padded with
-    /// points at the origin whose coefficients are 0, so they add nothing.
-    pub(crate) packed_panels: Vec<f32>,
     pub(crate) report: TrainReport,
 }
 
@@ -92,19 +85,6 @@ impl Model {
         report.expansion_points = count;
         let training_points: Vec<f32> = points_exact.iter().map(|&v| v as f32).collect();
         let coefficients_f32: Vec<f32> = coefficients_exact.iter().map(|&v| v as f32).collect();
-        let panel_count = count.div_ceil(PANEL_WIDTH);
-        let panel_size = (dim + pair_count) * PANEL_WIDTH;
-        let mut packed_panels = vec![0.0f32; panel_count * panel_size];
-        for j in 0..count {
-            let (panel, lane) = (j / PANEL_WIDTH, j % PANEL_WIDTH);
-            let base = panel * panel_size + lane;
-            for k in 0..dim {
-                packed_panels[base + k * PANEL_WIDTH] = training_points[j * dim + k];
-            }
-            for p in 0..pair_count {
-                packed_panels[base + (dim + p) * PANEL_WIDTH] = coefficients_f32[j * pair_count + p];
-            }
-        }
         let position = |id: u8| class_ids.iter().position(|&c| c == id).unwrap_or(0);
         let pair_positions = pairs.iter().map(|pair| (position(pair.first), position(pair.second))).collect();
         Model {
@@ -119,7 +99,6 @@ impl Model {
             coefficients_exact,
             training_points,
             coefficients: coefficients_f32,
-            packed_panels,
             report,
         }
     }
@@ -267,9 +246,5 @@ mod tests {
         for (a, b) in exact.iter().zip(&expected) {
             assert!((a - b).abs() < 1e-15);
         }
-        // Padding: one panel of 16 with coefficients 0 beyond the two real points.
-        assert_eq!(model.packed_panels.len(), (2 + 3) * PANEL_WIDTH);
-        assert_eq!(model.packed_panels[(2 + 1) * PANEL_WIDTH + 1], 1.5);
-        assert!(model.packed_panels[2 * PANEL_WIDTH + 2..3 * PANEL_WIDTH].iter().all(|&g| g == 0.0));
     }
 }

@@ -1,13 +1,14 @@
 //! Block prediction (snsvm.md §7, "prediction for every voxel"): decision values
 //! F = k(V, X) Γ + w0 for a block V of m feature vectors, and one-vs-one voting.
 //!
-//! The RBF path is the hot loop of the product. It walks the packed panels of the model
-//! (16 expansion points with their coordinates and coefficients side by side), computes
-//! ||v − xⱼ||² directly (no norm trick, so no cancellation in f32), exp by [`exp_nonpositive`]
-//! (a vectorisable Cephes-style expf, accuracy tested against f64), and accumulates the P
-//! decision values in 16-lane f32 accumulators, two voxels per walk. On x86-64 CPUs with AVX2
-//! and FMA the same code is compiled a second time for 256-bit vectors with fused
-//! multiply-adds and chosen at run time; the two paths differ only by rounding (tested).
+//! The RBF path is the hot loop of the product. It is vectorised across voxels: 16 feature
+//! vectors, one per lane, walk the expansion points together, computing ||v − xⱼ||² directly
+//! (no norm trick, so no cancellation in f32), exp by [`exp_nonpositive`] (a vectorisable
+//! Cephes-style expf, accuracy tested against f64), and the P decision values in f32 lanes.
+//! Unlike a layout with expansion points in the lanes, a model with few of them (a clean
+//! two-class lasso can leave seven) wastes no lanes and needs no horizontal sums. On x86-64
+//! CPUs with AVX2 and FMA the same code is compiled a second time for 256-bit vectors with
+//! fused multiply-adds and chosen at run time; the two paths differ only by rounding (tested).
 //!
 //! Voting: pair (a, b) votes for a when f > 0, else for b. The label is the class with the most
 //! votes; a tie goes to the tied class whose winning votes have the larger summed |f|, then to
@@ -19,7 +20,7 @@ use rayon::prelude::*;
 
 use super::error::ClassifyError;
 use super::kernel::Kernel;
-use super::model::{Model, PANEL_WIDTH};
+use super::model::Model;
 
 /// Voxels per tile of [`Model::predict_block`]: the decision values of a tile stay in L1.
 const TILE_VOXELS: usize = 64;
@@ -103,124 +104,54 @@ impl SimdPath {
     }
 }
 
-/// The lanes at the start of `slice` as an array, so that the lane loops below have a length
-/// the compiler can see (one bounds check per row instead of one per lane).
-#[inline(always)]
-fn lanes(slice: &[f32]) -> [f32; PANEL_WIDTH] {
-    let mut out = [0.0; PANEL_WIDTH];
-    out.copy_from_slice(&slice[..PANEL_WIDTH]);
-    out
-}
-
-/// Sum of the lanes in a fixed pairwise order, the same in every path.
-#[inline(always)]
-fn horizontal_sum(lanes: &[f32; PANEL_WIDTH]) -> f32 {
-    let mut partial = *lanes;
-    let mut width = PANEL_WIDTH / 2;
-    while width > 0 {
-        for lane in 0..width {
-            partial[lane] += partial[lane + width];
-        }
-        width /= 2;
-    }
-    partial[0]
-}
-
-/// Voxels that share one walk over the panels: their coordinate and coefficient loads are
-/// shared and their exp chains interleave.
-const VOXELS_PER_PASS: usize = 2;
-
-/// Per pair, per voxel of a pass, the 16 partial sums of k(x, xⱼ) Γⱼₚ.
-type Accumulators<const V: usize> = Vec<[[f32; PANEL_WIDTH]; V]>;
-
-/// Decision values of the V finite feature vectors in `x` (V x dim) into `values` (V x P).
-#[inline(always)]
-fn rbf_pass<A: MultiplyAdd, const V: usize>(
-    model: &Model,
-    width: f32,
-    x: &[f32],
-    values: &mut [f32],
-    accumulators: &mut Accumulators<V>,
-) {
-    let dim = model.dim;
-    let pair_count = model.pairs.len();
-    let panel_size = (dim + pair_count) * PANEL_WIDTH;
-    for accumulator in accumulators.iter_mut() {
-        *accumulator = [[0.0; PANEL_WIDTH]; V];
-    }
-    for panel in model.packed_panels.chunks_exact(panel_size) {
-        let (coordinates, coefficients) = panel.split_at(dim * PANEL_WIDTH);
-        let mut distance = [[0.0f32; PANEL_WIDTH]; V];
-        for (k, row) in coordinates.chunks_exact(PANEL_WIDTH).enumerate() {
-            let row = lanes(row);
-            for (voxel, distance) in distance.iter_mut().enumerate() {
-                let x_k = x[voxel * dim + k];
-                for lane in 0..PANEL_WIDTH {
-                    let d = x_k - row[lane];
-                    distance[lane] = A::multiply_add(d, d, distance[lane]);
-                }
-            }
-        }
-        let mut kernel = [[0.0f32; PANEL_WIDTH]; V];
-        for (kernel, distance) in kernel.iter_mut().zip(&distance) {
-            for lane in 0..PANEL_WIDTH {
-                kernel[lane] = exp_nonpositive::<A>(-width * distance[lane]);
-            }
-        }
-        for (accumulator, row) in accumulators.iter_mut().zip(coefficients.chunks_exact(PANEL_WIDTH)) {
-            let row = lanes(row);
-            for (accumulator, kernel) in accumulator.iter_mut().zip(&kernel) {
-                for lane in 0..PANEL_WIDTH {
-                    accumulator[lane] = A::multiply_add(kernel[lane], row[lane], accumulator[lane]);
-                }
-            }
-        }
-    }
-    for (voxel, values) in values.chunks_exact_mut(pair_count).enumerate() {
-        for ((value, accumulator), bias) in values.iter_mut().zip(accumulators.iter()).zip(&model.biases) {
-            *value = horizontal_sum(&accumulator[voxel]) + bias;
-        }
-    }
-}
+/// Vectors per group of [`rbf_block`], one SIMD lane each (two 256-bit vectors of f32).
+const VOXEL_LANES: usize = 16;
 
 /// RBF decision values for a block: the shared body of every SIMD path. Groups of
-/// [`VOXELS_PER_PASS`] finite vectors go through one pass; the rest one by one, so that every
-/// voxel's value is computed by the same operations whatever its neighbours in the block.
+/// [`VOXEL_LANES`] vectors, transposed so that each coordinate is one row of lanes, walk the
+/// expansion points one at a time: ‖v − xⱼ‖² (directly, no norm trick, so no cancellation in
+/// f32), then exp, then the P decision values. Every lane runs the same operations on its own
+/// vector (a short group is padded with zeros), so a voxel's values do not depend on its
+/// neighbours in the block; a vector with a non-finite component gets NaN.
 #[inline(always)]
 fn rbf_block<A: MultiplyAdd>(model: &Model, width: f32, features: &[f32], out: &mut [f32]) {
     let dim = model.dim;
     let pair_count = model.pairs.len();
-    let mut group_accumulators: Accumulators<VOXELS_PER_PASS> = vec![[[0.0; PANEL_WIDTH]; VOXELS_PER_PASS]; pair_count];
-    let mut single_accumulators: Accumulators<1> = vec![[[0.0; PANEL_WIDTH]; 1]; pair_count];
-    let mut groups = features.chunks_exact(dim * VOXELS_PER_PASS);
-    let mut group_values = out.chunks_exact_mut(pair_count * VOXELS_PER_PASS);
-    for (x, values) in (&mut groups).zip(&mut group_values) {
-        if x.iter().all(|v| v.is_finite()) {
-            rbf_pass::<A, VOXELS_PER_PASS>(model, width, x, values, &mut group_accumulators);
-        } else {
-            for (x, values) in x.chunks_exact(dim).zip(values.chunks_exact_mut(pair_count)) {
-                rbf_single::<A>(model, width, x, values, &mut single_accumulators);
+    let mut accumulators = vec![[0f32; VOXEL_LANES]; pair_count];
+    let mut coordinates = vec![[0f32; VOXEL_LANES]; dim];
+    for (x, values) in features.chunks(dim * VOXEL_LANES).zip(out.chunks_mut(pair_count * VOXEL_LANES)) {
+        let count = x.len() / dim;
+        for (k, lanes) in coordinates.iter_mut().enumerate() {
+            for (lane, value) in lanes.iter_mut().enumerate() {
+                *value = if lane < count { x[lane * dim + k] } else { 0.0 };
             }
         }
-    }
-    let rest = groups.remainder().chunks_exact(dim);
-    for (x, values) in rest.zip(group_values.into_remainder().chunks_exact_mut(pair_count)) {
-        rbf_single::<A>(model, width, x, values, &mut single_accumulators);
-    }
-}
-
-#[inline(always)]
-fn rbf_single<A: MultiplyAdd>(
-    model: &Model,
-    width: f32,
-    x: &[f32],
-    values: &mut [f32],
-    accumulators: &mut Accumulators<1>,
-) {
-    if x.iter().all(|v| v.is_finite()) {
-        rbf_pass::<A, 1>(model, width, x, values, accumulators);
-    } else {
-        values.fill(f32::NAN);
+        accumulators.fill([0.0; VOXEL_LANES]);
+        let points = model.training_points.chunks_exact(dim).zip(model.coefficients.chunks_exact(pair_count));
+        for (point, gammas) in points {
+            let mut distance = [0f32; VOXEL_LANES];
+            for (lanes, &p) in coordinates.iter().zip(point) {
+                for lane in 0..VOXEL_LANES {
+                    let d = lanes[lane] - p;
+                    distance[lane] = A::multiply_add(d, d, distance[lane]);
+                }
+            }
+            let mut kernel = [0f32; VOXEL_LANES];
+            for lane in 0..VOXEL_LANES {
+                kernel[lane] = exp_nonpositive::<A>(-width * distance[lane]);
+            }
+            for (accumulator, &gamma) in accumulators.iter_mut().zip(gammas) {
+                for lane in 0..VOXEL_LANES {
+                    accumulator[lane] = A::multiply_add(kernel[lane], gamma, accumulator[lane]);
+                }
+            }
+        }
+        for (lane, values) in values.chunks_exact_mut(pair_count).enumerate() {
+            let finite = x[lane * dim..(lane + 1) * dim].iter().all(|v| v.is_finite());
+            for ((value, accumulator), bias) in values.iter_mut().zip(&accumulators).zip(&model.biases) {
+                *value = if finite { accumulator[lane] + bias } else { f32::NAN };
+            }
+        }
     }
 }
 
