@@ -3,12 +3,22 @@
 //! A [`FeatureSlabReader`] keeps the three z planes a slice's features need (z-1, z, z+1) as
 //! `f32` buffers and rolls them forward, so a slab reads each plane of the volume once through
 //! [`Volume::read_f32`]. [`par_map_slabs`] runs one reader per worker over consecutive slabs.
+//! A dropped reader leaves its plane buffers to the next reader made on the same thread:
+//! rayon makes a reader per split of a parallel pass, often dozens per classification, and
+//! fresh buffers cost a zero fill and a page fault per 4 KiB, about as much as reading the
+//! planes.
 
 use super::multiscale::MultiscaleSlabReader;
 use super::{FeatureError, FeatureSet, Neighbourhood, check_slab, inverse_span_mm};
 use crate::volume::Volume;
 use rayon::prelude::*;
 use std::ops::Range;
+
+thread_local! {
+    /// Plane buffers of this thread's last dropped reader (at most three planes of the largest
+    /// volume read; their contents are stale and always overwritten before use).
+    static SPARE_PLANES: std::cell::RefCell<Option<[Vec<f32>; 3]>> = const { std::cell::RefCell::new(None) };
+}
 
 /// Computes features for z slabs of one volume, reusing its plane buffers between calls.
 pub struct FeatureSlabReader<'v> {
@@ -36,7 +46,7 @@ impl<'v> FeatureSlabReader<'v> {
             volume,
             multiscale: feature_set.scales().map(|scales| MultiscaleSlabReader::new(volume, scales)),
             feature_set,
-            planes: [Vec::new(), Vec::new(), Vec::new()],
+            planes: SPARE_PLANES.with(|spare| spare.borrow_mut().take()).unwrap_or_default(),
             plane_z: [None; 3],
             x_neighbours: neighbours(size_x),
             y_neighbours: neighbours(size_y),
@@ -48,7 +58,7 @@ impl<'v> FeatureSlabReader<'v> {
     /// Promises that only voxels at or above `threshold` will be asked for, so that the
     /// multi-scale set can skip the rest of each block (no effect on the paper's set).
     pub fn with_foreground_threshold(mut self, threshold: f32) -> Self {
-        self.multiscale = self.multiscale.map(|reader| reader.with_foreground_threshold(threshold));
+        self.multiscale = self.multiscale.take().map(|reader| reader.with_foreground_threshold(threshold));
         self
     }
 
@@ -240,6 +250,13 @@ impl<'v> FeatureSlabReader<'v> {
             }
         }
         slots
+    }
+}
+
+impl Drop for FeatureSlabReader<'_> {
+    fn drop(&mut self) {
+        let planes = std::mem::take(&mut self.planes);
+        SPARE_PLANES.with(|spare| *spare.borrow_mut() = Some(planes));
     }
 }
 
