@@ -9,7 +9,7 @@ use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
 use crate::volume::Volume;
 use rayon::prelude::*;
-use std::ops::Range;
+use std::ops::RangeInclusive;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
 /// A fine voxel copies its coarse neighbours' common label only when its intensity lies within
@@ -74,20 +74,22 @@ pub(super) fn label_volume(
                     worker.selected.clear();
                     let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
                     for (y, (row_values, row_labels)) in rows.enumerate() {
-                        // Most rows of a scan are air, and most of the rest is air too.
-                        let Some(span) = worker.foreground_chunks.mark(row_values, threshold) else {
+                        // A vectorised test first: most rows of a scan are air.
+                        if !any_at_or_above(row_values, threshold) {
                             continue;
-                        };
+                        }
+                        let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
+                        let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
                         let row = Row {
-                            first_index: size_x * y,
-                            values: row_values,
-                            labels: row_labels,
-                            chunks: &worker.foreground_chunks,
+                            first,
+                            first_index: first + size_x * y,
+                            values: &row_values[first..=last],
+                            labels: &mut row_labels[first..=last],
                         };
                         let (selected, foreground) = match &coarse {
                             Some(grid) => {
-                                row_neighbours.summarise(grid, y, z, span, tolerance);
-                                row_neighbours.label_row(row, threshold, &mut worker.row_selected)
+                                row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
+                                row_neighbours.label_row(row, threshold, tolerance, &mut worker.row_selected)
                             }
                             None => row.select_foreground(threshold, &mut worker.row_selected),
                         };
@@ -135,8 +137,6 @@ struct Worker<'a> {
     /// One row's selection before it joins `selected` (room for a whole row; a row fills a
     /// prefix).
     row_selected: Vec<usize>,
-    /// Which chunks of the current row hold foreground.
-    foreground_chunks: ForegroundChunks,
     features: Vec<f32>,
     predicted: Vec<u8>,
 }
@@ -150,7 +150,6 @@ impl<'a> Worker<'a> {
             size_x: volume.dims[0],
             selected: Vec::new(),
             row_selected: vec![0; volume.dims[0]],
-            foreground_chunks: ForegroundChunks::default(),
             features: Vec::new(),
             predicted: Vec::new(),
         }
@@ -283,34 +282,16 @@ impl CoarseGrid {
     }
 }
 
-/// What the coarse voxels around one fine row say about each of its voxels: which classes its
-/// foreground coarse neighbours have (a bit per class) and their intensity range, widened by
-/// the tolerance. Built once per row (per coarse column over the up to four coarse rows next
-/// to the fine row, then spread to the fine columns: an even column sits on one coarse
-/// column, an odd one between two), so that labelling the row reads contiguous arrays
-/// without an index computation per voxel. Branch-free, so that it vectorises.
+/// What the coarse voxels around one fine row say, per coarse column: which classes the
+/// foreground coarse voxels in the (up to four) coarse rows next to the fine row have (a bit
+/// per class), and their intensity range. Summarising a row once makes each fine voxel's test
+/// two lookups; the summary is branch-free so that it vectorises.
 #[derive(Default)]
 struct RowNeighbours {
-    /// Per coarse column (scratch for [`RowNeighbours::summarise`]).
-    coarse: NeighbourSummary,
-    /// Per fine column; current for the columns last summarised.
-    fine: NeighbourSummary,
-}
-
-/// Class bit sets and intensity ranges, one entry per column.
-#[derive(Default)]
-struct NeighbourSummary {
     classes: Vec<u32>,
     low: Vec<f32>,
     high: Vec<f32>,
-}
-
-impl NeighbourSummary {
-    fn resize(&mut self, columns: usize) {
-        self.classes.resize(columns, 0);
-        self.low.resize(columns, f32::INFINITY);
-        self.high.resize(columns, f32::NEG_INFINITY);
-    }
+    coarse_size_x: usize,
 }
 
 impl RowNeighbours {
@@ -318,22 +299,18 @@ impl RowNeighbours {
     /// volume is labelled exactly.
     const MAX_CLASSES: usize = 31;
 
-    /// Summarises the coarse neighbours of fine row `y` of fine plane `z` for the fine
-    /// columns `columns` (the others keep stale values and must not be asked for), with the
-    /// intensity ranges widened by `tolerance`.
-    fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: Range<usize>, tolerance: f32) {
+    /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
+    /// `columns` (clamped to the grid; the others keep stale values and must not be asked for).
+    fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>) {
         let [coarse_x, coarse_y, coarse_z] = grid.dims;
-        if columns.is_empty() {
-            return;
-        }
-        // The coarse columns next to the fine ones: from the first's left neighbour to the
-        // last's right one.
-        let coarse_columns =
-            coarse_neighbours(columns.start, coarse_x)[0]..coarse_neighbours(columns.end - 1, coarse_x)[1] + 1;
-        self.coarse.resize(coarse_x);
-        let classes = &mut self.coarse.classes[coarse_columns.clone()];
-        let low = &mut self.coarse.low[coarse_columns.clone()];
-        let high = &mut self.coarse.high[coarse_columns.clone()];
+        self.coarse_size_x = coarse_x;
+        self.classes.resize(coarse_x, 0);
+        self.low.resize(coarse_x, f32::INFINITY);
+        self.high.resize(coarse_x, f32::NEG_INFINITY);
+        let columns = *columns.start()..(*columns.end() + 1).min(coarse_x);
+        let classes = &mut self.classes[columns.clone()];
+        let low = &mut self.low[columns.clone()];
+        let high = &mut self.high[columns.clone()];
         classes.fill(0);
         low.fill(f32::INFINITY);
         high.fill(f32::NEG_INFINITY);
@@ -341,8 +318,8 @@ impl RowNeighbours {
         for &cz in distinct(&zs) {
             for &cy in distinct(&ys) {
                 let start = coarse_x * (cy + coarse_y * cz);
-                let row_labels = &grid.labels[start + coarse_columns.start..start + coarse_columns.end];
-                let row_values = &grid.values[start + coarse_columns.start..start + coarse_columns.end];
+                let row_labels = &grid.labels[start + columns.start..start + columns.end];
+                let row_values = &grid.values[start + columns.start..start + columns.end];
                 let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
                 for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
                     // Label 0 (background) sets no bit and leaves the range alone.
@@ -353,41 +330,26 @@ impl RowNeighbours {
                 }
             }
         }
-        self.fine.resize(columns.end.max(self.fine.classes.len()));
-        let coarse = &self.coarse;
-        let fine_columns = self.fine.classes[columns.clone()]
-            .iter_mut()
-            .zip(&mut self.fine.low[columns.clone()])
-            .zip(&mut self.fine.high[columns.clone()]);
-        for (x, ((classes, low), high)) in columns.clone().zip(fine_columns) {
-            let [left, right] = coarse_neighbours(x, coarse_x);
-            *classes = coarse.classes[left] | coarse.classes[right];
-            *low = coarse.low[left].min(coarse.low[right]) - tolerance;
-            *high = coarse.high[left].max(coarse.high[right]) + tolerance;
-        }
     }
 
     /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
     /// and writes the plane indices of the others, which must be evaluated, to the front of
     /// `selected` (at least as long as the row). Returns how many it wrote and how many
     /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
-    /// on one class and its intensity lies within their widened range (the row's summary,
-    /// which must cover its foreground chunks). Background neighbours do not veto: at a
-    /// surface the voxel's own intensity already says it is foreground, and a partial-volume
-    /// voxel there falls outside the interior's range. Branch-free per voxel: at boundaries
-    /// the outcomes alternate unpredictably.
-    fn label_row(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
-        let first_index = row.first_index;
+    /// on one class and its intensity lies within theirs widened by `tolerance`. Background
+    /// neighbours do not veto: at a surface the voxel's own intensity already says it is
+    /// foreground, and a partial-volume voxel there falls outside the interior's range.
+    /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
+    fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
+        let (first, first_index) = (row.first, row.first_index);
         let (mut count, mut foreground_count) = (0, 0);
-        for (offset, values, labels) in row.chunks_with_foreground() {
-            let columns = offset..offset + values.len();
-            let summary = self.fine.classes[columns.clone()]
-                .iter()
-                .zip(&self.fine.low[columns.clone()])
-                .zip(&self.fine.high[columns]);
-            for (k, ((&value, label), ((&classes, &low), &high))) in
-                values.iter().zip(labels.iter_mut()).zip(summary).enumerate()
-            {
+        for (offset, values, labels) in row.chunks_with_foreground(threshold) {
+            for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
+                let x = first + offset + k;
+                let [left, right] = coarse_neighbours(x, self.coarse_size_x);
+                let classes = self.classes[left] | self.classes[right];
+                let low = self.low[left].min(self.low[right]) - tolerance;
+                let high = self.high[left].max(self.high[right]) + tolerance;
                 // NaN is never above the threshold: it is background.
                 let foreground = value >= threshold;
                 let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
@@ -401,50 +363,29 @@ impl RowNeighbours {
     }
 }
 
-/// Which fixed-size chunks of a row hold a foreground voxel: one vectorised test per chunk,
-/// so that the labelling loops visit only those (air surrounds an object and lies between
-/// its parts; noise above the threshold can be scattered through it).
-#[derive(Default)]
-struct ForegroundChunks {
-    flags: Vec<bool>,
-}
-
-impl ForegroundChunks {
-    /// Voxels per chunk.
-    const SIZE: usize = 32;
-
-    /// Marks the chunks of `values` that hold a voxel at or above `threshold`; returns the
-    /// columns from the first marked chunk's start to the last one's end, or `None` when no
-    /// chunk is marked.
-    fn mark(&mut self, values: &[f32], threshold: f32) -> Option<std::ops::Range<usize>> {
-        self.flags.clear();
-        self.flags.extend(values.chunks(Self::SIZE).map(|chunk| any_at_or_above(chunk, threshold)));
-        let first = self.flags.iter().position(|&flag| flag)?;
-        let last = self.flags.iter().rposition(|&flag| flag).unwrap_or(first);
-        Some(first * Self::SIZE..((last + 1) * Self::SIZE).min(values.len()))
-    }
-}
-
-/// One fine row: its voxels' values and labels, the plane index of its first voxel, and which
-/// of its chunks hold foreground ([`ForegroundChunks::mark`] on these values).
+/// A span of one fine row: its voxels' values and labels from column `first` on, and the
+/// plane index of that first voxel.
 struct Row<'a> {
+    first: usize,
     first_index: usize,
     values: &'a [f32],
     labels: &'a mut [u8],
-    chunks: &'a ForegroundChunks,
 }
 
 impl<'a> Row<'a> {
-    /// The row's chunks that hold a foreground voxel, with the column of their first voxel.
-    fn chunks_with_foreground(self) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
-        let size = ForegroundChunks::SIZE;
+    /// Voxels per chunk that [`Row::chunks_with_foreground`] tests at once.
+    const CHUNK: usize = 32;
+
+    /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
+    /// air inside the span (between the parts of an object, or noise above the threshold
+    /// scattered through the air) are skipped a vectorised test at a time.
+    fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
         self.values
-            .chunks(size)
-            .zip(self.labels.chunks_mut(size))
-            .zip(&self.chunks.flags)
+            .chunks(Self::CHUNK)
+            .zip(self.labels.chunks_mut(Self::CHUNK))
             .enumerate()
-            .filter(|(_, (_, flag))| **flag)
-            .map(move |(chunk, ((values, labels), _))| (chunk * size, values, labels))
+            .filter(move |(_, (values, _))| any_at_or_above(values, threshold))
+            .map(|(chunk, (values, labels))| (chunk * Self::CHUNK, values, labels))
     }
 
     /// Writes the plane indices of the foreground voxels to the front of `selected` (exact
@@ -453,7 +394,7 @@ impl<'a> Row<'a> {
     fn select_foreground(self, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         let first_index = self.first_index;
         let mut count = 0;
-        for (offset, values, _) in self.chunks_with_foreground() {
+        for (offset, values, _) in self.chunks_with_foreground(threshold) {
             for (k, &value) in values.iter().enumerate() {
                 selected[count] = first_index + offset + k;
                 count += usize::from(value >= threshold);
@@ -467,126 +408,83 @@ impl<'a> Row<'a> {
 mod tests {
     use super::*;
 
-    /// The label fine voxel `x` (of row `y`, plane `z`) of value `value` inherits from `grid`
-    /// with intensity tolerance `tolerance`, or `None` when it is evaluated.
-    fn inherited_label(grid: &CoarseGrid, [x, y, z]: [usize; 3], value: f32, tolerance: f32) -> Option<u8> {
-        // NaN is background: only voxel x is foreground.
-        let mut values = vec![f32::NAN; x + 1];
-        values[x] = value;
-        let (mut labels, mut selected) = (vec![0u8; x + 1], vec![usize::MAX; x + 1]);
-        let mut chunks = ForegroundChunks::default();
-        let span = chunks.mark(&values, f32::NEG_INFINITY)?;
-        let mut neighbours = RowNeighbours::default();
-        neighbours.summarise(grid, y, z, span, tolerance);
-        let row = Row { first_index: 0, values: &values, labels: &mut labels, chunks: &chunks };
-        match neighbours.label_row(row, f32::NEG_INFINITY, &mut selected) {
-            (0, 1) => Some(labels[x]),
-            (1, 1) if selected[0] == x => None,
-            other => panic!("unexpected outcome {other:?}"),
+    impl RowNeighbours {
+        /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
+        fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+            let (mut values, mut labels, mut selected) = ([value], [0u8], [usize::MAX]);
+            let row = Row { first: x, first_index: x, values: &mut values, labels: &mut labels };
+            match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
+                (0, 1) => Some(labels[0]),
+                (1, 1) if selected[0] == x => None,
+                other => panic!("unexpected outcome {other:?}"),
+            }
         }
     }
 
     /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
-    /// labels and values.
-    fn grid(labels: [u8; 2], values: [f32; 2]) -> CoarseGrid {
-        CoarseGrid { dims: [2, 1, 1], labels: labels.to_vec(), values: values.to_vec() }
-    }
-
-    /// [`inherited_label`] of voxel `x` of fine row 0 of plane 0.
-    fn inherited(grid: &CoarseGrid, x: usize, value: f32, tolerance: f32) -> Option<u8> {
-        inherited_label(grid, [x, 0, 0], value, tolerance)
+    /// labels and values, summarised for fine row 0 of plane 0.
+    fn summary(labels: [u8; 2], values: [f32; 2]) -> RowNeighbours {
+        let grid = CoarseGrid { dims: [2, 1, 1], labels: labels.to_vec(), values: values.to_vec() };
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=1);
+        row
     }
 
     #[test]
     fn a_fine_voxel_between_agreeing_neighbours_inherits_their_label() {
-        let grid = grid([2, 2], [10.0, 20.0]);
-        assert_eq!(inherited(&grid, 0, 10.0, 0.0), Some(2));
-        assert_eq!(inherited(&grid, 1, 15.0, 0.0), Some(2));
-        assert_eq!(inherited(&grid, 2, 20.5, 1.0), Some(2), "within the tolerance");
-        assert_eq!(inherited(&grid, 3, 20.0, 0.0), Some(2), "the far border has one coarse column");
+        let row = summary([2, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(2, 20.5, 1.0), Some(2), "within the tolerance");
     }
 
     #[test]
     fn disagreement_or_an_intensity_outside_the_range_means_evaluate() {
-        let mixed = grid([1, 2], [10.0, 20.0]);
-        assert_eq!(inherited(&mixed, 1, 15.0, 0.0), None, "neighbours disagree");
-        assert_eq!(inherited(&mixed, 0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
-        assert_eq!(inherited(&mixed, 2, 20.0, 0.0), Some(2));
-        let agreeing = grid([3, 3], [10.0, 20.0]);
-        assert_eq!(inherited(&agreeing, 1, 25.0, 1.0), None, "brighter than both");
-        assert_eq!(inherited(&agreeing, 1, 5.0, 1.0), None, "darker than both");
+        let row = summary([1, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), None, "neighbours disagree");
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
+        let row = summary([3, 3], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 25.0, 1.0), None, "brighter than both");
+        assert_eq!(row.inherited_label(1, 5.0, 1.0), None, "darker than both");
     }
 
     #[test]
     fn background_neighbours_neither_vote_nor_veto() {
-        let half = grid([0, 4], [0.0, 20.0]);
-        assert_eq!(inherited(&half, 1, 20.0, 0.0), Some(4));
-        assert_eq!(inherited(&half, 0, 20.0, 0.0), None, "no foreground neighbour");
-        let air = grid([0, 0], [0.0, 0.0]);
-        assert_eq!(inherited(&air, 1, 0.0, 10.0), None);
+        let row = summary([0, 4], [0.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 20.0, 0.0), Some(4));
+        assert_eq!(row.inherited_label(0, 20.0, 0.0), None, "no foreground neighbour");
+        let row = summary([0, 0], [0.0, 0.0]);
+        assert_eq!(row.inherited_label(1, 0.0, 10.0), None);
     }
 
     #[test]
     fn the_highest_class_a_bit_set_holds_is_inherited() {
         let class = RowNeighbours::MAX_CLASSES as u8;
-        assert_eq!(inherited(&grid([class, class], [1.0, 1.0]), 1, 1.0, 0.0), Some(class));
+        let row = summary([class, class], [1.0, 1.0]);
+        assert_eq!(row.inherited_label(1, 1.0, 0.0), Some(class));
     }
 
     #[test]
     fn rows_are_summarised_per_plane_and_row() {
         // Coarse 1 x 2 x 2: fine row 1 of plane 1 sits between all four coarse voxels.
         let grid = CoarseGrid { dims: [1, 2, 2], labels: vec![1, 1, 1, 2], values: vec![5.0; 4] };
-        assert_eq!(inherited_label(&grid, [0, 0, 0], 5.0, 0.0), Some(1));
-        assert_eq!(inherited_label(&grid, [0, 1, 1], 5.0, 0.0), None);
-        assert_eq!(inherited_label(&grid, [0, 2, 0], 5.0, 0.0), Some(1), "the far border has one coarse row");
-    }
-
-    #[test]
-    fn a_summary_row_matches_the_per_voxel_rule() {
-        // A long fine row (several chunks) over coarse columns with mixed labels: every
-        // voxel's outcome is what its two coarse neighbours say.
-        let coarse_x = 40;
-        let labels: Vec<u8> = (0..coarse_x).map(|c| [1, 1, 2, 0, 2, 2, 2][c % 7]).collect();
-        let values: Vec<f32> = (0..coarse_x).map(|c| (c % 5) as f32 * 10.0).collect();
-        let grid = CoarseGrid { dims: [coarse_x, 1, 1], labels: labels.clone(), values: values.clone() };
-        for x in 0..2 * coarse_x - 1 {
-            let value = (x % 9) as f32 * 5.0;
-            let [left, right] = coarse_neighbours(x, coarse_x);
-            let foreground: Vec<usize> = distinct(&[left, right]).iter().copied().filter(|&c| labels[c] != 0).collect();
-            let agree = !foreground.is_empty() && foreground.iter().all(|&c| labels[c] == labels[foreground[0]]);
-            let low = foreground.iter().map(|&c| values[c]).fold(f32::INFINITY, f32::min) - 1.0;
-            let high = foreground.iter().map(|&c| values[c]).fold(f32::NEG_INFINITY, f32::max) + 1.0;
-            let expected = (agree && value >= low && value <= high).then(|| labels[foreground[0]]);
-            assert_eq!(inherited(&grid, x, value, 1.0), expected, "fine column {x}");
-        }
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1));
+        row.summarise(&grid, 1, 1, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
+        row.summarise(&grid, 2, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
     }
 
     #[test]
     fn exact_rows_select_every_foreground_voxel_and_no_nan() {
-        let values = [0.0, 0.0, 5.0, 1.0, f32::NAN, 7.0, 3.0];
-        let mut labels = [9u8; 7];
-        let mut selected = [0usize; 7];
-        let mut chunks = ForegroundChunks::default();
-        assert_eq!(chunks.mark(&values, 3.0), Some(0..7));
-        let row = Row { first_index: 100, values: &values, labels: &mut labels, chunks: &chunks };
+        let values = [5.0, 1.0, f32::NAN, 7.0, 3.0];
+        let mut labels = [9u8; 5];
+        let mut selected = [0usize; 5];
+        let row = Row { first: 2, first_index: 102, values: &values, labels: &mut labels };
         assert_eq!(row.select_foreground(3.0, &mut selected), (3, 3));
         assert_eq!(&selected[..3], &[102, 105, 106]);
-    }
-
-    #[test]
-    fn foreground_chunks_span_the_chunks_that_hold_foreground() {
-        let mut values = vec![0.0f32; 100];
-        let mut chunks = ForegroundChunks::default();
-        assert_eq!(chunks.mark(&values, 1.0), None, "all air");
-        values[40] = 2.0;
-        values[97] = 1.0;
-        assert_eq!(chunks.mark(&values, 1.0), Some(32..100), "the last chunk is short");
-        assert_eq!(chunks.flags, [false, true, false, true]);
-        let mut labels = vec![0u8; 100];
-        let mut selected = vec![0usize; 100];
-        let row = Row { first_index: 1000, values: &values, labels: &mut labels, chunks: &chunks };
-        assert_eq!(row.select_foreground(1.0, &mut selected), (2, 2));
-        assert_eq!(&selected[..2], &[1040, 1097]);
     }
 
     #[test]
