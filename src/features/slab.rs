@@ -5,8 +5,7 @@
 //! [`Volume::read_f32`]. [`par_map_slabs`] runs one reader per worker over consecutive slabs.
 //! A dropped reader leaves its plane buffers to the next reader made on the same thread:
 //! rayon makes a reader per split of a parallel pass, often dozens per classification, and
-//! fresh buffers cost a zero fill and a page fault per 4 KiB, about as much as reading the
-//! planes.
+//! fresh buffers cost a zero fill and a page fault per 4 KiB page each time.
 
 use super::multiscale::MultiscaleSlabReader;
 use super::{FeatureError, FeatureSet, Neighbourhood, check_slab, inverse_span_mm};
