@@ -99,7 +99,8 @@ fn every_path_gives_the_same_labels() {
     model.predict_block_parallel(&features, &mut parallel).unwrap();
     assert_eq!(labels, parallel);
     assert!(labels.iter().all(|&l| (1..=4).contains(&l)));
-    // A voxel's values do not depend on its neighbours in the block (pairs vs single passes).
+    // A voxel's values do not depend on its neighbours in the block (a full lane group against
+    // a short, zero-padded one).
     let mut alone = vec![0.0f32; pair_count];
     for voxel in [0, 1, count - 1] {
         model.decision_values_block(&features[voxel * 5..(voxel + 1) * 5], &mut alone).unwrap();
