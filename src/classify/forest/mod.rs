@@ -9,6 +9,10 @@
 //! frequencies of its leaves. The forest averages the leaves' frequencies over trees (soft
 //! voting) and takes the largest; ties go to the smaller class id.
 //!
+//! Prediction tests every split of a small tree at once, for 16 vectors side by side, as masks
+//! over its leaves (`leaf_masks`; trees of the default depth on lasso-sized training sets have
+//! 10 to 25 nodes); a tree with more than 32 leaves is walked.
+//!
 //! Entry points: [`ForestParams::check`], [`Forest::train`], [`Forest::predict_block`].
 //! Deterministic: tree t draws from `SplitMix64::new(hash64(seed, t))`, so the thread schedule
 //! cannot change a bit. Trees train in parallel (rayon).
@@ -16,12 +20,14 @@
 //! Never: reads volumes, computes or standardises features, or decides which voxels to
 //! classify.
 
+mod leaf_masks;
 #[cfg(test)]
 mod tests;
 mod tree;
 
 use super::ClassifyError;
 use crate::rng::{SplitMix64, hash64};
+use leaf_masks::{LANES, LeafMasks};
 use rayon::prelude::*;
 use tree::{Tree, TreeBuilder};
 
@@ -86,6 +92,8 @@ pub struct Forest {
     /// Sorted class ids; leaf frequencies index into this.
     class_ids: Vec<u8>,
     trees: Vec<Tree>,
+    /// The same trees as split masks, for prediction.
+    leaf_masks: LeafMasks,
 }
 
 impl Forest {
@@ -150,7 +158,7 @@ impl Forest {
             min_samples_split: params.min_samples_split,
             features_per_split,
         };
-        let trees = (0..params.tree_count)
+        let trees: Vec<Tree> = (0..params.tree_count)
             .into_par_iter()
             .map(|t| {
                 let mut rng = SplitMix64::new(hash64(params.seed, t as u64));
@@ -158,7 +166,8 @@ impl Forest {
                 builder.grow(bootstrap, &mut rng)
             })
             .collect();
-        Ok(Forest { dim, class_ids, trees })
+        let leaf_masks = LeafMasks::new(&trees, class_ids.len());
+        Ok(Forest { dim, class_ids, trees, leaf_masks })
     }
 
     pub fn dim(&self) -> usize {
@@ -182,21 +191,17 @@ impl Forest {
     pub fn predict_block(&self, features: &[f32], out: &mut [u8]) -> Result<(), ClassifyError> {
         check_block(features, self.dim, out.len())?;
         let class_count = self.class_ids.len();
-        // Tree-major over chunks of voxels: one tree's nodes stay in cache while it sees the
-        // whole chunk.
+        // A group of lanes at a time through every tree (see `leaf_masks`).
         const CHUNK: usize = 256;
         let mut votes = vec![0f32; CHUNK * class_count];
+        let mut scratch = leaf_masks::Scratch::default();
         for (chunk_features, chunk_out) in features.chunks(CHUNK * self.dim).zip(out.chunks_mut(CHUNK)) {
             let votes = &mut votes[..chunk_out.len() * class_count];
             votes.fill(0.0);
-            for tree in &self.trees {
-                for (vector, voxel_votes) in
-                    chunk_features.chunks_exact(self.dim).zip(votes.chunks_exact_mut(class_count))
-                {
-                    for (vote, &frequency) in voxel_votes.iter_mut().zip(tree.leaf_frequencies(vector)) {
-                        *vote += frequency;
-                    }
-                }
+            for (vectors, group_votes) in
+                chunk_features.chunks(LANES * self.dim).zip(votes.chunks_mut(LANES * class_count))
+            {
+                self.leaf_masks.add_votes(&self.trees, vectors, self.dim, group_votes, &mut scratch);
             }
             for (label, voxel_votes) in chunk_out.iter_mut().zip(votes.chunks_exact(class_count)) {
                 let mut best = 0;

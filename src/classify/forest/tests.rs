@@ -120,3 +120,60 @@ fn refuses_bad_input() {
     let forest = Forest::train(&[0.0, 1.0], 1, &[1, 2], &[1, 2], &params).unwrap();
     assert!(forest.predict_block(&[0.0, 1.0, 2.0], &mut [0u8; 2]).is_err());
 }
+
+/// Votes of every vector walked through every tree one at a time, the reference for the
+/// masked prediction.
+fn walked_labels(forest: &Forest, vectors: &[f32]) -> Vec<u8> {
+    let class_count = forest.class_ids.len();
+    vectors
+        .chunks_exact(forest.dim)
+        .map(|vector| {
+            let mut votes = vec![0f32; class_count];
+            for tree in &forest.trees {
+                for (vote, &frequency) in votes.iter_mut().zip(tree.leaf_frequencies(vector)) {
+                    *vote += frequency;
+                }
+            }
+            let best = (0..class_count).fold(0, |best, k| if votes[k] > votes[best] { k } else { best });
+            forest.class_ids[best]
+        })
+        .collect()
+}
+
+#[test]
+fn split_masks_find_the_leaves_walks_find() {
+    // Random labels grow bushy trees: shallow ones are masked; deep ones have more than 32
+    // leaves and are walked. Class counts for each way of summing votes (4, 8 and any number
+    // of frequencies per leaf), group sizes from 1 to beyond a chunk, and NaN and infinite
+    // values, which go right at every split.
+    let mut rng = SplitMix64::new(7);
+    let train: Vec<f32> = (0..3 * 400).map(|_| rng.next_f64() as f32).collect();
+    let mut test: Vec<f32> = (0..3 * 300).map(|_| rng.next_f64() as f32).collect();
+    test[4] = f32::NAN;
+    test[9] = f32::INFINITY;
+    test[13] = f32::NEG_INFINITY;
+    for class_count in [2u8, 4, 7, 10] {
+        let labels: Vec<u8> = (0..400).map(|_| 1 + rng.below(u64::from(class_count)) as u8).collect();
+        let class_ids: Vec<u8> = (1..=class_count).collect();
+        for max_depth in [3, 6, 30] {
+            let params = ForestParams { max_depth, tree_count: 12, ..ForestParams::default() };
+            let forest = Forest::train(&train, 3, &labels, &class_ids, &params).unwrap();
+            let walked_trees = forest.trees.iter().filter(|tree| tree.split_masks().is_none()).count();
+            // Depth 6 mixes masked and walked trees (up to 64 leaves), whose votes must still
+            // add up in tree order.
+            let expected = match max_depth {
+                3 => 0..=0,
+                6 => 1..=11,
+                _ => 12..=12,
+            };
+            assert!(expected.contains(&walked_trees), "depth {max_depth}: {walked_trees} trees walked");
+            for count in [1, 2, leaf_masks::LANES - 1, leaf_masks::LANES, leaf_masks::LANES + 3, test.len() / 3] {
+                let vectors = &test[..count * 3];
+                let mut masked = vec![0u8; count];
+                forest.predict_block(vectors, &mut masked).unwrap();
+                let context = format!("{class_count} classes, depth {max_depth}, {count} vectors");
+                assert_eq!(masked, walked_labels(&forest, vectors), "{context}");
+            }
+        }
+    }
+}

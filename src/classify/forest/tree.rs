@@ -1,7 +1,22 @@
-//! One classification tree of the forest: growth by Gini splits on a bootstrap, and the flat
-//! node array prediction walks.
+//! One classification tree of the forest: growth by Gini splits on a bootstrap, the flat node
+//! array a walk follows, and the same tree as split masks over its leaves (see `leaf_masks`).
 
 use crate::rng::SplitMix64;
+use std::ops::Range;
+
+/// A split as a mask over its tree's leaves numbered left to right: the bits of the leaves of
+/// its left subtree are clear, since a vector that goes right cannot reach them.
+#[derive(Clone, Copy, Debug)]
+pub(super) struct SplitMask {
+    pub feature: u32,
+    /// Vectors with `vector[feature] <= threshold` go left.
+    pub threshold: f32,
+    pub mask: u32,
+}
+
+impl SplitMask {
+    pub const MAX_LEAVES: usize = 32;
+}
 
 /// `Node::feature` of a leaf.
 const LEAF: u32 = u32::MAX;
@@ -30,16 +45,52 @@ impl Tree {
         self.nodes.len()
     }
 
-    /// The class frequencies of the leaf `vector` falls into.
+    /// The tree's splits as masks over its leaves numbered left to right, and those leaves'
+    /// class frequencies in that order; `None` when it has more leaves than a mask has bits.
+    pub(super) fn split_masks(&self) -> Option<(Vec<SplitMask>, Vec<&[f32]>)> {
+        let mut leaves = Vec::new();
+        let mut masks = Vec::new();
+        self.number_leaves(0, &mut leaves, &mut masks);
+        if leaves.len() > SplitMask::MAX_LEAVES {
+            return None;
+        }
+        let frequencies = leaves.iter().map(|&node| self.leaf_frequencies_of(node)).collect();
+        Some((masks, frequencies))
+    }
+
+    /// Appends the leaves under `node` to `leaves` (left to right) and a mask for each split
+    /// under it (bits of leaves past [`SplitMask::MAX_LEAVES`] are dropped, and the caller
+    /// then discards the masks); returns the range of leaf numbers under `node`.
+    fn number_leaves(&self, node: usize, leaves: &mut Vec<usize>, masks: &mut Vec<SplitMask>) -> Range<usize> {
+        let Node { feature, threshold, left, right } = self.nodes[node];
+        if feature == LEAF {
+            leaves.push(node);
+            return leaves.len() - 1..leaves.len();
+        }
+        let left_leaves = self.number_leaves(left as usize, leaves, masks);
+        let right_leaves = self.number_leaves(right as usize, leaves, masks);
+        let left_bits = left_leaves.clone().filter(|&k| k < SplitMask::MAX_LEAVES).fold(0u32, |bits, k| bits | 1 << k);
+        masks.push(SplitMask { feature, threshold, mask: !left_bits });
+        left_leaves.start..right_leaves.end
+    }
+
+    /// The class frequencies of leaf `node`.
+    fn leaf_frequencies_of(&self, node: usize) -> &[f32] {
+        let start = self.nodes[node].left as usize;
+        &self.frequencies[start..start + self.class_count]
+    }
+
+    /// The class frequencies of the leaf `vector` falls into (a walk; see `leaf_masks` for
+    /// the way small trees are evaluated).
     #[inline]
     pub(super) fn leaf_frequencies(&self, vector: &[f32]) -> &[f32] {
-        let mut node = self.nodes[0];
-        while node.feature != LEAF {
-            let next = if vector[node.feature as usize] <= node.threshold { node.left } else { node.right };
-            node = self.nodes[next as usize];
+        let mut index = 0;
+        while let Node { feature, threshold, left, right } = self.nodes[index]
+            && feature != LEAF
+        {
+            index = if vector[feature as usize] <= threshold { left } else { right } as usize;
         }
-        let start = node.left as usize;
-        &self.frequencies[start..start + self.class_count]
+        self.leaf_frequencies_of(index)
     }
 }
 
