@@ -25,6 +25,7 @@
 //!
 //! Never: keeps a feature copy of the volume, knows about classes, or trains anything.
 
+mod eigen;
 pub mod multiscale;
 mod slab;
 mod standardise;

@@ -33,6 +33,7 @@
 //! Never: keeps a float copy of the whole volume, or knows about classes.
 
 use super::FeatureError;
+use super::eigen::symmetric_eigenvalues_lanes;
 use crate::volume::Volume;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -145,6 +146,8 @@ pub struct MultiscaleBlock {
     scales: Scales,
     dims: [usize; 3],
     spacing_mm: [f32; 3],
+    /// 1 / (2 spacing): the gradient's scale away from the volume's faces.
+    interior_inverse_span_mm: [f32; 3],
     origin: [usize; 3],
     size: [usize; 3],
     core: [Range<usize>; 3],
@@ -176,6 +179,7 @@ impl MultiscaleBlock {
             scales,
             dims: volume.dims,
             spacing_mm: volume.spacing_mm.map(|s| s as f32),
+            interior_inverse_span_mm: volume.spacing_mm.map(|s| 1.0 / (2.0 * s as f32)),
             origin: [0; 3],
             size: [0; 3],
             core: [0..0, 0..0, 0..0],
@@ -270,97 +274,163 @@ impl MultiscaleBlock {
         self.stages[stage][((z - z_range.start) * ny + y) * nx + x]
     }
 
-    /// The 3 x 3 x 3 values of stage `stage` around local `p` (clamped into the region), x
-    /// fastest: index (dz + 1) * 9 + (dy + 1) * 3 + (dx + 1). Away from the region's faces
-    /// (nearly every voxel) they are read with fixed strides, without clamping each one.
+    /// The features of the absolute voxels `voxels`, which must lie in the core, into `out`
+    /// (row-major, `Scales::dim` values per voxel), [`LANES`] voxels side by side.
+    pub fn features_of(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
+        let dim = self.scales.dim();
+        let stage_count = self.scales.stage_count();
+        let mut neighbours = Neighbours::default();
+        for (group, group_out) in voxels.chunks(LANES).zip(out.chunks_mut(LANES * dim)) {
+            // A short group repeats its last voxel; those lanes are not written out.
+            let voxel = |lane: usize| group[lane.min(group.len() - 1)];
+            let locals: [[isize; 3]; LANES] =
+                std::array::from_fn(|lane| std::array::from_fn(|a| (voxel(lane)[a] - self.origin[a]) as isize));
+            let inverse_span: [[f32; LANES]; 3] =
+                std::array::from_fn(|a| std::array::from_fn(|lane| self.inverse_span_mm(a, voxel(lane)[a])));
+            // Feature-major: features[k][lane].
+            let mut features = [[0f32; LANES]; MULTISCALE_DIM];
+            for (value, &[x, y, z]) in features[0].iter_mut().zip(&locals) {
+                *value = self.at(0, x, y, z);
+            }
+            for stage in 1..=stage_count {
+                let hessian = stage % 2 == 0;
+                self.gather(stage, &locals, hessian, &mut neighbours);
+                for lane in 0..LANES {
+                    let difference =
+                        |a: usize| (neighbours.plus[a][lane] - neighbours.minus[a][lane]) * inverse_span[a][lane];
+                    let (gx, gy, gz) = (difference(0), difference(1), difference(2));
+                    features[stage][lane] = neighbours.centre[lane];
+                    features[stage_count + stage][lane] = (gx * gx + gy * gy + gz * gz).sqrt();
+                }
+                if hessian {
+                    // The eigenvalues at stage 2 (and 4) follow the gradients.
+                    let first = 2 * stage_count + 1 + 3 * (stage / 2 - 1);
+                    let eigenvalues = symmetric_eigenvalues_lanes(&self.hessians(&neighbours));
+                    features[first..first + 3].copy_from_slice(&eigenvalues);
+                }
+            }
+            // Differences of Gaussians.
+            let differences: &[(usize, usize, usize)] = match self.scales {
+                Scales::Fine => &[(8, 0, 2)],
+                Scales::Full => &[(15, 0, 2), (16, 2, 4)],
+            };
+            for &(k, from, minus) in differences {
+                features[k] = std::array::from_fn(|lane| features[from][lane] - features[minus][lane]);
+            }
+            for (lane, row) in group_out.chunks_exact_mut(dim).enumerate() {
+                for (value, feature) in row.iter_mut().zip(&features) {
+                    *value = feature[lane];
+                }
+            }
+        }
+    }
+
+    /// 1 / (mm spanned by the clamped central difference) at coordinate `p` along `axis`, as
+    /// in the paper's set; 0 on an axis one voxel long.
     #[inline(always)]
-    fn cube(&self, stage: usize, p: [isize; 3]) -> [f32; 27] {
+    fn inverse_span_mm(&self, axis: usize, p: usize) -> f32 {
+        let span = (p + 1).min(self.dims[axis] - 1) - p.saturating_sub(1);
+        if span == 2 {
+            self.interior_inverse_span_mm[axis]
+        } else if span == 0 {
+            0.0
+        } else {
+            1.0 / (span as f32 * self.spacing_mm[axis])
+        }
+    }
+
+    /// The values of stage `stage` around each of `locals` (local positions, clamped into the
+    /// region) into `neighbours`; the diagonal ones only with `diagonals`. Away from the
+    /// region's faces (nearly every voxel) they are read with fixed strides, without clamping
+    /// each one.
+    fn gather(&self, stage: usize, locals: &[[isize; 3]; LANES], diagonals: bool, neighbours: &mut Neighbours) {
         let [nx, ny, _] = self.size;
         let z_range = &self.stage_z[stage];
-        let [x, y, z] = p;
-        let interior = x >= 1
-            && y >= 1
-            && z >= 1
-            && (x as usize) + 1 < nx
-            && (y as usize) + 1 < ny
-            && (z as usize) > z_range.start
-            && (z as usize) + 1 < z_range.end;
-        let mut cube = [0f32; 27];
-        if interior {
-            let centre = ((z as usize - z_range.start) * ny + y as usize) * nx + x as usize;
-            let (row, plane) = (nx, nx * ny);
-            let values = &self.stages[stage][centre - plane - row - 1..=centre + plane + row + 1];
-            for (k, line) in cube.chunks_exact_mut(3).enumerate() {
-                let start = (k / 3) * plane + (k % 3) * row;
-                line.copy_from_slice(&values[start..start + 3]);
-            }
-        } else {
-            for (k, value) in cube.iter_mut().enumerate() {
-                let (dx, dy, dz) = ((k % 3) as isize - 1, ((k / 3) % 3) as isize - 1, (k / 9) as isize - 1);
-                *value = self.at(stage, x + dx, y + dy, z + dz);
-            }
-        }
-        cube
-    }
-
-    /// The features of absolute voxel (x, y, z), which must lie in the core, into `out`
-    /// (`Scales::dim` values).
-    pub fn features_at(&self, voxel: [usize; 3], out: &mut [f32]) {
-        let local = std::array::from_fn::<isize, 3, _>(|a| (voxel[a] - self.origin[a]) as isize);
-        // 1 / (mm spanned by the clamped central difference) per axis, as in the paper's set.
-        let inverse_span: [f32; 3] = std::array::from_fn(|a| {
-            let p = voxel[a];
-            let span = (p + 1).min(self.dims[a] - 1) - p.saturating_sub(1);
-            if span == 0 { 0.0 } else { 1.0 / (span as f32 * self.spacing_mm[a]) }
-        });
-        let stage_count = self.scales.stage_count();
-        out[0] = self.at(0, local[0], local[1], local[2]);
-        let mut hessians = [[0f32; 3]; 2];
-        for stage in 1..=stage_count {
-            let cube = self.cube(stage, local);
-            let centre = cube[CUBE_CENTRE];
-            let difference =
-                |a: usize| (cube[CUBE_CENTRE + CUBE_STRIDE[a]] - cube[CUBE_CENTRE - CUBE_STRIDE[a]]) * inverse_span[a];
-            let (gx, gy, gz) = (difference(0), difference(1), difference(2));
-            out[stage] = centre;
-            out[stage_count + stage] = (gx * gx + gy * gy + gz * gz).sqrt();
-            if stage % 2 == 0 {
-                hessians[stage / 2 - 1] = self.hessian_eigenvalues(&cube);
-            }
-        }
-        match self.scales {
-            Scales::Fine => {
-                out[5..8].copy_from_slice(&hessians[0]);
-                out[8] = out[0] - out[2];
-            }
-            Scales::Full => {
-                out[9..12].copy_from_slice(&hessians[0]);
-                out[12..15].copy_from_slice(&hessians[1]);
-                out[15] = out[0] - out[2];
-                out[16] = out[2] - out[4];
+        let values = &self.stages[stage];
+        for (lane, &[x, y, z]) in locals.iter().enumerate() {
+            let interior = x >= 1
+                && y >= 1
+                && z >= 1
+                && (x as usize) + 1 < nx
+                && (y as usize) + 1 < ny
+                && (z as usize) > z_range.start
+                && (z as usize) + 1 < z_range.end;
+            if interior {
+                let centre = ((z as usize - z_range.start) * ny + y as usize) * nx + x as usize;
+                let stride = [1, nx as isize, (nx * ny) as isize];
+                let value = |d: [isize; 3]| {
+                    values[(centre as isize + d[0] * stride[0] + d[1] * stride[1] + d[2] * stride[2]) as usize]
+                };
+                neighbours.fill_lane(lane, diagonals, value);
+            } else {
+                neighbours.fill_lane(lane, diagonals, |d: [isize; 3]| self.at(stage, x + d[0], y + d[1], z + d[2]));
             }
         }
     }
 
-    /// Eigenvalues (ascending) of the Hessian at the centre of `cube` (see [`Self::cube`]),
-    /// from second differences, in value units per mm^2.
-    fn hessian_eigenvalues(&self, cube: &[f32; 27]) -> [f32; 3] {
-        let value = |offset: isize| cube[(CUBE_CENTRE as isize + offset) as usize] as f64;
-        let stride = CUBE_STRIDE.map(|s| s as isize);
-        let centre = value(0);
+    /// The Hessians, from second differences in value units per mm^2, of the lanes of
+    /// `neighbours`, entry by entry ([xx, yy, zz, xy, xz, yz]; see
+    /// [`symmetric_eigenvalues_lanes`]).
+    fn hessians(&self, neighbours: &Neighbours) -> [[f64; LANES]; 6] {
         let spacing = self.spacing_mm.map(|s| s as f64);
-        let second = |a: usize| (value(stride[a]) - 2.0 * centre + value(-stride[a])) / (spacing[a] * spacing[a]);
-        let mixed = |a: usize, b: usize| {
-            let corner = |sa: isize, sb: isize| value(sa * stride[a] + sb * stride[b]);
-            (corner(1, 1) - corner(1, -1) - corner(-1, 1) + corner(-1, -1)) / (4.0 * spacing[a] * spacing[b])
-        };
-        symmetric_eigenvalues([second(0), second(1), second(2), mixed(0, 1), mixed(0, 2), mixed(1, 2)])
+        let mut entries = [[0f64; LANES]; 6];
+        for lane in 0..LANES {
+            let centre = neighbours.centre[lane] as f64;
+            for a in 0..3 {
+                let (plus, minus) = (neighbours.plus[a][lane] as f64, neighbours.minus[a][lane] as f64);
+                entries[a][lane] = (plus - 2.0 * centre + minus) / (spacing[a] * spacing[a]);
+            }
+            for (pair, &(a, b)) in AXIS_PAIRS.iter().enumerate() {
+                let [plus_plus, plus_minus, minus_plus, minus_minus] =
+                    neighbours.diagonal[pair].map(|values| values[lane] as f64);
+                entries[3 + pair][lane] =
+                    (plus_plus - plus_minus - minus_plus + minus_minus) / (4.0 * spacing[a] * spacing[b]);
+            }
+        }
+        entries
     }
 }
 
-/// The centre of a [`MultiscaleBlock::cube`] and the index steps along x, y and z.
-const CUBE_CENTRE: usize = 13;
-const CUBE_STRIDE: [usize; 3] = [1, 3, 9];
+/// Voxels whose features [`MultiscaleBlock::features_of`] computes side by side: independent
+/// voxels overlap their long chains of dependent arithmetic, and the eigenvalues run in vector
+/// instructions.
+const LANES: usize = 8;
+
+/// The axis pairs of the Hessian's mixed derivatives: xy, xz, yz.
+const AXIS_PAIRS: [(usize, usize); 3] = [(0, 1), (0, 2), (1, 2)];
+
+/// Values of one stage around a group of voxels, lane by lane.
+#[derive(Default)]
+struct Neighbours {
+    centre: [f32; LANES],
+    /// The neighbours one voxel below and above along each axis.
+    minus: [[f32; LANES]; 3],
+    plus: [[f32; LANES]; 3],
+    /// For each of [`AXIS_PAIRS`] (a, b): the neighbours at (+a, +b), (+a, -b), (-a, +b), (-a, -b).
+    diagonal: [[[f32; LANES]; 4]; 3],
+}
+
+impl Neighbours {
+    /// Fills lane `lane` from `value`, the value at an offset from the lane's voxel.
+    #[inline(always)]
+    fn fill_lane(&mut self, lane: usize, diagonals: bool, value: impl Fn([isize; 3]) -> f32) {
+        let step =
+            |axis: usize, sign: isize| -> [isize; 3] { std::array::from_fn(|a| if a == axis { sign } else { 0 }) };
+        self.centre[lane] = value([0; 3]);
+        for axis in 0..3 {
+            self.minus[axis][lane] = value(step(axis, -1));
+            self.plus[axis][lane] = value(step(axis, 1));
+        }
+        if diagonals {
+            for (pair, &(a, b)) in AXIS_PAIRS.iter().enumerate() {
+                for (corner, (sign_a, sign_b)) in [(1, 1), (1, -1), (-1, 1), (-1, -1)].into_iter().enumerate() {
+                    let offset = std::array::from_fn(|axis| step(a, sign_a)[axis] + step(b, sign_b)[axis]);
+                    self.diagonal[pair][corner][lane] = value(offset);
+                }
+            }
+        }
+    }
+}
 
 impl Drop for MultiscaleBlock {
     fn drop(&mut self) {
@@ -372,62 +442,6 @@ impl Drop for MultiscaleBlock {
         // One spare set per thread; a thread's later block reuses it.
         SPARE_BUFFERS.with(|spare| *spare.borrow_mut() = Some(buffers));
     }
-}
-
-/// Eigenvalues, ascending, of the symmetric 3x3 matrix [[a, d, e], [d, b, f], [e, f, c]] given
-/// as [a, b, c, d, e, f] (the trigonometric closed form).
-pub fn symmetric_eigenvalues([a, b, c, d, e, f]: [f64; 6]) -> [f32; 3] {
-    let off = d * d + e * e + f * f;
-    if off <= 1e-30 * (a * a + b * b + c * c).max(1e-300) {
-        let mut values = [a as f32, b as f32, c as f32];
-        values.sort_by(f32::total_cmp);
-        return values;
-    }
-    let q = (a + b + c) / 3.0;
-    let p2 = (a - q).powi(2) + (b - q).powi(2) + (c - q).powi(2) + 2.0 * off;
-    let p = (p2 / 6.0).sqrt();
-    // B = (A - qI) / p; r = det(B) / 2 lies in [-1, 1] up to rounding.
-    let inverse_p = 1.0 / p;
-    let (ba, bb, bc, bd, be, bf) =
-        ((a - q) * inverse_p, (b - q) * inverse_p, (c - q) * inverse_p, d * inverse_p, e * inverse_p, f * inverse_p);
-    let determinant = ba * (bb * bc - bf * bf) - bd * (bd * bc - bf * be) + be * (bd * bf - bb * be);
-    // phi = acos(r) / 3 lies in [0, pi / 3]; cos(phi + 2 pi / 3) = -cos(phi) / 2 -
-    // sin(phi) sqrt(3) / 2. Polynomials instead of libm's acos and cos: this runs for every
-    // classified voxel, and 1e-7 relative error is far below what the classifier resolves.
-    let phi = acos_polynomial((determinant / 2.0).clamp(-1.0, 1.0)) / 3.0;
-    let cos_phi = cos_polynomial(phi);
-    let sin_phi = (1.0 - cos_phi * cos_phi).max(0.0).sqrt();
-    let high = q + 2.0 * p * cos_phi;
-    let low = q + 2.0 * p * (-0.5 * cos_phi - 0.5 * 3f64.sqrt() * sin_phi);
-    let middle = 3.0 * q - high - low;
-    [low as f32, middle as f32, high as f32]
-}
-
-/// acos(x) for x in [-1, 1], absolute error below 1e-7 (Abramowitz and Stegun 4.4.46:
-/// sqrt(1 - x) times a degree-7 polynomial on [0, 1], and acos(-x) = pi - acos(x)).
-pub fn acos_polynomial(x: f64) -> f64 {
-    const COEFFICIENTS: [f64; 8] = [
-        1.570_796_305_0,
-        -0.214_598_801_6,
-        0.088_978_987_4,
-        -0.050_174_304_6,
-        0.030_891_881_0,
-        -0.017_088_125_6,
-        0.006_670_090_1,
-        -0.001_262_491_1,
-    ];
-    let magnitude = x.abs().min(1.0);
-    let polynomial = COEFFICIENTS.iter().rev().fold(0.0, |sum, &c| sum * magnitude + c);
-    let angle = (1.0 - magnitude).sqrt() * polynomial;
-    if x < 0.0 { std::f64::consts::PI - angle } else { angle }
-}
-
-/// cos(x) for x in [0, pi / 3] (Taylor series to x^12: error below 1e-10 there).
-pub fn cos_polynomial(x: f64) -> f64 {
-    // 1 - x^2/2! + x^4/4! - ... + x^12/12!, by Horner in x^2: 1 - x^2/(2*1) (1 - x^2/(4*3) (...)).
-    const INVERSE_STEPS: [f64; 6] = [1.0 / 2.0, 1.0 / 12.0, 1.0 / 30.0, 1.0 / 56.0, 1.0 / 90.0, 1.0 / 132.0];
-    let x2 = x * x;
-    INVERSE_STEPS.iter().rev().fold(1.0, |sum, &inverse| 1.0 - sum * x2 * inverse)
 }
 
 /// `out[i]` = mean of `input[clamp(i + d)]` for d in -radius..=radius, summed in order of d
@@ -509,11 +523,13 @@ pub fn multiscale_features_of_voxels(
         .collect();
     order.sort_unstable();
     let groups: Vec<&[(usize, usize)]> = order.chunk_by(|a, b| a.0 == b.0).collect();
-    let rows: Vec<Vec<(usize, [f32; MULTISCALE_DIM])>> = groups
+    // Each tile's (tile, position in `indices`) pairs and its voxels' features.
+    type TileFeatures<'a> = (&'a [(usize, usize)], Vec<f32>);
+    let rows: Vec<TileFeatures> = groups
         .par_iter()
         .map_init(
             || MultiscaleBlock::new(volume, scales),
-            |block, group| {
+            |block, &group| {
                 let voxels: Vec<[usize; 3]> = group.iter().map(|&(_, k)| position(indices[k])).collect();
                 let core = std::array::from_fn(|a| {
                     let low = voxels.iter().map(|v| v[a]).min().unwrap_or(0);
@@ -521,21 +537,17 @@ pub fn multiscale_features_of_voxels(
                     low..high + 1
                 });
                 block.compute(volume, core);
-                group
-                    .iter()
-                    .zip(&voxels)
-                    .map(|(&(_, k), &voxel)| {
-                        let mut row = [0f32; MULTISCALE_DIM];
-                        block.features_at(voxel, &mut row);
-                        (k, row)
-                    })
-                    .collect()
+                let mut features = vec![0f32; voxels.len() * dim];
+                block.features_of(&voxels, &mut features);
+                (group, features)
             },
         )
         .collect();
     let mut out = vec![0f32; indices.len() * dim];
-    for (k, row) in rows.into_iter().flatten() {
-        out[k * dim..(k + 1) * dim].copy_from_slice(&row[..dim]);
+    for (group, features) in rows {
+        for (&(_, k), row) in group.iter().zip(features.chunks_exact(dim)) {
+            out[k * dim..(k + 1) * dim].copy_from_slice(row);
+        }
     }
     Ok(out)
 }
@@ -552,6 +564,8 @@ pub struct MultiscaleSlabReader<'v> {
     /// The z planes loaded, and whether the block covers them whole.
     loaded: Option<(Range<usize>, bool)>,
     plane: Vec<f32>,
+    /// The voxels asked for, as positions.
+    voxels: Vec<[usize; 3]>,
 }
 
 impl<'v> MultiscaleSlabReader<'v> {
@@ -563,6 +577,7 @@ impl<'v> MultiscaleSlabReader<'v> {
             foreground_threshold: None,
             loaded: None,
             plane: Vec::new(),
+            voxels: Vec::new(),
         }
     }
 
@@ -611,9 +626,9 @@ impl<'v> MultiscaleSlabReader<'v> {
                 }
             }
         }
-        for (&index, row) in selected.iter().zip(out.chunks_exact_mut(dim)) {
-            self.block.features_at([index % size_x, index / size_x, z], row);
-        }
+        self.voxels.clear();
+        self.voxels.extend(selected.iter().map(|&index| [index % size_x, index / size_x, z]));
+        self.block.features_of(&self.voxels, out);
     }
 
     /// The x and y ranges of the voxels at or above `threshold` in z planes `planes` (a single

@@ -28,22 +28,6 @@ fn slab_features(volume: &Volume, scales: Scales) -> Vec<f32> {
 }
 
 #[test]
-fn eigenvalues_of_diagonal_and_rotated_matrices() {
-    assert_eq!(symmetric_eigenvalues([3.0, -1.0, 2.0, 0.0, 0.0, 0.0]), [-1.0, 2.0, 3.0]);
-    // [[2, 1, 0], [1, 2, 0], [0, 0, 5]] has eigenvalues 1, 3, 5.
-    let values = symmetric_eigenvalues([2.0, 2.0, 5.0, 1.0, 0.0, 0.0]);
-    for (v, expected) in values.iter().zip([1.0, 3.0, 5.0]) {
-        assert!((v - expected).abs() < 1e-5, "{values:?}");
-    }
-    // A rank-one matrix u u^T with |u|^2 = 14: eigenvalues 0, 0, 14.
-    let u = [1.0, 2.0, 3.0];
-    let values = symmetric_eigenvalues([1.0, 4.0, 9.0, u[0] * u[1], u[0] * u[2], u[1] * u[2]]);
-    for (v, expected) in values.iter().zip([0.0, 0.0, 14.0]) {
-        assert!((v - expected).abs() < 1e-4, "{values:?}");
-    }
-}
-
-#[test]
 fn constant_and_linear_volumes() {
     let constant = volume_from([12, 11, 10], [1.0, 1.0, 1.0], |_, _, _| 7.5);
     for row in slab_features(&constant, Scales::Full).chunks_exact(MULTISCALE_DIM) {
@@ -144,35 +128,4 @@ fn block_depth_respects_the_budget_where_it_can() {
     let engine = block_depth([256, 256, 256]);
     assert!((6 * engine + 78) * 256 * 256 * 4 <= BLOCK_BUDGET_BYTES, "{engine}");
     assert_eq!(block_depth([1024, 1024, 300]), MIN_BLOCK_DEPTH);
-}
-
-#[test]
-fn polynomial_acos_and_cos_match_the_library() {
-    for k in 0..=2000 {
-        let x = -1.0 + k as f64 / 1000.0;
-        assert!((acos_polynomial(x) - x.acos()).abs() < 1e-7, "acos({x})");
-    }
-    for k in 0..=1000 {
-        let x = k as f64 / 1000.0 * std::f64::consts::FRAC_PI_3;
-        assert!((cos_polynomial(x) - x.cos()).abs() < 1e-10, "cos({x})");
-    }
-}
-
-#[test]
-fn eigenvalues_of_random_symmetric_matrices_match_their_invariants() {
-    // Trace, the sum of principal 2x2 minors and the determinant are the elementary symmetric
-    // functions of the eigenvalues.
-    for seed in 0..200u64 {
-        let entry = |k: u64| (crate::rng::hash64(seed, k) % 2001) as f64 / 100.0 - 10.0;
-        let [a, b, c, d, e, f] = std::array::from_fn(|k| entry(k as u64));
-        let [l0, l1, l2] = symmetric_eigenvalues([a, b, c, d, e, f]).map(f64::from);
-        assert!(l0 <= l1 && l1 <= l2);
-        let scale = 1.0 + a.abs() + b.abs() + c.abs() + d.abs() + e.abs() + f.abs();
-        let trace = a + b + c;
-        let minors = a * b + a * c + b * c - d * d - e * e - f * f;
-        let determinant = a * (b * c - f * f) - d * (d * c - f * e) + e * (d * f - b * e);
-        assert!((l0 + l1 + l2 - trace).abs() < 1e-4 * scale, "seed {seed}");
-        assert!((l0 * l1 + l0 * l2 + l1 * l2 - minors).abs() < 1e-4 * scale * scale, "seed {seed}");
-        assert!((l0 * l1 * l2 - determinant).abs() < 1e-4 * scale * scale * scale, "seed {seed}");
-    }
 }
