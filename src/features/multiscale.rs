@@ -599,9 +599,10 @@ impl<'v> MultiscaleSlabReader<'v> {
         }
         let [size_x, size_y, size_z] = self.volume.dims;
         // Blocks start on multiples of the depth, so that workers asked for neighbouring planes
-        // in any order load each block once.
+        // in any order load each block once, and hold the next block's first plane too (the
+        // coarse plane a slab of coarse-to-fine labelling needs beyond its own).
         let start = z - z % self.depth;
-        let planes = start..(start + self.depth).min(size_z);
+        let planes = start..(start + self.depth + 1).min(size_z);
         let inside = |core: &[Range<usize>; 3]| {
             selected.iter().all(|&index| core[0].contains(&(index % size_x)) && core[1].contains(&(index / size_x)))
         };

@@ -21,6 +21,7 @@
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
 mod background;
+mod coarse_grid;
 mod refine;
 
 pub use background::Background;

@@ -1,0 +1,285 @@
+//! The coarse grid of coarse-to-fine labelling and the test that decides, per fine voxel,
+//! whether it takes its coarse neighbours' label or must be evaluated (see the module doc of
+//! `segmentation`).
+
+use std::ops::{Range, RangeInclusive};
+
+/// Whether any of `values` is at least `threshold`, in chunks the compiler vectorises.
+pub(super) fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
+    values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
+}
+
+/// The coarse coordinates next to fine coordinate `p` along an axis of `coarse_size` coarse
+/// voxels: an odd coordinate lies between two, an even one (or an odd one at the far border)
+/// on one, which the pair then holds twice.
+#[inline]
+fn coarse_neighbours(p: usize, coarse_size: usize) -> [usize; 2] {
+    [p / 2, (p / 2 + p % 2).min(coarse_size - 1)]
+}
+
+/// The distinct coordinates of a [`coarse_neighbours`] pair.
+fn distinct(pair: &[usize; 2]) -> &[usize] {
+    if pair[0] == pair[1] { &pair[..1] } else { pair }
+}
+
+/// Labels and intensities of every second voxel along each axis (even coordinates), for all
+/// coarse z planes or a run of them.
+pub(super) struct CoarseGrid {
+    /// Coarse voxels per row and column, and the coarse planes held.
+    pub dims: [usize; 3],
+    /// The coarse z of the first plane held.
+    pub first_plane: usize,
+    /// Coarse z planes of the whole volume (where neighbours clamp).
+    pub volume_planes: usize,
+    pub labels: Vec<u8>,
+    pub values: Vec<f32>,
+}
+
+impl CoarseGrid {
+    /// The grid of a whole volume of `fine` dimensions.
+    pub fn new(fine: [usize; 3]) -> CoarseGrid {
+        let mut grid =
+            CoarseGrid { dims: [0; 3], first_plane: 0, volume_planes: 0, labels: Vec::new(), values: Vec::new() };
+        grid.hold(fine, 0..fine[2].div_ceil(2));
+        grid
+    }
+
+    /// Makes the grid hold coarse planes `planes` of a volume of `fine` dimensions, labels
+    /// zeroed (values are written before they are read).
+    pub fn hold(&mut self, fine: [usize; 3], planes: Range<usize>) {
+        let [coarse_x, coarse_y, volume_planes] = fine.map(|d| d.div_ceil(2));
+        self.dims = [coarse_x, coarse_y, planes.len()];
+        self.first_plane = planes.start;
+        self.volume_planes = volume_planes;
+        let count = coarse_x * coarse_y * planes.len();
+        self.labels.clear();
+        self.labels.resize(count, 0);
+        self.values.resize(count, 0.0);
+    }
+
+    /// Coarse voxels per plane.
+    pub fn plane_len(&self) -> usize {
+        self.dims[0] * self.dims[1]
+    }
+}
+
+/// What the coarse voxels around one fine row say, per coarse column: which classes the
+/// foreground coarse voxels in the (up to four) coarse rows next to the fine row have (a bit
+/// per class), and their intensity range. Summarising a row once makes each fine voxel's test
+/// two lookups; the summary is branch-free so that it vectorises.
+#[derive(Default)]
+pub(super) struct RowNeighbours {
+    classes: Vec<u32>,
+    low: Vec<f32>,
+    high: Vec<f32>,
+    coarse_size_x: usize,
+}
+
+impl RowNeighbours {
+    /// Classes a bit set can hold: class k is bit k - 1 of a `u32`. With more classes the
+    /// volume is labelled exactly.
+    pub const MAX_CLASSES: usize = 31;
+
+    /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
+    /// `columns` (clamped to the grid; the others keep stale values and must not be asked for).
+    pub fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>) {
+        let [coarse_x, coarse_y, _] = grid.dims;
+        self.coarse_size_x = coarse_x;
+        self.classes.resize(coarse_x, 0);
+        self.low.resize(coarse_x, f32::INFINITY);
+        self.high.resize(coarse_x, f32::NEG_INFINITY);
+        let columns = *columns.start()..(*columns.end() + 1).min(coarse_x);
+        let classes = &mut self.classes[columns.clone()];
+        let low = &mut self.low[columns.clone()];
+        let high = &mut self.high[columns.clone()];
+        classes.fill(0);
+        low.fill(f32::INFINITY);
+        high.fill(f32::NEG_INFINITY);
+        let (ys, zs) = (coarse_neighbours(y, coarse_y), coarse_neighbours(z, grid.volume_planes));
+        for &cz in distinct(&zs) {
+            for &cy in distinct(&ys) {
+                // The caller holds the planes next to z (see `CoarseGrid::hold`).
+                let start = coarse_x * (cy + coarse_y * (cz - grid.first_plane));
+                let row_labels = &grid.labels[start + columns.start..start + columns.end];
+                let row_values = &grid.values[start + columns.start..start + columns.end];
+                let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
+                for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
+                    // Label 0 (background) sets no bit and leaves the range alone.
+                    *classes |= 1u32.wrapping_shl(u32::from(label)) >> 1;
+                    let foreground = label != 0;
+                    *low = low.min(if foreground { value } else { f32::INFINITY });
+                    *high = high.max(if foreground { value } else { f32::NEG_INFINITY });
+                }
+            }
+        }
+    }
+
+    /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
+    /// and writes the plane indices of the others, which must be evaluated, to the front of
+    /// `selected` (at least as long as the row). Returns how many it wrote and how many
+    /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
+    /// on one class and its intensity lies within theirs widened by `tolerance`. Background
+    /// neighbours do not veto: at a surface the voxel's own intensity already says it is
+    /// foreground, and a partial-volume voxel there falls outside the interior's range.
+    /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
+    pub fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
+        let (first, first_index) = (row.first, row.first_index);
+        let (mut count, mut foreground_count) = (0, 0);
+        for (offset, values, labels) in row.chunks_with_foreground(threshold) {
+            for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
+                let x = first + offset + k;
+                let [left, right] = coarse_neighbours(x, self.coarse_size_x);
+                let classes = self.classes[left] | self.classes[right];
+                let low = self.low[left].min(self.low[right]) - tolerance;
+                let high = self.high[left].max(self.high[right]) + tolerance;
+                // NaN is never above the threshold: it is background.
+                let foreground = value >= threshold;
+                let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
+                *label = if foreground & inherits { classes.trailing_zeros() as u8 + 1 } else { 0 };
+                selected[count] = first_index + offset + k;
+                count += usize::from(foreground & !inherits);
+                foreground_count += usize::from(foreground);
+            }
+        }
+        (count, foreground_count)
+    }
+}
+
+/// A span of one fine row: its voxels' values and labels from column `first` on, and the
+/// plane index of that first voxel.
+pub(super) struct Row<'a> {
+    pub first: usize,
+    pub first_index: usize,
+    pub values: &'a [f32],
+    pub labels: &'a mut [u8],
+}
+
+impl<'a> Row<'a> {
+    /// Voxels per chunk that [`Row::chunks_with_foreground`] tests at once.
+    const CHUNK: usize = 32;
+
+    /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
+    /// air inside the span (between the parts of an object, or noise above the threshold
+    /// scattered through the air) are skipped a vectorised test at a time.
+    fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
+        self.values
+            .chunks(Self::CHUNK)
+            .zip(self.labels.chunks_mut(Self::CHUNK))
+            .enumerate()
+            .filter(move |(_, (values, _))| any_at_or_above(values, threshold))
+            .map(|(chunk, (values, labels))| (chunk * Self::CHUNK, values, labels))
+    }
+
+    /// Writes the plane indices of the foreground voxels to the front of `selected` (exact
+    /// labelling: every one is evaluated); returns their count twice, as
+    /// [`RowNeighbours::label_row`] does.
+    pub fn select_foreground(self, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
+        let first_index = self.first_index;
+        let mut count = 0;
+        for (offset, values, _) in self.chunks_with_foreground(threshold) {
+            for (k, &value) in values.iter().enumerate() {
+                selected[count] = first_index + offset + k;
+                count += usize::from(value >= threshold);
+            }
+        }
+        (count, count)
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    impl RowNeighbours {
+        /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
+        fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+            let (mut values, mut labels, mut selected) = ([value], [0u8], [usize::MAX]);
+            let row = Row { first: x, first_index: x, values: &mut values, labels: &mut labels };
+            match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
+                (0, 1) => Some(labels[0]),
+                (1, 1) if selected[0] == x => None,
+                other => panic!("unexpected outcome {other:?}"),
+            }
+        }
+    }
+
+    /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
+    /// labels and values, summarised for fine row 0 of plane 0.
+    fn summary(labels: [u8; 2], values: [f32; 2]) -> RowNeighbours {
+        let mut grid = CoarseGrid::new([3, 1, 1]);
+        grid.labels.copy_from_slice(&labels);
+        grid.values.copy_from_slice(&values);
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=1);
+        row
+    }
+
+    #[test]
+    fn a_fine_voxel_between_agreeing_neighbours_inherits_their_label() {
+        let row = summary([2, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), Some(2));
+        assert_eq!(row.inherited_label(2, 20.5, 1.0), Some(2), "within the tolerance");
+    }
+
+    #[test]
+    fn disagreement_or_an_intensity_outside_the_range_means_evaluate() {
+        let row = summary([1, 2], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 15.0, 0.0), None, "neighbours disagree");
+        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
+        let row = summary([3, 3], [10.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 25.0, 1.0), None, "brighter than both");
+        assert_eq!(row.inherited_label(1, 5.0, 1.0), None, "darker than both");
+    }
+
+    #[test]
+    fn background_neighbours_neither_vote_nor_veto() {
+        let row = summary([0, 4], [0.0, 20.0]);
+        assert_eq!(row.inherited_label(1, 20.0, 0.0), Some(4));
+        assert_eq!(row.inherited_label(0, 20.0, 0.0), None, "no foreground neighbour");
+        let row = summary([0, 0], [0.0, 0.0]);
+        assert_eq!(row.inherited_label(1, 0.0, 10.0), None);
+    }
+
+    #[test]
+    fn the_highest_class_a_bit_set_holds_is_inherited() {
+        let class = RowNeighbours::MAX_CLASSES as u8;
+        let row = summary([class, class], [1.0, 1.0]);
+        assert_eq!(row.inherited_label(1, 1.0, 0.0), Some(class));
+    }
+
+    #[test]
+    fn rows_are_summarised_per_plane_and_row() {
+        // Coarse 1 x 2 x 2: fine row 1 of plane 1 sits between all four coarse voxels.
+        let mut grid = CoarseGrid::new([1, 3, 3]);
+        grid.labels.copy_from_slice(&[1, 1, 1, 2]);
+        grid.values.fill(5.0);
+        let mut row = RowNeighbours::default();
+        row.summarise(&grid, 0, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1));
+        row.summarise(&grid, 1, 1, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
+        row.summarise(&grid, 2, 0, 0..=0);
+        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
+    }
+
+    #[test]
+    fn exact_rows_select_every_foreground_voxel_and_no_nan() {
+        let values = [5.0, 1.0, f32::NAN, 7.0, 3.0];
+        let mut labels = [9u8; 5];
+        let mut selected = [0usize; 5];
+        let row = Row { first: 2, first_index: 102, values: &values, labels: &mut labels };
+        assert_eq!(row.select_foreground(3.0, &mut selected), (3, 3));
+        assert_eq!(&selected[..3], &[102, 105, 106]);
+    }
+
+    #[test]
+    fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
+        let mut values = vec![0.0f32; 200];
+        assert!(!any_at_or_above(&values, 1.0));
+        values[137] = f32::NAN;
+        assert!(!any_at_or_above(&values, 1.0));
+        values[199] = 1.0;
+        assert!(any_at_or_above(&values, 1.0));
+    }
+}
