@@ -22,12 +22,13 @@
 //! Everything is computed blockwise and on the fly, never as a copy of the volume: a
 //! [`MultiscaleBlock`] smooths one box of the volume (the voxels asked for plus a halo of
 //! [`HALO`] voxels), and features are read out of it for the voxels asked for. Whole-volume
-//! passes use blocks of full z planes ([`block_depth`] of them, chosen so that one worker's
-//! buffers stay within [`BLOCK_BUDGET_BYTES`]: about 6 * depth + 78 planes of f32); training
+//! passes use blocks of full z planes ([`block_depth`] of them and the next block's first,
+//! chosen so that one worker's buffers stay within [`BLOCK_BUDGET_BYTES`]: about
+//! 6 * depth + 78 planes of f32, and that a volume has a dozen blocks or more); training
 //! voxels are grouped into 16^3 tiles and each tile's bounding box is one block. Sums run in
 //! the same order in every block, so both paths give the same bits for the same voxel. Each
 //! thread keeps its last block's buffers for the next pass (at most the budget per thread).
-//! Memory per worker: engine 256^2 planes, depth 28: 62 MiB (full set), 33 MiB (fine set);
+//! Memory per worker: engine 256^2 planes, depth 20: 51 MiB (full set), 26 MiB (fine set);
 //! 512^2 planes fall to the minimum depth 4 and exceed the budget (about 100 MiB).
 //!
 //! Never: keeps a float copy of the whole volume, or knows about classes.
@@ -101,6 +102,14 @@ pub const FINE_NAMES: [&str; 9] = [
 pub const BLOCK_BUDGET_BYTES: usize = 64 << 20;
 const MIN_BLOCK_DEPTH: usize = 4;
 const MAX_BLOCK_DEPTH: usize = 32;
+/// A whole-volume pass is one parallel task per block, and the last task to start keeps one
+/// core busy while the others wait: with at least this many blocks that tail is short.
+/// Measured on 2 cores with forest-fine (session 6): engine 256 planes, blocks of 28 -> 20
+/// planes, 155 -> 137 ms; the head (blocks of 32 or 16) within noise.
+const MIN_BLOCKS: usize = 12;
+/// Thinner blocks than this smooth more halo than core (lobster: 8 planes scored as well as
+/// 14, 4 planes worse).
+const MIN_BALANCED_DEPTH: usize = 8;
 /// Training voxels are grouped into tiles of this many voxels per side.
 const TILE: usize = 16;
 
@@ -124,13 +133,16 @@ pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
     "s1.2 - s3.2",
 ];
 
-/// Z planes per whole-volume block for a volume of `dims`.
+/// Z planes per whole-volume block for a volume of `dims`: what the memory budget allows, but
+/// few enough that the volume has at least [`MIN_BLOCKS`] of them.
 pub fn block_depth(dims: [usize; 3]) -> usize {
     let plane_bytes = (dims[0] * dims[1]).max(1) * 4;
     let planes = BLOCK_BUDGET_BYTES / plane_bytes;
-    // Even, so that a block holds whole pairs of planes: the coarse pass of coarse-to-fine
-    // labelling (every second plane) then maps onto blocks without straddling them.
-    (planes.saturating_sub(78) / 6).clamp(MIN_BLOCK_DEPTH, MAX_BLOCK_DEPTH) & !1
+    let budget = (planes.saturating_sub(78) / 6).clamp(MIN_BLOCK_DEPTH, MAX_BLOCK_DEPTH);
+    let balanced = (dims[2] / MIN_BLOCKS).max(MIN_BALANCED_DEPTH);
+    // Even, so that a block holds whole pairs of planes: the coarse planes of coarse-to-fine
+    // labelling (every second plane) then map onto blocks without straddling them.
+    budget.min(balanced) & !1
 }
 
 /// Extra voxels needed around the core by stage k's output (k = 0 is the raw values): the

@@ -124,7 +124,10 @@ fn a_thin_bright_sheet_differs_from_a_thick_edge_of_the_same_value() {
 
 #[test]
 fn block_depth_respects_the_budget_where_it_can() {
-    assert_eq!(block_depth([128, 256, 256]), MAX_BLOCK_DEPTH);
+    // 256 planes: at least 12 blocks. 56 planes: not below 8 for balance alone.
+    assert_eq!(block_depth([128, 256, 256]), 20);
+    assert_eq!(block_depth([128, 256, 1024]), MAX_BLOCK_DEPTH);
+    assert_eq!(block_depth([301, 324, 56]), 8);
     let engine = block_depth([256, 256, 256]);
     assert!((6 * engine + 78) * 256 * 256 * 4 <= BLOCK_BUDGET_BYTES, "{engine}");
     assert_eq!(block_depth([1024, 1024, 300]), MIN_BLOCK_DEPTH);
