@@ -130,34 +130,34 @@ pub fn class_statistics(
     let per_slab: Vec<Result<Vec<ClassStatistics>, TransferError>> = z_slabs
         .into_par_iter()
         .map_init(
-            || (FeatureSlabReader::new(volume, FeatureSet::Paper5), Vec::new()),
-            |(reader, block), z_range| {
+            || (FeatureSlabReader::new(volume, FeatureSet::Paper5), Vec::new(), Vec::new()),
+            |(reader, selected, features), z_range| {
                 let mut statistics = vec![ClassStatistics::default(); class_count];
                 let dim = reader.feature_set().dim();
-                reader.compute(z_range.clone(), block)?;
-                for z in z_range.clone() {
+                for z in z_range {
                     let zc = coordinates[2][z - clip.lo[2]];
+                    // Only labelled voxels count, and most of a scan is background: their
+                    // gradients (feature 1) are computed alone.
+                    selected.clear();
                     for y in clip.lo[1]..=clip.hi[1] {
-                        let yc = coordinates[1][y - clip.lo[1]];
                         let row = z * plane + y * size_x;
-                        let block_row = (z - z_range.start) * plane + y * size_x;
-                        for x in clip.lo[0]..=clip.hi[0] {
-                            let label = labels[row + x];
-                            if label == 0 {
-                                continue;
-                            }
-                            // check_labels guarantees label <= class_count.
-                            let class = &mut statistics[label as usize - 1];
-                            let position = [coordinates[0][x - clip.lo[0]], yc, zc];
-                            class.voxel_count += 1;
-                            for (a, p) in position.into_iter().enumerate() {
-                                class.position_sum[a] += p;
-                                class.position_square_sum[a] += p * p;
-                            }
-                            let gradient = block[(block_row + x) * dim + 1];
-                            if gradient > class.gradient_max {
-                                class.gradient_max = gradient;
-                            }
+                        let in_row = (clip.lo[0]..=clip.hi[0]).filter(|&x| labels[row + x] != 0);
+                        selected.extend(in_row.map(|x| y * size_x + x));
+                    }
+                    reader.compute_selected(z, selected, features)?;
+                    for (&index, voxel_features) in selected.iter().zip(features.chunks_exact(dim)) {
+                        let (x, y) = (index % size_x, index / size_x);
+                        // check_labels guarantees label <= class_count.
+                        let class = &mut statistics[labels[z * plane + index] as usize - 1];
+                        let position = [coordinates[0][x - clip.lo[0]], coordinates[1][y - clip.lo[1]], zc];
+                        class.voxel_count += 1;
+                        for (a, p) in position.into_iter().enumerate() {
+                            class.position_sum[a] += p;
+                            class.position_square_sum[a] += p * p;
+                        }
+                        let gradient = voxel_features[1];
+                        if gradient > class.gradient_max {
+                            class.gradient_max = gradient;
                         }
                     }
                 }
