@@ -94,9 +94,10 @@ impl Default for SegmentationOptions {
         // The paper's SN-SVM on the 5-D features. Measured with `volasso accuracy` (issue 9,
         // benches/README.md), a forest on the fine multi-scale features scores better on the
         // held-out cases (mean macro Dice 0.806 against 0.742, and 0.726 for a forest on the
-        // 5-D features) but takes about twice the issue-3 time budget (222 ms against 70 ms for
-        // SN-SVM and 107 ms allowed, engine, session 4), which every lasso in the UI would pay;
-        // it is `--classifier forest --features multiscale-fine` until it is fast enough.
+        // 5-D features) but is still above the issue-3 time budget on the engine and the head
+        // (130-143 ms against 107 ms allowed, and 245-286 ms against 227 ms, session 6; the
+        // lobster fits), which every lasso in the UI would pay; it is `--classifier forest
+        // --features multiscale-fine` until it is fast enough everywhere.
         SegmentationOptions {
             feature_set: FeatureSet::Paper5,
             classifier_kind: ClassifierKind::SnSvm,
