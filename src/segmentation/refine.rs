@@ -59,6 +59,61 @@ impl Job<'_> {
     fn check_cancel(&self) -> Result<(), SegmentationError> {
         if self.cancel.load(Ordering::Relaxed) { Err(SegmentationError::Cancelled) } else { Ok(()) }
     }
+
+    /// Labels coarse planes `first..` (one per `coarse_size` chunk of `labels` and `values`)
+    /// with `worker`, and counts those before `ticked_until` as progress.
+    #[allow(clippy::too_many_arguments)]
+    fn classify_coarse_planes(
+        &self,
+        worker: &mut Worker,
+        coarse_indices: &mut Vec<usize>,
+        coarse_size: [usize; 2],
+        first: usize,
+        labels: &mut [u8],
+        values: &mut [f32],
+        ticked_until: usize,
+    ) -> Result<(), SegmentationError> {
+        let coarse_plane = coarse_size[0] * coarse_size[1];
+        let planes = labels.chunks_mut(coarse_plane).zip(values.chunks_mut(coarse_plane));
+        for (coarse_z, (labels, values)) in (first..).zip(planes) {
+            self.check_cancel()?;
+            worker.classify_coarse_plane(2 * coarse_z, coarse_size, self.threshold, coarse_indices, labels, values)?;
+            self.evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
+            if coarse_z < ticked_until {
+                self.tick();
+            }
+        }
+        Ok(())
+    }
+
+    /// Labels the fine planes of a slab (`slab_labels`, from plane `first` on) with `worker`;
+    /// returns the voxels above the threshold.
+    fn label_fine_planes(
+        &self,
+        worker: &mut Worker,
+        row_neighbours: &mut RowNeighbours,
+        coarse: Option<&CoarseGrid>,
+        first: usize,
+        slab_labels: &mut [u8],
+    ) -> Result<usize, SegmentationError> {
+        let plane = self.volume.dims[0] * self.volume.dims[1];
+        let mut classified = 0;
+        for (offset, plane_labels) in slab_labels.chunks_mut(plane).enumerate() {
+            self.check_cancel()?;
+            let (foreground, evaluated) = worker.label_plane(
+                first + offset,
+                coarse,
+                row_neighbours,
+                self.threshold,
+                self.tolerance,
+                plane_labels,
+            )?;
+            classified += foreground;
+            self.evaluated.fetch_add(evaluated, Ordering::Relaxed);
+            self.tick();
+        }
+        Ok(classified)
+    }
 }
 
 pub(super) fn label_volume(
@@ -140,18 +195,8 @@ fn label_slabs(job: &Job, coarse: Option<&CoarseGrid>, labels: &mut [u8]) -> Res
         .enumerate()
         .map_init(
             || (Worker::new(job.volume, job.segmenter), RowNeighbours::default()),
-            |(worker, row_neighbours), (slab, slab_labels)| -> Result<usize, SegmentationError> {
-                let mut classified = 0;
-                for (offset, plane_labels) in slab_labels.chunks_mut(plane).enumerate() {
-                    job.check_cancel()?;
-                    let z = slab * job.slab_depth + offset;
-                    let (foreground, evaluated) =
-                        worker.label_plane(z, coarse, row_neighbours, job.threshold, job.tolerance, plane_labels)?;
-                    classified += foreground;
-                    job.evaluated.fetch_add(evaluated, Ordering::Relaxed);
-                    job.tick();
-                }
-                Ok(classified)
+            |(worker, row_neighbours), (slab, slab_labels)| {
+                job.label_fine_planes(worker, row_neighbours, coarse, slab * job.slab_depth, slab_labels)
             },
         )
         .collect::<Result<Vec<usize>, SegmentationError>>()?;
@@ -170,22 +215,16 @@ fn classify_coarse_grid(job: &Job, grid: &mut CoarseGrid) -> Result<(), Segmenta
         .map_init(
             || (Worker::new(job.volume, job.segmenter), Vec::new()),
             |(worker, coarse_indices), (task, (task_labels, task_values))| -> Result<(), SegmentationError> {
-                let planes = task_labels.chunks_mut(coarse_plane).zip(task_values.chunks_mut(coarse_plane));
-                for (offset, (labels, values)) in planes.enumerate() {
-                    job.check_cancel()?;
-                    let z = 2 * (task * planes_per_task + offset);
-                    worker.classify_coarse_plane(
-                        z,
-                        [coarse_x, coarse_y],
-                        job.threshold,
-                        coarse_indices,
-                        labels,
-                        values,
-                    )?;
-                    job.evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
-                    job.tick();
-                }
-                Ok(())
+                let first = task * planes_per_task;
+                job.classify_coarse_planes(
+                    worker,
+                    coarse_indices,
+                    [coarse_x, coarse_y],
+                    first,
+                    task_labels,
+                    task_values,
+                    usize::MAX,
+                )
             },
         )
         .collect::<Result<(), SegmentationError>>()
@@ -210,42 +249,11 @@ fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, Segme
                 let held = first / 2..(end / 2 + 1).min(coarse_planes);
                 let own = end.div_ceil(2);
                 grid.hold(dims, held.clone());
-                let [coarse_x, coarse_y, _] = grid.dims;
-                let coarse_plane = grid.plane_len();
-                let planes = grid.labels.chunks_mut(coarse_plane).zip(grid.values.chunks_mut(coarse_plane));
-                for (coarse_z, (labels, values)) in held.zip(planes) {
-                    job.check_cancel()?;
-                    worker.classify_coarse_plane(
-                        2 * coarse_z,
-                        [coarse_x, coarse_y],
-                        job.threshold,
-                        coarse_indices,
-                        labels,
-                        values,
-                    )?;
-                    job.evaluated.fetch_add(worker.selected.len(), Ordering::Relaxed);
-                    // The next slab's plane is ticked there.
-                    if coarse_z < own {
-                        job.tick();
-                    }
-                }
-                let mut classified = 0;
-                for (offset, plane_labels) in slab_labels.chunks_mut(plane).enumerate() {
-                    job.check_cancel()?;
-                    let z = first + offset;
-                    let (foreground, evaluated) = worker.label_plane(
-                        z,
-                        Some(grid),
-                        row_neighbours,
-                        job.threshold,
-                        job.tolerance,
-                        plane_labels,
-                    )?;
-                    classified += foreground;
-                    job.evaluated.fetch_add(evaluated, Ordering::Relaxed);
-                    job.tick();
-                }
-                Ok(classified)
+                let coarse_size = [grid.dims[0], grid.dims[1]];
+                // The next slab's plane is ticked there.
+                let (labels, values) = (&mut grid.labels, &mut grid.values);
+                job.classify_coarse_planes(worker, coarse_indices, coarse_size, held.start, labels, values, own)?;
+                job.label_fine_planes(worker, row_neighbours, Some(grid), first, slab_labels)
             },
         )
         .collect::<Result<Vec<usize>, SegmentationError>>()?;
