@@ -5,9 +5,9 @@
 //! leaf of that split's left subtree, so each split clears those bits of a mask; after every
 //! split has been tested, the lowest set bit is the vector's leaf (the leftmost leaf whose
 //! path contradicts no test). The tests are independent of each other, so [`LANES`] vectors
-//! are tested side by side and the compiler turns each split into a few vector instructions.
-//! A walk, by contrast, branches on every node and the branch mispredicts about once per tree:
-//! the forests here have small trees (about 10 to 25 nodes), where that dominates.
+//! are tested side by side, four per SSE2 instruction. A walk, by contrast, branches on every
+//! node, unpredictably: on the small trees of the forests here (about 10 to 25 nodes) the
+//! masks took 26 ms where walks took 61-63 ms (400k head feature vectors, session 6).
 //!
 //! Trees with more leaves than a mask holds are walked as before.
 
