@@ -17,6 +17,7 @@ pub mod app;
 pub mod atomic_file;
 pub mod classify;
 pub mod cli;
+pub mod cpu;
 pub mod display;
 pub mod features;
 pub mod kiosk;

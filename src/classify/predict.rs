@@ -100,7 +100,7 @@ impl SimdPath {
 
     #[cfg(target_arch = "x86_64")]
     pub(crate) fn avx2_fma_available() -> bool {
-        std::arch::is_x86_feature_detected!("avx2") && std::arch::is_x86_feature_detected!("fma")
+        crate::cpu::has_avx2_fma()
     }
 }
 

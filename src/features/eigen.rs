@@ -15,6 +15,7 @@ pub fn symmetric_eigenvalues(matrix: [f64; 6]) -> [f32; 3] {
 
 /// [`symmetric_eigenvalues`] of `LANES` matrices given entry by entry: `matrices[k][lane]` is
 /// entry k of matrix `lane`. Returns `values[k][lane]`, the k-th smallest eigenvalue of each.
+#[inline(always)]
 pub fn symmetric_eigenvalues_lanes<const LANES: usize>(matrices: &[[f64; LANES]; 6]) -> [[f32; LANES]; 3] {
     let matrix = |lane: usize| -> [f64; 6] { std::array::from_fn(|k| matrices[k][lane]) };
     let mut values = [[0f32; LANES]; 3];

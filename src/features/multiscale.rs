@@ -35,7 +35,7 @@
 
 use super::FeatureError;
 use super::eigen::symmetric_eigenvalues_lanes;
-use crate::volume::Volume;
+use crate::volume::{Volume, any_at_or_above};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -259,18 +259,11 @@ impl MultiscaleBlock {
             let scale = 1.0 / (2 * radius + 1) as f32;
             let last = nz - 1;
             for (local_z, output_plane) in output_z.clone().zip(output.chunks_exact_mut(plane)) {
-                for d in 0..=2 * radius {
+                let sources = BoxSources::new(radius, |d| {
                     let source_z = (local_z + d).saturating_sub(radius).min(last).clamp(input_z.start, input_z.end - 1);
-                    let source = &self.xy_filtered[(source_z - input_z.start) * plane..][..plane];
-                    if d == 0 {
-                        output_plane.copy_from_slice(source);
-                    } else {
-                        for (o, &s) in output_plane.iter_mut().zip(source) {
-                            *o += s;
-                        }
-                    }
-                }
-                output_plane.iter_mut().for_each(|o| *o *= scale);
+                    &self.xy_filtered[(source_z - input_z.start) * plane..][..plane]
+                });
+                sources.mean_into(output_plane, scale);
             }
         }
     }
@@ -287,8 +280,29 @@ impl MultiscaleBlock {
     }
 
     /// The features of the absolute voxels `voxels`, which must lie in the core, into `out`
-    /// (row-major, `Scales::dim` values per voxel), [`LANES`] voxels side by side.
+    /// (row-major, `Scales::dim` values per voxel), [`LANES`] voxels side by side; in 256-bit
+    /// registers where the CPU has them (the same bits, see [`crate::cpu`]).
     pub fn features_of(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            unsafe { self.features_of_avx2(voxels, out) };
+            return;
+        }
+        self.features_of_lanes(voxels, out);
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn features_of_avx2(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
+        self.features_of_lanes(voxels, out);
+    }
+
+    /// The body of [`Self::features_of`], inlined (with everything it calls) into each variant.
+    #[inline(always)]
+    fn features_of_lanes(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
         let dim = self.scales.dim();
         let stage_count = self.scales.stage_count();
         let mut neighbours = Neighbours::default();
@@ -355,6 +369,7 @@ impl MultiscaleBlock {
     /// region) into `neighbours`; the diagonal ones only with `diagonals`. Away from the
     /// region's faces (nearly every voxel) they are read with fixed strides, without clamping
     /// each one.
+    #[inline(always)]
     fn gather(&self, stage: usize, locals: &[[isize; 3]; LANES], diagonals: bool, neighbours: &mut Neighbours) {
         let [nx, ny, _] = self.size;
         let z_range = &self.stage_z[stage];
@@ -383,20 +398,26 @@ impl MultiscaleBlock {
     /// The Hessians, from second differences in value units per mm^2, of the lanes of
     /// `neighbours`, entry by entry ([xx, yy, zz, xy, xz, yz]; see
     /// [`symmetric_eigenvalues_lanes`]).
+    #[inline(always)]
     fn hessians(&self, neighbours: &Neighbours) -> [[f64; LANES]; 6] {
         let spacing = self.spacing_mm.map(|s| s as f64);
         let mut entries = [[0f64; LANES]; 6];
-        for lane in 0..LANES {
-            let centre = neighbours.centre[lane] as f64;
-            for a in 0..3 {
+        // Entry by entry over the lanes (not lane by lane), so that the divisions run in vector
+        // instructions.
+        for a in 0..3 {
+            let scale = spacing[a] * spacing[a];
+            for (lane, entry) in entries[a].iter_mut().enumerate() {
+                let centre = neighbours.centre[lane] as f64;
                 let (plus, minus) = (neighbours.plus[a][lane] as f64, neighbours.minus[a][lane] as f64);
-                entries[a][lane] = (plus - 2.0 * centre + minus) / (spacing[a] * spacing[a]);
+                *entry = (plus - 2.0 * centre + minus) / scale;
             }
-            for (pair, &(a, b)) in AXIS_PAIRS.iter().enumerate() {
-                let [plus_plus, plus_minus, minus_plus, minus_minus] =
-                    neighbours.diagonal[pair].map(|values| values[lane] as f64);
-                entries[3 + pair][lane] =
-                    (plus_plus - plus_minus - minus_plus + minus_minus) / (4.0 * spacing[a] * spacing[b]);
+        }
+        for (pair, &(a, b)) in AXIS_PAIRS.iter().enumerate() {
+            let scale = 4.0 * spacing[a] * spacing[b];
+            let [plus_plus, plus_minus, minus_plus, minus_minus] = &neighbours.diagonal[pair];
+            for (lane, entry) in entries[3 + pair].iter_mut().enumerate() {
+                let corner = |values: &[f32; LANES]| values[lane] as f64;
+                *entry = (corner(plus_plus) - corner(plus_minus) - corner(minus_plus) + corner(minus_minus)) / scale;
             }
         }
         entries
@@ -478,14 +499,7 @@ fn box_along_row(input: &[f32], out: &mut [f32], radius: usize) {
         out[i] = edge(i);
     }
     let interior = &mut out[radius..n - radius];
-    // 0.0 + x == x, so starting from the first term sums in the same order as `edge`.
-    interior.copy_from_slice(&input[..n - 2 * radius]);
-    for d in 1..=2 * radius {
-        for (o, &v) in interior.iter_mut().zip(&input[d..n - 2 * radius + d]) {
-            *o += v;
-        }
-    }
-    interior.iter_mut().for_each(|o| *o *= scale);
+    BoxSources::new(radius, |d| &input[d..n - 2 * radius + d]).mean_into(interior, scale);
 }
 
 /// The same box across rows: row y of `out` is the mean of rows clamp(y + d) of `input`, whole
@@ -493,18 +507,80 @@ fn box_along_row(input: &[f32], out: &mut [f32], radius: usize) {
 fn box_across_lines(input: &[f32], out: &mut [f32], nx: usize, ny: usize, radius: usize) {
     let scale = 1.0 / (2 * radius + 1) as f32;
     for (y, out_row) in out.chunks_exact_mut(nx).enumerate() {
-        for d in 0..=2 * radius {
-            let source_y = (y + d).saturating_sub(radius).min(ny - 1);
-            let source = &input[source_y * nx..][..nx];
-            if d == 0 {
-                out_row.copy_from_slice(source);
-            } else {
-                for (o, &s) in out_row.iter_mut().zip(source) {
-                    *o += s;
+        let sources = BoxSources::new(radius, |d| &input[(y + d).saturating_sub(radius).min(ny - 1) * nx..][..nx]);
+        sources.mean_into(out_row, scale);
+    }
+}
+
+/// The 2r + 1 equally long runs of values a box filter of radius r averages, in order of
+/// offset.
+struct BoxSources<'a> {
+    runs: [&'a [f32]; BoxSources::MAX],
+    count: usize,
+}
+
+impl<'a> BoxSources<'a> {
+    /// Runs per box at most: radius 4, the cascade's widest.
+    const MAX: usize = 9;
+    /// Values summed side by side, in registers.
+    const CHUNK: usize = 16;
+
+    /// Runs `run(0)` to `run(2 * radius)`.
+    fn new(radius: usize, run: impl Fn(usize) -> &'a [f32]) -> BoxSources<'a> {
+        let count = (2 * radius + 1).min(Self::MAX);
+        let mut runs = [&[][..]; Self::MAX];
+        for (d, slot) in runs.iter_mut().enumerate().take(count) {
+            *slot = run(d);
+        }
+        BoxSources { runs, count }
+    }
+
+    /// `out[i]` = (run 0 [i] + run 1 [i] + ... + run 2r [i]) * `scale`, added in that order
+    /// (the same bits as adding whole runs into `out` one after another), a chunk at a time in
+    /// registers: one pass over `out` instead of one per run; in 256-bit registers where the
+    /// CPU has them (see [`crate::cpu`]).
+    fn mean_into(&self, out: &mut [f32], scale: f32) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            unsafe { self.mean_into_avx2(out, scale) };
+            return;
+        }
+        self.mean_into_chunks(out, scale);
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn mean_into_avx2(&self, out: &mut [f32], scale: f32) {
+        self.mean_into_chunks(out, scale);
+    }
+
+    #[inline(always)]
+    fn mean_into_chunks(&self, out: &mut [f32], scale: f32) {
+        let runs = &self.runs[..self.count];
+        let n = out.len();
+        let whole = n - n % Self::CHUNK;
+        for start in (0..whole).step_by(Self::CHUNK) {
+            let mut sum = [0f32; Self::CHUNK];
+            sum.copy_from_slice(&runs[0][start..start + Self::CHUNK]);
+            for run in &runs[1..] {
+                for (s, &v) in sum.iter_mut().zip(&run[start..start + Self::CHUNK]) {
+                    *s += v;
                 }
             }
+            for (o, s) in out[start..start + Self::CHUNK].iter_mut().zip(sum) {
+                *o = s * scale;
+            }
         }
-        out_row.iter_mut().for_each(|o| *o *= scale);
+        for (i, o) in out.iter_mut().enumerate().skip(whole) {
+            let mut sum = runs[0][i];
+            for run in &runs[1..] {
+                sum += run[i];
+            }
+            *o = sum * scale;
+        }
     }
 }
 
@@ -604,23 +680,26 @@ impl<'v> MultiscaleSlabReader<'v> {
     /// caller checks).
     pub fn compute_selected(&mut self, z: usize, selected: &[usize], out: &mut Vec<f32>) {
         let dim = self.block.scales.dim();
-        out.clear();
+        // `features_of` writes every value: no need to zero them first.
         out.resize(selected.len() * dim, 0.0);
+        out.truncate(selected.len() * dim);
         if selected.is_empty() {
             return;
         }
         let [size_x, size_y, size_z] = self.volume.dims;
+        self.voxels.clear();
+        self.voxels.extend(PlanePositions::new(size_x).of(selected, z));
         // Blocks start on multiples of the depth, so that workers asked for neighbouring planes
         // in any order load each block once, and hold the next block's first plane too (the
         // coarse plane a slab of coarse-to-fine labelling needs beyond its own).
         let start = z - z % self.depth;
         let planes = start..(start + self.depth + 1).min(size_z);
-        let inside = |core: &[Range<usize>; 3]| {
-            selected.iter().all(|&index| core[0].contains(&(index % size_x)) && core[1].contains(&(index / size_x)))
+        let inside = |core: &[Range<usize>; 3], voxels: &[[usize; 3]]| {
+            voxels.iter().all(|v| core[0].contains(&v[0]) && core[1].contains(&v[1]))
         };
         let current = self.loaded.as_ref().filter(|(range, _)| range.contains(&z));
         match current {
-            Some(_) if inside(self.block.core()) => {}
+            Some(_) if inside(self.block.core(), &self.voxels) => {}
             Some(_) => {
                 self.block.compute(self.volume, [0..size_x, 0..size_y, planes.clone()]);
                 self.loaded = Some((planes, true));
@@ -633,14 +712,12 @@ impl<'v> MultiscaleSlabReader<'v> {
                 let whole = xs.len() == size_x && ys.len() == size_y;
                 self.block.compute(self.volume, [xs, ys, planes.clone()]);
                 self.loaded = Some((planes.clone(), whole));
-                if !inside(self.block.core()) {
+                if !inside(self.block.core(), &self.voxels) {
                     self.block.compute(self.volume, [0..size_x, 0..size_y, planes.clone()]);
                     self.loaded = Some((planes, true));
                 }
             }
         }
-        self.voxels.clear();
-        self.voxels.extend(selected.iter().map(|&index| [index % size_x, index / size_x, z]));
         self.block.features_of(&self.voxels, out);
     }
 
@@ -653,6 +730,10 @@ impl<'v> MultiscaleSlabReader<'v> {
         for z in planes {
             self.volume.read_z_slice_f32(z, &mut self.plane);
             for (y, row) in self.plane.chunks_exact(size_x).enumerate() {
+                // Most rows are air: a vectorised test skips them.
+                if !any_at_or_above(row, threshold) {
+                    continue;
+                }
                 let Some(first) = row.iter().position(|&v| v >= threshold) else {
                     continue;
                 };
@@ -666,6 +747,33 @@ impl<'v> MultiscaleSlabReader<'v> {
 
     pub fn depth(&self) -> usize {
         self.depth
+    }
+}
+
+/// Plane indices (`x + size_x * y`) to positions without a division per voxel: selections
+/// come in ascending order, mostly a few voxels apart, so the row is tracked and divided for
+/// only when an index leaves it (an integer division costs tens of cycles, as much as the
+/// rest of the bookkeeping of a voxel).
+struct PlanePositions {
+    size_x: usize,
+    row_start: usize,
+    y: usize,
+}
+
+impl PlanePositions {
+    fn new(size_x: usize) -> PlanePositions {
+        PlanePositions { size_x, row_start: 0, y: 0 }
+    }
+
+    /// The positions of plane indices `indices` in z plane `z`, in any order.
+    fn of<'a>(mut self, indices: &'a [usize], z: usize) -> impl Iterator<Item = [usize; 3]> + 'a {
+        indices.iter().map(move |&index| {
+            if index.wrapping_sub(self.row_start) >= self.size_x {
+                self.y = index / self.size_x;
+                self.row_start = self.y * self.size_x;
+            }
+            [index - self.row_start, self.y, z]
+        })
     }
 }
 

@@ -150,8 +150,9 @@ impl<'v> FeatureSlabReader<'v> {
             return Ok(());
         }
         let dim = self.feature_set.dim();
-        out.clear();
+        // Every value is written below: no need to zero them first.
         out.resize(selected.len() * dim, 0.0);
+        out.truncate(selected.len() * dim);
         if selected.is_empty() {
             return Ok(());
         }

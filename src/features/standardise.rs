@@ -94,14 +94,15 @@ impl Standardiser {
         let repeat = |per_feature: &[f64], map: fn(f64) -> f32| -> Vec<f32> {
             per_feature.iter().map(|&v| map(v)).cycle().take(dim * ROWS_PER_RUN).collect()
         };
-        let scale = repeat(&self.std, |s| (1.0 / s) as f32);
-        let shift = repeat(&self.mean, |m| m as f32);
-        let low = repeat(&self.training_low, |l| l as f32);
-        let high = repeat(&self.training_high, |h| h as f32);
+        let scale = repeat(&self.std, inverse_as_f32);
+        let shift = repeat(&self.mean, as_f32);
+        let low = repeat(&self.training_low, as_f32);
+        let high = repeat(&self.training_high, as_f32);
         let standardise = |run: &mut [f32]| {
-            for (((v, low), high), (shift, scale)) in run.iter_mut().zip(&low).zip(&high).zip(shift.iter().zip(&scale))
+            for (((v, &low), &high), (&shift, &scale)) in
+                run.iter_mut().zip(&low).zip(&high).zip(shift.iter().zip(&scale))
             {
-                *v = (v.clamp(*low, *high) - shift) * scale;
+                *v = standardise_value(*v, [low, high], shift, scale);
             }
         };
         let mut runs = vectors.chunks_exact_mut(dim * ROWS_PER_RUN);
@@ -110,11 +111,119 @@ impl Standardiser {
         Ok(())
     }
 
+    /// The largest raw value of feature `feature` that [`Self::apply_in_place`] maps to at most
+    /// `standardised`, or NaN when none does: a raw vector `v` then has
+    /// `v <= threshold` exactly when its standardised form has `s <= standardised` (the map
+    /// is non-decreasing, rounding included). This moves a tree's splits into raw units, so
+    /// that a forest needs no standardising at all. Found by bisection over the `f32` values
+    /// in order (32 steps).
+    pub fn raw_threshold(&self, feature: usize, standardised: f32) -> f32 {
+        let range = [as_f32(self.training_low[feature]), as_f32(self.training_high[feature])];
+        let (shift, scale) = (as_f32(self.mean[feature]), inverse_as_f32(self.std[feature]));
+        let at_or_below = |key: i64| standardise_value(from_order_key(key), range, shift, scale) <= standardised;
+        let (mut low, mut high) = (order_key(f32::NEG_INFINITY), order_key(f32::INFINITY));
+        if !at_or_below(low) || standardised.is_nan() {
+            return f32::NAN;
+        }
+        if at_or_below(high) {
+            return f32::INFINITY;
+        }
+        // at_or_below(low) holds and at_or_below(high) does not.
+        while high - low > 1 {
+            let middle = low + (high - low) / 2;
+            if at_or_below(middle) {
+                low = middle;
+            } else {
+                high = middle;
+            }
+        }
+        from_order_key(low)
+    }
+
     fn check(&self, vectors: &[f32]) -> Result<(), FeatureError> {
         let dim = self.dim();
         if dim == 0 || vectors.len() % dim != 0 {
             return Err(FeatureError::Ragged { length: vectors.len(), dim });
         }
         Ok(())
+    }
+}
+
+/// One standardised value, as [`Standardiser::apply_in_place`] computes it (in `f32`, so that
+/// [`Standardiser::raw_threshold`] can invert it exactly).
+#[inline(always)]
+fn standardise_value(value: f32, [low, high]: [f32; 2], shift: f32, scale: f32) -> f32 {
+    (value.clamp(low, high) - shift) * scale
+}
+
+fn as_f32(value: f64) -> f32 {
+    value as f32
+}
+
+fn inverse_as_f32(value: f64) -> f32 {
+    (1.0 / value) as f32
+}
+
+/// A key that orders non-NaN `f32` values as numbers (-0 just below +0), one step per value.
+fn order_key(value: f32) -> i64 {
+    let bits = value.to_bits();
+    let magnitude = i64::from(bits & 0x7fff_ffff);
+    if bits >> 31 == 1 { -magnitude - 1 } else { magnitude }
+}
+
+/// The value of an [`order_key`].
+fn from_order_key(key: i64) -> f32 {
+    if key < 0 { f32::from_bits((-(key + 1)) as u32 | 0x8000_0000) } else { f32::from_bits(key as u32) }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn order_keys_order_floats_as_numbers_and_invert() {
+        let values =
+            [f32::NEG_INFINITY, -3.5, -f32::MIN_POSITIVE, -1e-45, -0.0, 0.0, 1e-45, 2.0, f32::MAX, f32::INFINITY];
+        let keys: Vec<i64> = values.iter().map(|&v| order_key(v)).collect();
+        assert!(keys.windows(2).all(|pair| pair[0] < pair[1]), "{keys:?}");
+        for &v in &values {
+            assert_eq!(from_order_key(order_key(v)).to_bits(), v.to_bits());
+        }
+        assert_eq!(order_key(1e-45) - order_key(0.0), 1, "one step per value");
+        assert_eq!(order_key(0.0) - order_key(-0.0), 1);
+    }
+
+    #[test]
+    fn raw_thresholds_split_raw_values_as_standardised_ones_split() {
+        let mut state = 99u64;
+        let mut next = || {
+            state = state.wrapping_mul(6364136223846793005).wrapping_add(1442695040888963407);
+            (state >> 40) as f32 / (1u64 << 24) as f32
+        };
+        let vectors: Vec<f32> =
+            (0..2 * 50).map(|k| if k % 2 == 0 { 1000.0 * next() - 300.0 } else { 0.01 * next() }).collect();
+        let standardiser = Standardiser::fit(&vectors, 2).unwrap();
+        for feature in 0..2 {
+            let low = standardiser.training_low[feature] as f32;
+            let high = standardiser.training_high[feature] as f32;
+            let mut raw: Vec<f32> = (0..300).map(|_| low + (high - low) * (1.4 * next() - 0.2)).collect();
+            raw.extend([f32::NEG_INFINITY, f32::INFINITY, f32::NAN, low, high, 0.0, -0.0]);
+            let standardise = |v: f32| {
+                let mut row = [0.0f32; 2];
+                row[feature] = v;
+                standardiser.apply_in_place(&mut row).unwrap();
+                row[feature]
+            };
+            let mut thresholds: Vec<f32> = raw.iter().map(|&v| standardise(v)).collect();
+            thresholds.extend([-1e9, 1e9, 0.0, f32::NAN, f32::INFINITY, f32::NEG_INFINITY]);
+            for &t in &thresholds {
+                let r = standardiser.raw_threshold(feature, t);
+                // The values next to the threshold too, where rounding decides.
+                let near = [r, r.next_down(), r.next_up()];
+                for &v in raw.iter().chain(near.iter().filter(|v| v.is_finite())) {
+                    assert_eq!(standardise(v) <= t, v <= r, "feature {feature}, value {v}, threshold {t} -> {r}");
+                }
+            }
+        }
     }
 }

@@ -2,12 +2,8 @@
 //! whether it takes its coarse neighbours' label or must be evaluated (see the module doc of
 //! `segmentation`).
 
+use crate::volume::any_at_or_above;
 use std::ops::{Range, RangeInclusive};
-
-/// Whether any of `values` is at least `threshold`, in chunks the compiler vectorises.
-pub(super) fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
-    values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
-}
 
 /// The coarse coordinates next to fine coordinate `p` along an axis of `coarse_size` coarse
 /// voxels: an odd coordinate lies between two, an even one (or an odd one at the far border)
@@ -72,7 +68,11 @@ pub(super) struct RowNeighbours {
     classes: Vec<u32>,
     low: Vec<f32>,
     high: Vec<f32>,
-    coarse_size_x: usize,
+    /// Per fine column (of the span summarised): the one class its coarse neighbours have
+    /// (0: none or several), and their intensity range widened by the tolerance.
+    single_class: Vec<u8>,
+    fine_low: Vec<f32>,
+    fine_high: Vec<f32>,
 }
 
 impl RowNeighbours {
@@ -81,10 +81,45 @@ impl RowNeighbours {
     pub const MAX_CLASSES: usize = 31;
 
     /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
-    /// `columns` (clamped to the grid; the others keep stale values and must not be asked for).
-    pub fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>) {
+    /// `columns` (clamped to the grid), for the fine columns between them (`2 * start` up to
+    /// `2 * end`; the others keep stale values and must not be asked for), with intensity
+    /// ranges widened by `tolerance`.
+    pub fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>, tolerance: f32) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            unsafe { self.summarise_avx2(grid, y, z, columns, tolerance) };
+            return;
+        }
+        self.summarise_lanes(grid, y, z, columns, tolerance);
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn summarise_avx2(
+        &mut self,
+        grid: &CoarseGrid,
+        y: usize,
+        z: usize,
+        columns: RangeInclusive<usize>,
+        tolerance: f32,
+    ) {
+        self.summarise_lanes(grid, y, z, columns, tolerance);
+    }
+
+    /// The body of [`Self::summarise`], inlined into each variant (see [`crate::cpu`]).
+    #[inline(always)]
+    fn summarise_lanes(
+        &mut self,
+        grid: &CoarseGrid,
+        y: usize,
+        z: usize,
+        columns: RangeInclusive<usize>,
+        tolerance: f32,
+    ) {
         let [coarse_x, coarse_y, _] = grid.dims;
-        self.coarse_size_x = coarse_x;
         self.classes.resize(coarse_x, 0);
         self.low.resize(coarse_x, f32::INFINITY);
         self.high.resize(coarse_x, f32::NEG_INFINITY);
@@ -112,37 +147,92 @@ impl RowNeighbours {
                 }
             }
         }
+        self.spread_to_fine_columns(columns, tolerance);
+    }
+
+    /// The fine columns' summaries from the coarse columns `columns`: an even fine column
+    /// 2c lies on coarse column c, an odd one 2c + 1 between c and c + 1 (see
+    /// [`coarse_neighbours`]; the last one summarised sees column c only). Done once per row
+    /// so that [`Self::label_row`] reads one entry per voxel, in order, without branches.
+    #[inline(always)]
+    fn spread_to_fine_columns(&mut self, columns: Range<usize>, tolerance: f32) {
+        let fine_len = 2 * self.classes.len();
+        self.single_class.resize(fine_len, 0);
+        self.fine_low.resize(fine_len, 0.0);
+        self.fine_high.resize(fine_len, 0.0);
+        let last = columns.end.saturating_sub(1);
+        for c in columns {
+            let right = (c + 1).min(last);
+            let (even, odd) = (2 * c, 2 * c + 1);
+            self.single_class[even] = single_class(self.classes[c]);
+            self.fine_low[even] = self.low[c] - tolerance;
+            self.fine_high[even] = self.high[c] + tolerance;
+            self.single_class[odd] = single_class(self.classes[c] | self.classes[right]);
+            self.fine_low[odd] = self.low[c].min(self.low[right]) - tolerance;
+            self.fine_high[odd] = self.high[c].max(self.high[right]) + tolerance;
+        }
     }
 
     /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
     /// and writes the plane indices of the others, which must be evaluated, to the front of
     /// `selected` (at least as long as the row). Returns how many it wrote and how many
     /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
-    /// on one class and its intensity lies within theirs widened by `tolerance`. Background
+    /// on one class and its intensity lies within theirs widened by the tolerance. Background
     /// neighbours do not veto: at a surface the voxel's own intensity already says it is
     /// foreground, and a partial-volume voxel there falls outside the interior's range.
-    /// Branch-free per voxel: at boundaries the outcomes alternate unpredictably.
-    pub fn label_row(&self, row: Row, threshold: f32, tolerance: f32, selected: &mut [usize]) -> (usize, usize) {
+    /// Branch-free per voxel (at boundaries the outcomes alternate unpredictably), the labels
+    /// in one pass over the fine summaries, the selection in a second.
+    pub fn label_row(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_fma() {
+            // SAFETY: the CPU has AVX2 and FMA, checked just above.
+            return unsafe { self.label_row_avx2(row, threshold, selected) };
+        }
+        self.label_row_lanes(row, threshold, selected)
+    }
+
+    /// # Safety
+    /// The CPU must support AVX2 and FMA.
+    #[cfg(target_arch = "x86_64")]
+    #[target_feature(enable = "avx2,fma")]
+    unsafe fn label_row_avx2(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
+        self.label_row_lanes(row, threshold, selected)
+    }
+
+    /// The body of [`Self::label_row`], inlined into each variant.
+    #[inline(always)]
+    fn label_row_lanes(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         let (first, first_index) = (row.first, row.first_index);
         let (mut count, mut foreground_count) = (0, 0);
         for (offset, values, labels) in row.chunks_with_foreground(threshold) {
-            for (k, (&value, label)) in values.iter().zip(labels.iter_mut()).enumerate() {
-                let x = first + offset + k;
-                let [left, right] = coarse_neighbours(x, self.coarse_size_x);
-                let classes = self.classes[left] | self.classes[right];
-                let low = self.low[left].min(self.low[right]) - tolerance;
-                let high = self.high[left].max(self.high[right]) + tolerance;
+            let x = first + offset;
+            let summaries = self.single_class[x..]
+                .iter()
+                .zip(&self.fine_low[x..])
+                .zip(&self.fine_high[x..])
+                .map(|((&single, &low), &high)| (single, low, high));
+            for ((&value, label), (single, low, high)) in values.iter().zip(labels.iter_mut()).zip(summaries) {
                 // NaN is never above the threshold: it is background.
                 let foreground = value >= threshold;
-                let inherits = classes.is_power_of_two() & (value >= low) & (value <= high);
-                *label = if foreground & inherits { classes.trailing_zeros() as u8 + 1 } else { 0 };
+                let inherits = (single != 0) & (value >= low) & (value <= high);
+                *label = if foreground & inherits { single } else { 0 };
+            }
+            // A foreground voxel without a label (labels start at 1) is evaluated.
+            for (k, (&value, &label)) in values.iter().zip(labels.iter()).enumerate() {
+                let foreground = value >= threshold;
                 selected[count] = first_index + offset + k;
-                count += usize::from(foreground & !inherits);
+                count += usize::from(foreground & (label == 0));
                 foreground_count += usize::from(foreground);
             }
         }
         (count, foreground_count)
     }
+}
+
+/// The class whose bit is the only one set in `classes`, or 0 for none or several.
+#[inline(always)]
+fn single_class(classes: u32) -> u8 {
+    if classes.is_power_of_two() { classes.trailing_zeros() as u8 + 1 } else { 0 }
 }
 
 /// A span of one fine row: its voxels' values and labels from column `first` on, and the
@@ -161,6 +251,7 @@ impl<'a> Row<'a> {
     /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
     /// air inside the span (between the parts of an object, or noise above the threshold
     /// scattered through the air) are skipped a vectorised test at a time.
+    #[inline(always)]
     fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
         self.values
             .chunks(Self::CHUNK)
@@ -192,10 +283,10 @@ mod tests {
 
     impl RowNeighbours {
         /// The label fine voxel `x` of value `value` inherits, or `None` when it is evaluated.
-        fn inherited_label(&self, x: usize, value: f32, tolerance: f32) -> Option<u8> {
+        fn inherited_label(&self, x: usize, value: f32) -> Option<u8> {
             let (mut values, mut labels, mut selected) = ([value], [0u8], [usize::MAX]);
             let row = Row { first: x, first_index: x, values: &mut values, labels: &mut labels };
-            match self.label_row(row, f32::NEG_INFINITY, tolerance, &mut selected) {
+            match self.label_row(row, f32::NEG_INFINITY, &mut selected) {
                 (0, 1) => Some(labels[0]),
                 (1, 1) if selected[0] == x => None,
                 other => panic!("unexpected outcome {other:?}"),
@@ -204,48 +295,49 @@ mod tests {
     }
 
     /// A 2 x 1 x 1 coarse grid (fine 4 x 1 x 1, or 3 x 1 x 1 for a far border) with the given
-    /// labels and values, summarised for fine row 0 of plane 0.
-    fn summary(labels: [u8; 2], values: [f32; 2]) -> RowNeighbours {
+    /// labels and values, summarised for fine row 0 of plane 0 with `tolerance`.
+    fn summary(labels: [u8; 2], values: [f32; 2], tolerance: f32) -> RowNeighbours {
         let mut grid = CoarseGrid::new([3, 1, 1]);
         grid.labels.copy_from_slice(&labels);
         grid.values.copy_from_slice(&values);
         let mut row = RowNeighbours::default();
-        row.summarise(&grid, 0, 0, 0..=1);
+        row.summarise(&grid, 0, 0, 0..=1, tolerance);
         row
     }
 
     #[test]
     fn a_fine_voxel_between_agreeing_neighbours_inherits_their_label() {
-        let row = summary([2, 2], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(2));
-        assert_eq!(row.inherited_label(1, 15.0, 0.0), Some(2));
-        assert_eq!(row.inherited_label(2, 20.5, 1.0), Some(2), "within the tolerance");
+        let row = summary([2, 2], [10.0, 20.0], 0.0);
+        assert_eq!(row.inherited_label(0, 10.0), Some(2));
+        assert_eq!(row.inherited_label(1, 15.0), Some(2));
+        let row = summary([2, 2], [10.0, 20.0], 1.0);
+        assert_eq!(row.inherited_label(2, 20.5), Some(2), "within the tolerance");
     }
 
     #[test]
     fn disagreement_or_an_intensity_outside_the_range_means_evaluate() {
-        let row = summary([1, 2], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 15.0, 0.0), None, "neighbours disagree");
-        assert_eq!(row.inherited_label(0, 10.0, 0.0), Some(1), "an even voxel sees one neighbour");
-        let row = summary([3, 3], [10.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 25.0, 1.0), None, "brighter than both");
-        assert_eq!(row.inherited_label(1, 5.0, 1.0), None, "darker than both");
+        let row = summary([1, 2], [10.0, 20.0], 0.0);
+        assert_eq!(row.inherited_label(1, 15.0), None, "neighbours disagree");
+        assert_eq!(row.inherited_label(0, 10.0), Some(1), "an even voxel sees one neighbour");
+        let row = summary([3, 3], [10.0, 20.0], 1.0);
+        assert_eq!(row.inherited_label(1, 25.0), None, "brighter than both");
+        assert_eq!(row.inherited_label(1, 5.0), None, "darker than both");
     }
 
     #[test]
     fn background_neighbours_neither_vote_nor_veto() {
-        let row = summary([0, 4], [0.0, 20.0]);
-        assert_eq!(row.inherited_label(1, 20.0, 0.0), Some(4));
-        assert_eq!(row.inherited_label(0, 20.0, 0.0), None, "no foreground neighbour");
-        let row = summary([0, 0], [0.0, 0.0]);
-        assert_eq!(row.inherited_label(1, 0.0, 10.0), None);
+        let row = summary([0, 4], [0.0, 20.0], 0.0);
+        assert_eq!(row.inherited_label(1, 20.0), Some(4));
+        assert_eq!(row.inherited_label(0, 20.0), None, "no foreground neighbour");
+        let row = summary([0, 0], [0.0, 0.0], 10.0);
+        assert_eq!(row.inherited_label(1, 0.0), None);
     }
 
     #[test]
     fn the_highest_class_a_bit_set_holds_is_inherited() {
         let class = RowNeighbours::MAX_CLASSES as u8;
-        let row = summary([class, class], [1.0, 1.0]);
-        assert_eq!(row.inherited_label(1, 1.0, 0.0), Some(class));
+        let row = summary([class, class], [1.0, 1.0], 0.0);
+        assert_eq!(row.inherited_label(1, 1.0), Some(class));
     }
 
     #[test]
@@ -255,12 +347,12 @@ mod tests {
         grid.labels.copy_from_slice(&[1, 1, 1, 2]);
         grid.values.fill(5.0);
         let mut row = RowNeighbours::default();
-        row.summarise(&grid, 0, 0, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1));
-        row.summarise(&grid, 1, 1, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), None);
-        row.summarise(&grid, 2, 0, 0..=0);
-        assert_eq!(row.inherited_label(0, 5.0, 0.0), Some(1), "the far border has one coarse row");
+        row.summarise(&grid, 0, 0, 0..=0, 0.0);
+        assert_eq!(row.inherited_label(0, 5.0), Some(1));
+        row.summarise(&grid, 1, 1, 0..=0, 0.0);
+        assert_eq!(row.inherited_label(0, 5.0), None);
+        row.summarise(&grid, 2, 0, 0..=0, 0.0);
+        assert_eq!(row.inherited_label(0, 5.0), Some(1), "the far border has one coarse row");
     }
 
     #[test]
@@ -274,12 +366,32 @@ mod tests {
     }
 
     #[test]
-    fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
-        let mut values = vec![0.0f32; 200];
-        assert!(!any_at_or_above(&values, 1.0));
-        values[137] = f32::NAN;
-        assert!(!any_at_or_above(&values, 1.0));
-        values[199] = 1.0;
-        assert!(any_at_or_above(&values, 1.0));
+    fn the_avx2_variants_decide_as_the_portable_ones() {
+        #[cfg(target_arch = "x86_64")]
+        if crate::cpu::has_avx2_fma() {
+            let mut rng = crate::rng::SplitMix64::new(5);
+            let mut grid = CoarseGrid::new([77, 6, 5]);
+            grid.labels = (0..grid.labels.len()).map(|_| rng.below(4) as u8).collect();
+            grid.values = (0..grid.values.len()).map(|_| rng.next_f64() as f32).collect();
+            let values: Vec<f32> = (0..77).map(|_| rng.next_f64() as f32).collect();
+            for (y, z) in [(0, 0), (1, 1), (4, 3), (5, 4)] {
+                let (mut wide, mut portable) = (RowNeighbours::default(), RowNeighbours::default());
+                // SAFETY: the CPU has AVX2 and FMA, checked above.
+                unsafe { wide.summarise_avx2(&grid, y, z, 3..=36, 0.05) };
+                portable.summarise_lanes(&grid, y, z, 3..=36, 0.05);
+                let outcome = |neighbours: &RowNeighbours, avx2: bool| {
+                    let (mut labels, mut selected) = ([0u8; 66], [0usize; 66]);
+                    let row = Row { first: 6, first_index: 106, values: &values[6..72], labels: &mut labels };
+                    let counts = if avx2 {
+                        // SAFETY: as above.
+                        unsafe { neighbours.label_row_avx2(row, 0.2, &mut selected) }
+                    } else {
+                        neighbours.label_row_lanes(row, 0.2, &mut selected)
+                    };
+                    (counts, labels, selected[..counts.0].to_vec())
+                };
+                assert_eq!(outcome(&wide, true), outcome(&portable, false), "row {y}, plane {z}");
+            }
+        }
     }
 }

@@ -12,10 +12,10 @@
 //! (which that slab labels too: one coarse plane in about 15 twice), then refines its planes,
 //! all from one smoothed block. Both orders give the same labels.
 
-use super::coarse_grid::{CoarseGrid, Row, RowNeighbours, any_at_or_above};
+use super::coarse_grid::{CoarseGrid, Row, RowNeighbours};
 use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
-use crate::volume::Volume;
+use crate::volume::{Volume, any_at_or_above};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -362,8 +362,8 @@ impl<'a> Worker<'a> {
             };
             let (selected, foreground) = match coarse {
                 Some(grid) => {
-                    row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1);
-                    row_neighbours.label_row(row, threshold, tolerance, &mut self.row_selected)
+                    row_neighbours.summarise(grid, y, z, first / 2..=last / 2 + 1, tolerance);
+                    row_neighbours.label_row(row, threshold, &mut self.row_selected)
                 }
                 None => row.select_foreground(threshold, &mut self.row_selected),
             };
@@ -384,9 +384,8 @@ impl<'a> Worker<'a> {
             return Ok(());
         }
         self.reader.compute_selected(z, &self.selected, &mut self.features)?;
-        self.segmenter.standardiser.apply_in_place(&mut self.features)?;
         self.predicted.resize(self.selected.len(), 0);
-        self.segmenter.classifier.predict_block(&self.features, &mut self.predicted)?;
+        self.segmenter.classify_block(&mut self.features, &mut self.predicted)?;
         Ok(())
     }
 }

@@ -417,6 +417,13 @@ pub fn checked_voxel_count(dims: [usize; 3], voxel_type: VoxelType, path: &Path)
         })
 }
 
+/// Whether any of `values` is at least `threshold` (NaN never is), in chunks the compiler
+/// vectorises: most rows of a scan are air, and this is how scans skip them.
+#[inline(always)]
+pub fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
+    values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -499,5 +506,15 @@ mod tests {
         assert!(matches!(err, Err(VolumeError::DataSize { expected: 16, found: 15, .. })));
         assert!(checked_voxel_count([0, 5, 5], VoxelType::U8, Path::new("t")).is_err());
         assert!(checked_voxel_count([usize::MAX / 2, 4, 1], VoxelType::U8, Path::new("t")).is_err());
+    }
+
+    #[test]
+    fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
+        let mut values = vec![0.0f32; 200];
+        assert!(!any_at_or_above(&values, 1.0));
+        values[137] = f32::NAN;
+        assert!(!any_at_or_above(&values, 1.0));
+        values[199] = 1.0;
+        assert!(any_at_or_above(&values, 1.0));
     }
 }

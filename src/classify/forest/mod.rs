@@ -174,6 +174,16 @@ impl Forest {
         self.dim
     }
 
+    /// The same forest for inputs in other units: every split's threshold `t` on feature `f`
+    /// becomes `map(f, t)`. With `map` the exact preimage of a non-decreasing map of the inputs
+    /// (`Standardiser::raw_threshold`), the new forest labels raw vectors as this one labels
+    /// mapped vectors, bit for bit.
+    pub fn with_thresholds(&self, map: impl Fn(usize, f32) -> f32) -> Forest {
+        let trees: Vec<Tree> = self.trees.iter().map(|tree| tree.with_thresholds(&map)).collect();
+        let leaf_masks = LeafMasks::new(&trees, self.class_ids.len());
+        Forest { dim: self.dim, class_ids: self.class_ids.clone(), trees, leaf_masks }
+    }
+
     pub fn class_ids(&self) -> &[u8] {
         &self.class_ids
     }

@@ -177,3 +177,32 @@ fn split_masks_find_the_leaves_walks_find() {
         }
     }
 }
+
+#[test]
+fn thresholds_in_raw_units_label_raw_vectors_as_standardised_ones() {
+    // Raw features in very different units (HU-like and a small gradient-like one), extreme
+    // and non-finite values included: the forest moved into raw units by the standardiser's
+    // exact preimages agrees with the original on standardised vectors, vector for vector.
+    let mut rng = SplitMix64::new(11);
+    let raw_train: Vec<f32> = (0..2 * 300)
+        .map(|k| if k % 2 == 0 { 3000.0 * rng.next_f64() as f32 - 1000.0 } else { 0.02 * rng.next_f64() as f32 })
+        .collect();
+    let labels: Vec<u8> =
+        raw_train.chunks_exact(2).map(|v| if v[0] + 50_000.0 * v[1] > 800.0 { 2 } else { 1 }).collect();
+    let standardiser = crate::features::Standardiser::fit(&raw_train, 2).unwrap();
+    let mut train = raw_train.clone();
+    standardiser.apply_in_place(&mut train).unwrap();
+    let forest = Forest::train(&train, 2, &labels, &[1, 2], &ForestParams::default()).unwrap();
+    let raw_forest = forest.with_thresholds(|feature, threshold| standardiser.raw_threshold(feature, threshold));
+    let mut raw: Vec<f32> = (0..2 * 2000)
+        .map(|k| if k % 2 == 0 { 5000.0 * rng.next_f64() as f32 - 2000.0 } else { 0.04 * rng.next_f64() as f32 - 0.01 })
+        .collect();
+    raw.extend([f32::NAN, 0.0, f32::INFINITY, 0.01, f32::NEG_INFINITY, f32::NAN, 400.0, 1e30]);
+    let mut standardised = raw.clone();
+    standardiser.apply_in_place(&mut standardised).unwrap();
+    let (mut expected, mut found) = (vec![0u8; raw.len() / 2], vec![0u8; raw.len() / 2]);
+    forest.predict_block(&standardised, &mut expected).unwrap();
+    raw_forest.predict_block(&raw, &mut found).unwrap();
+    assert_eq!(found, expected);
+    assert!(expected.contains(&1) && expected.contains(&2));
+}

@@ -74,6 +74,15 @@ impl Tree {
         left_leaves.start..right_leaves.end
     }
 
+    /// The same tree with each split's threshold `t` on feature `f` replaced by `map(f, t)`.
+    pub(super) fn with_thresholds(&self, map: &impl Fn(usize, f32) -> f32) -> Tree {
+        let mut tree = self.clone();
+        for node in tree.nodes.iter_mut().filter(|node| node.feature != LEAF) {
+            node.threshold = map(node.feature as usize, node.threshold);
+        }
+        tree
+    }
+
     /// The class frequencies of leaf `node`.
     fn leaf_frequencies_of(&self, node: usize) -> &[f32] {
         let start = self.nodes[node].left as usize;
