@@ -90,6 +90,14 @@ pub fn run(args: &UiArgs) -> Result<(), CliError> {
         DisplayChoice::Window => run_window(args),
         DisplayChoice::Drm => run_drm(args),
         DisplayChoice::Auto if has_display_server && cfg!(feature = "window") => run_window(args),
+        // A display server usually holds the DRM card, so a developer who left out the feature
+        // is told how to get a window rather than only why DRM failed.
+        DisplayChoice::Auto if has_display_server => run_drm(args).map_err(|error| {
+            CliError::Usage(format!(
+                "{error} (a display server is running, but this build has no desktop window: \
+                 build with `--features window`)"
+            ))
+        }),
         DisplayChoice::Auto => run_drm(args),
     }
 }
