@@ -2,7 +2,12 @@ use super::*;
 use crate::rng::SplitMix64;
 use std::path::Path;
 
-fn volume_from(dims: [usize; 3], spacing_mm: [f64; 3], mut f: impl FnMut(usize, usize, usize) -> f32) -> Volume {
+/// A volume whose voxel (x, y, z) holds `f(x, y, z)`; also used by `multiscale::tests`.
+pub(super) fn volume_from(
+    dims: [usize; 3],
+    spacing_mm: [f64; 3],
+    mut f: impl FnMut(usize, usize, usize) -> f32,
+) -> Volume {
     let mut values = Vec::with_capacity(dims.iter().product());
     for z in 0..dims[2] {
         for y in 0..dims[1] {

@@ -1,19 +1,7 @@
 use super::*;
 use crate::features::FeatureError;
+use crate::features::tests::volume_from;
 use crate::rng::SplitMix64;
-use std::path::Path;
-
-fn volume_from(dims: [usize; 3], spacing_mm: [f64; 3], mut f: impl FnMut(usize, usize, usize) -> f32) -> Volume {
-    let mut values = Vec::with_capacity(dims.iter().product());
-    for z in 0..dims[2] {
-        for y in 0..dims[1] {
-            for x in 0..dims[0] {
-                values.push(f(x, y, z));
-            }
-        }
-    }
-    Volume::from_f32(dims, spacing_mm, &values, Path::new("test")).unwrap()
-}
 
 fn slab_features(volume: &Volume, scales: Scales) -> Vec<f32> {
     let mut reader = MultiscaleSlabReader::new(volume, scales);
