@@ -164,6 +164,16 @@ pub struct App {
     idle_timer: Rc<slint::Timer>,
 }
 
+impl Drop for App {
+    /// The render thread is joined here rather than when `State` goes: the window's callbacks
+    /// share `State`, and the process must not exit with the thread inside the GPU driver.
+    fn drop(&mut self) {
+        if let Ok(mut state) = self.state.try_borrow_mut() {
+            state.renderer.shut_down();
+        }
+    }
+}
+
 impl App {
     /// Builds the UI on the current Slint platform. With a saved session in
     /// `config.session_dir`, its volume opens and its classes come back.

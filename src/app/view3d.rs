@@ -50,6 +50,10 @@ pub struct ViewRenderer {
     next_id: u64,
     /// The newest frame asked for and not yet received.
     awaited: Option<u64>,
+    /// Joined when the renderer is dropped: a process that exits while this thread is inside
+    /// the GPU driver can hang there (lavapipe registering LLVM passes while the exit handlers
+    /// destroy LLVM's registry spun forever in a replay test).
+    thread: Option<std::thread::JoinHandle<()>>,
 }
 
 impl Default for ViewRenderer {
@@ -66,10 +70,21 @@ impl ViewRenderer {
         let spawned = std::thread::Builder::new()
             .name("render".into())
             .spawn(move || render_thread(request_receiver, reply_sender));
-        if let Err(error) = spawned {
-            log::error!("cannot start the render thread: {error}");
+        let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
+        ViewRenderer { requests, replies, next_id: 0, awaited: None, thread }
+    }
+
+    /// Ends the render thread and waits for it (at most the frame it is drawing). Later
+    /// requests are ignored.
+    pub fn shut_down(&mut self) {
+        // Replacing the only sender disconnects the thread's receiver: it returns after its
+        // current batch.
+        self.requests = channel().0;
+        if let Some(thread) = self.thread.take()
+            && thread.join().is_err()
+        {
+            log::error!("the render thread panicked");
         }
-        ViewRenderer { requests, replies, next_id: 0, awaited: None }
     }
 
     pub fn set_volume(&self, volume: Arc<Volume>) {
@@ -112,6 +127,12 @@ impl ViewRenderer {
             }
             Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
         }
+    }
+}
+
+impl Drop for ViewRenderer {
+    fn drop(&mut self) {
+        self.shut_down();
     }
 }
 
