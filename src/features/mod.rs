@@ -148,13 +148,10 @@ pub fn features_of_voxels(
     feature_set: FeatureSet,
     indices: &[usize],
 ) -> Result<Vec<f32>, FeatureError> {
-    let voxel_count = volume.voxel_count();
-    if let Some(&index) = indices.iter().find(|&&i| i >= voxel_count) {
-        return Err(FeatureError::VoxelOutOfRange { index, voxel_count });
-    }
     if let Some(scales) = feature_set.scales() {
         return multiscale::multiscale_features_of_voxels(volume, scales, indices);
     }
+    check_voxels(volume, indices)?;
     let dim = feature_set.dim();
     let mut out = vec![0f32; indices.len() * dim];
     out.par_chunks_exact_mut(dim)
@@ -198,6 +195,15 @@ impl Neighbourhood {
 fn inverse_span_mm(position: usize, size: usize, spacing_mm: f64) -> f32 {
     let span = (position + 1).min(size - 1) - position.saturating_sub(1);
     if span == 0 { 0.0 } else { (1.0 / (span as f64 * spacing_mm)) as f32 }
+}
+
+/// Voxel indices, checked against the volume.
+fn check_voxels(volume: &Volume, indices: &[usize]) -> Result<(), FeatureError> {
+    let voxel_count = volume.voxel_count();
+    match indices.iter().find(|&&i| i >= voxel_count) {
+        Some(&index) => Err(FeatureError::VoxelOutOfRange { index, voxel_count }),
+        None => Ok(()),
+    }
 }
 
 /// The z range of a slab, checked against the volume.

@@ -2,7 +2,7 @@
 //! 16^3 tiles, each one block) and plane by plane for whole-volume labelling (a block of z planes
 //! moved forward as the planes asked for move on). The features themselves are [`super`]'s.
 
-use super::super::FeatureError;
+use super::super::{FeatureError, check_voxels};
 use super::{MultiscaleBlock, Scales, block_depth};
 use crate::volume::{Volume, any_at_or_above};
 use rayon::prelude::*;
@@ -18,11 +18,8 @@ pub fn multiscale_features_of_voxels(
     scales: Scales,
     indices: &[usize],
 ) -> Result<Vec<f32>, FeatureError> {
+    check_voxels(volume, indices)?;
     let dim = scales.dim();
-    let voxel_count = volume.voxel_count();
-    if let Some(&index) = indices.iter().find(|&&i| i >= voxel_count) {
-        return Err(FeatureError::VoxelOutOfRange { index, voxel_count });
-    }
     let [size_x, size_y, _] = volume.dims;
     let position = |index: usize| [index % size_x, (index / size_x) % size_y, index / (size_x * size_y)];
     let mut order: Vec<(usize, usize)> = indices
