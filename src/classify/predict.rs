@@ -107,23 +107,38 @@ impl SimdPath {
 /// Vectors per group of [`rbf_block`], one SIMD lane each (two 256-bit vectors of f32).
 const VOXEL_LANES: usize = 16;
 
+/// Per-call buffers of [`rbf_block`], kept by the caller across tiles so that the hot loop
+/// allocates nothing.
+#[derive(Default)]
+pub(crate) struct RbfScratch {
+    /// One row of lanes per coordinate of the current group of vectors.
+    coordinates: Vec<[f32; VOXEL_LANES]>,
+    /// One row of lanes per pair.
+    accumulators: Vec<[f32; VOXEL_LANES]>,
+}
+
 /// RBF decision values for a block: the shared body of every SIMD path. Groups of
 /// [`VOXEL_LANES`] vectors, transposed so that each coordinate is one row of lanes, walk the
 /// expansion points one at a time: ‖v − xⱼ‖² (directly, no norm trick, so no cancellation in
 /// f32), then exp, then the P decision values. Every lane runs the same operations on its own
 /// vector (a short group is padded with zeros), so a voxel's values do not depend on its
-/// neighbours in the block; a vector with a non-finite component gets NaN.
+/// neighbours in the block. A non-finite component enters as NaN, which every later step
+/// carries (NaN distance, NaN kernel value, NaN sums), so the vector gets NaN values without a
+/// test per lane; an infinity alone would not do, since exp clamps it to a finite value.
 #[inline(always)]
-fn rbf_block<A: MultiplyAdd>(model: &Model, width: f32, features: &[f32], out: &mut [f32]) {
+fn rbf_block<A: MultiplyAdd>(model: &Model, width: f32, features: &[f32], out: &mut [f32], scratch: &mut RbfScratch) {
     let dim = model.dim;
     let pair_count = model.pairs.len();
-    let mut accumulators = vec![[0f32; VOXEL_LANES]; pair_count];
-    let mut coordinates = vec![[0f32; VOXEL_LANES]; dim];
+    let RbfScratch { coordinates, accumulators } = scratch;
+    coordinates.resize(dim, [0.0; VOXEL_LANES]);
+    accumulators.resize(pair_count, [0.0; VOXEL_LANES]);
     for (x, values) in features.chunks(dim * VOXEL_LANES).zip(out.chunks_mut(pair_count * VOXEL_LANES)) {
-        let count = x.len() / dim;
-        for (k, lanes) in coordinates.iter_mut().enumerate() {
-            for (lane, value) in lanes.iter_mut().enumerate() {
-                *value = if lane < count { x[lane * dim + k] } else { 0.0 };
+        if x.len() < dim * VOXEL_LANES {
+            coordinates.fill([0.0; VOXEL_LANES]);
+        }
+        for (lane, vector) in x.chunks_exact(dim).enumerate() {
+            for (lanes, &value) in coordinates.iter_mut().zip(vector) {
+                lanes[lane] = if value.is_finite() { value } else { f32::NAN };
             }
         }
         accumulators.fill([0.0; VOXEL_LANES]);
@@ -147,24 +162,23 @@ fn rbf_block<A: MultiplyAdd>(model: &Model, width: f32, features: &[f32], out: &
             }
         }
         for (lane, values) in values.chunks_exact_mut(pair_count).enumerate() {
-            let finite = x[lane * dim..(lane + 1) * dim].iter().all(|v| v.is_finite());
-            for ((value, accumulator), bias) in values.iter_mut().zip(&accumulators).zip(&model.biases) {
-                *value = if finite { accumulator[lane] + bias } else { f32::NAN };
+            for ((value, accumulator), bias) in values.iter_mut().zip(accumulators.iter()).zip(&model.biases) {
+                *value = accumulator[lane] + bias;
             }
         }
     }
 }
 
-fn rbf_block_portable(model: &Model, width: f32, features: &[f32], out: &mut [f32]) {
-    rbf_block::<Separate>(model, width, features, out);
+fn rbf_block_portable(model: &Model, width: f32, features: &[f32], out: &mut [f32], scratch: &mut RbfScratch) {
+    rbf_block::<Separate>(model, width, features, out, scratch);
 }
 
 /// # Safety
 /// The CPU must support AVX2 and FMA.
 #[cfg(target_arch = "x86_64")]
 #[target_feature(enable = "avx2,fma")]
-unsafe fn rbf_block_avx2_fma(model: &Model, width: f32, features: &[f32], out: &mut [f32]) {
-    rbf_block::<Fused>(model, width, features, out);
+unsafe fn rbf_block_avx2_fma(model: &Model, width: f32, features: &[f32], out: &mut [f32], scratch: &mut RbfScratch) {
+    rbf_block::<Fused>(model, width, features, out, scratch);
 }
 
 /// Any kernel, scalar: (x.y + offset)^degree for the polynomial kernel of the tests.
@@ -195,10 +209,6 @@ fn general_block(model: &Model, features: &[f32], out: &mut [f32]) {
 fn vote(model: &Model, values: &[f32], votes: &mut [u32], strength: &mut [f32]) -> u8 {
     if values.iter().any(|v| v.is_nan()) {
         return 0;
-    }
-    // Two classes (the common case): the one pair's sign decides, as the general count would.
-    if let ([(first, second)], [f]) = (model.pair_positions.as_slice(), values) {
-        return model.class_ids[if *f > 0.0 { *first } else { *second }];
     }
     votes.fill(0);
     strength.fill(0.0);
@@ -231,14 +241,20 @@ impl Model {
     }
 
     pub(crate) fn decision_values_with(&self, path: SimdPath, features: &[f32], out: &mut [f32]) {
+        self.decision_values_into(path, features, out, &mut RbfScratch::default());
+    }
+
+    fn decision_values_into(&self, path: SimdPath, features: &[f32], out: &mut [f32], scratch: &mut RbfScratch) {
         match (self.kernel, path) {
             #[cfg(target_arch = "x86_64")]
             (Kernel::Rbf { width }, SimdPath::Avx2Fma) => {
                 // SAFETY: `SimdPath::Avx2Fma` is only chosen (by `best` or a test) after
                 // `avx2_fma_available` found both features on this CPU.
-                unsafe { rbf_block_avx2_fma(self, width as f32, features, out) }
+                unsafe { rbf_block_avx2_fma(self, width as f32, features, out, scratch) }
             }
-            (Kernel::Rbf { width }, SimdPath::Portable) => rbf_block_portable(self, width as f32, features, out),
+            (Kernel::Rbf { width }, SimdPath::Portable) => {
+                rbf_block_portable(self, width as f32, features, out, scratch)
+            }
             (Kernel::Polynomial { .. }, _) => general_block(self, features, out),
         }
     }
@@ -263,9 +279,25 @@ impl Model {
         let mut values = vec![0.0f32; TILE_VOXELS * pair_count];
         let mut votes = vec![0u32; self.class_ids.len()];
         let mut strength = vec![0.0f32; self.class_ids.len()];
+        let mut scratch = RbfScratch::default();
         for (tile, labels) in features.chunks(TILE_VOXELS * self.dim).zip(labels_out.chunks_mut(TILE_VOXELS)) {
             let values = &mut values[..labels.len() * pair_count];
-            self.decision_values_with(path, tile, values);
+            self.decision_values_into(path, tile, values, &mut scratch);
+            if let [(first, second)] = self.pair_positions.as_slice() {
+                // Two classes (the common case): the one pair's sign decides, as `vote`'s count
+                // would, without a call per voxel.
+                let (first, second) = (self.class_ids[*first], self.class_ids[*second]);
+                for (label, &f) in labels.iter_mut().zip(values.iter()) {
+                    *label = if f > 0.0 {
+                        first
+                    } else if f.is_nan() {
+                        0
+                    } else {
+                        second
+                    };
+                }
+                continue;
+            }
             for (label, voxel_values) in labels.iter_mut().zip(values.chunks_exact(pair_count)) {
                 *label = vote(self, voxel_values, &mut votes, &mut strength);
             }

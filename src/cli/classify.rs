@@ -100,6 +100,8 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "refinement": match options.refinement { Refinement::Exact => "exact", Refinement::CoarseToFine => "coarse-to-fine" },
         "parameters": parameters_json(&summary.classifier),
         "support_vectors": report.map(|r| r.pairs.iter().map(|p| p.support_vectors).sum::<usize>()),
+        // The kernel terms per evaluated voxel after merging and pruning (SN-SVM's γ is dense).
+        "expansion_points": report.map(|r| r.expansion_points),
         "solver_hit_iteration_cap": report.map(|r| r.hit_cap()),
         "seconds": {
             "load": load_seconds,

@@ -40,6 +40,10 @@ use crate::volume::Volume;
 use rayon::prelude::*;
 use std::ops::Range;
 
+/// Features per voxel of [`FeatureSet::Paper5`] (a constant, so that per-voxel writes of the
+/// hot paths are fixed-size stores rather than `memcpy` calls).
+const PAPER5_DIM: usize = 5;
+
 /// A choice of per-voxel features.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
 pub enum FeatureSet {
@@ -57,8 +61,8 @@ impl FeatureSet {
     /// Features per voxel.
     pub fn dim(self) -> usize {
         match self {
-            FeatureSet::Paper5 => 5,
-            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => self.scales().map_or(5, Scales::dim),
+            FeatureSet::Paper5 => PAPER5_DIM,
+            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => self.scales().map_or(PAPER5_DIM, Scales::dim),
         }
     }
 
@@ -152,9 +156,8 @@ pub fn features_of_voxels(
         return multiscale::multiscale_features_of_voxels(volume, scales, indices);
     }
     check_voxels(volume, indices)?;
-    let dim = feature_set.dim();
-    let mut out = vec![0f32; indices.len() * dim];
-    out.par_chunks_exact_mut(dim)
+    let mut out = vec![0f32; indices.len() * PAPER5_DIM];
+    out.par_chunks_exact_mut(PAPER5_DIM)
         .zip(indices.par_iter())
         .with_min_len(256)
         .for_each(|(row, &index)| row.copy_from_slice(&features_at(volume, index)));
@@ -175,7 +178,7 @@ struct Neighbourhood {
 
 impl Neighbourhood {
     #[inline(always)]
-    fn paper5(&self) -> [f32; 5] {
+    fn paper5(&self) -> [f32; PAPER5_DIM] {
         let mean = |values: &[f32; 8]| values.iter().sum::<f32>() * 0.125;
         let gradient_x = (self.xy[4] - self.xy[3]) * self.gradient_scale[0];
         let gradient_y = (self.xy[6] - self.xy[1]) * self.gradient_scale[1];

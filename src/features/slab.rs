@@ -8,7 +8,7 @@
 //! fresh buffers cost a zero fill and a page fault per 4 KiB page each time.
 
 use super::multiscale::MultiscaleSlabReader;
-use super::{FeatureError, FeatureSet, Neighbourhood, check_slab, inverse_span_mm};
+use super::{FeatureError, FeatureSet, Neighbourhood, PAPER5_DIM, check_slab, inverse_span_mm};
 use crate::volume::Volume;
 use rayon::prelude::*;
 use std::ops::Range;
@@ -77,7 +77,6 @@ impl<'v> FeatureSlabReader<'v> {
     fn fill(&mut self, z_range: Range<usize>, out: &mut Vec<f32>) {
         let [size_x, size_y, _] = self.volume.dims;
         let plane = size_x * size_y;
-        let dim = self.feature_set.dim();
         if let Some(multiscale) = &mut self.multiscale {
             let every: Vec<usize> = (0..plane).collect();
             let mut block = Vec::new();
@@ -88,6 +87,7 @@ impl<'v> FeatureSlabReader<'v> {
             }
             return;
         }
+        let dim = PAPER5_DIM;
         out.clear();
         out.resize(z_range.len() * plane * dim, 0.0);
         for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
@@ -149,17 +149,16 @@ impl<'v> FeatureSlabReader<'v> {
             multiscale.compute_selected(z, selected, out);
             return Ok(());
         }
-        let dim = self.feature_set.dim();
         // Every value is written below: no need to zero them first.
-        out.resize(selected.len() * dim, 0.0);
-        out.truncate(selected.len() * dim);
+        out.resize(selected.len() * PAPER5_DIM, 0.0);
+        out.truncate(selected.len() * PAPER5_DIM);
         if selected.is_empty() {
             return Ok(());
         }
         let [previous, current, next] = self.load_planes_around(z);
         let (previous, current, next) = (&self.planes[previous], &self.planes[current], &self.planes[next]);
         let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
-        for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(dim)) {
+        for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(PAPER5_DIM)) {
             let (x, y) = (index % size_x, index / size_x);
             let [x_minus, x_plus] = self.x_neighbours[x];
             let [y_minus, y_plus] = self.y_neighbours[y];

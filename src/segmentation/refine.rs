@@ -15,7 +15,7 @@
 use super::coarse_grid::{CoarseGrid, Row, RowNeighbours};
 use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
-use crate::volume::{Volume, any_at_or_above};
+use crate::volume::{Volume, any_at_or_above, foreground_span};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -348,12 +348,11 @@ impl<'a> Worker<'a> {
         let mut classified = 0;
         let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
         for (y, (row_values, row_labels)) in rows.enumerate() {
-            // A vectorised test first: most rows of a scan are air.
-            if !any_at_or_above(row_values, threshold) {
+            // Most rows of a scan are air.
+            let Some(span) = foreground_span(row_values, threshold) else {
                 continue;
-            }
-            let first = row_values.iter().position(|&value| value >= threshold).unwrap_or(0);
-            let last = row_values.iter().rposition(|&value| value >= threshold).unwrap_or(first);
+            };
+            let (first, last) = span.into_inner();
             let row = Row {
                 first,
                 first_index: first + size_x * y,

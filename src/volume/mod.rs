@@ -424,6 +424,21 @@ pub fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
     values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
 }
 
+/// The span from the first to the last of `values` that is at least `threshold` (NaN never
+/// is), or `None` when there is none. Tested a chunk at a time like [`any_at_or_above`], so a
+/// mostly-air row costs a few vector compares, not a branch per voxel.
+#[inline]
+pub fn foreground_span(values: &[f32], threshold: f32) -> Option<std::ops::RangeInclusive<usize>> {
+    const CHUNK: usize = 16;
+    let has_foreground = |chunk: &[f32]| chunk.iter().fold(false, |found, &value| found | (value >= threshold));
+    let first_chunk = values.chunks(CHUNK).position(has_foreground)?;
+    let last_chunk = values.chunks(CHUNK).rposition(has_foreground).unwrap_or(first_chunk);
+    let in_chunk = |chunk: usize| &values[chunk * CHUNK..((chunk + 1) * CHUNK).min(values.len())];
+    let first = in_chunk(first_chunk).iter().position(|&value| value >= threshold).unwrap_or(0);
+    let last = in_chunk(last_chunk).iter().rposition(|&value| value >= threshold).unwrap_or(0);
+    Some(first_chunk * CHUNK + first..=last_chunk * CHUNK + last)
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -516,5 +531,24 @@ mod tests {
         assert!(!any_at_or_above(&values, 1.0));
         values[199] = 1.0;
         assert!(any_at_or_above(&values, 1.0));
+    }
+
+    #[test]
+    fn foreground_span_is_the_first_to_the_last_foreground_value() {
+        for length in [0, 1, 15, 16, 17, 47, 200] {
+            for first in 0..length {
+                for last in (first..length).step_by(7).chain([length - 1]) {
+                    let mut values = vec![0.0f32; length];
+                    values[first] = 2.0;
+                    values[last] = 1.0;
+                    if first + 1 < last {
+                        values[first + 1] = f32::NAN;
+                    }
+                    assert_eq!(foreground_span(&values, 1.0), Some(first..=last), "{length} {first} {last}");
+                }
+            }
+            assert_eq!(foreground_span(&vec![f32::NAN; length], 1.0), None);
+            assert_eq!(foreground_span(&vec![0.5; length], 1.0), None);
+        }
     }
 }

@@ -169,3 +169,22 @@ fn non_finite_features_give_background_and_bad_shapes_are_errors() {
     );
     assert!(model.decision_values_exact(&[0.0; 4]).is_err());
 }
+
+#[test]
+fn two_class_labels_are_the_votes_of_the_decision_values() {
+    // The two-class shortcut of `predict_checked` against the general vote, voxel by voxel.
+    let model = trained(8, 2, 40, SnSvmParams::default());
+    let count = 333;
+    let mut features = voxels(9, count, 5);
+    features[5 * 17 + 2] = f32::NAN;
+    let mut values = vec![0.0f32; count];
+    model.decision_values_with(SimdPath::best(), &features, &mut values);
+    let mut labels = vec![0u8; count];
+    model.predict_block(&features, &mut labels).unwrap();
+    let (mut votes, mut strength) = (vec![0u32; 2], vec![0f32; 2]);
+    for (voxel, (&label, &f)) in labels.iter().zip(&values).enumerate() {
+        assert_eq!(label, vote(&model, &[f], &mut votes, &mut strength), "voxel {voxel}");
+    }
+    assert_eq!(labels[17], 0);
+    assert!(labels.contains(&1) && labels.contains(&2));
+}
