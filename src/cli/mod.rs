@@ -45,6 +45,11 @@ pub enum CliError {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
+    // faer's own threads cost more than they give on the SN-SVM's matrices (at most 512
+    // points a pair, and pairs already train in parallel): sequential, training took 0.77
+    // instead of 1.03 ms on the lobster and 2.2 instead of 2.8 ms on the engine (medians, two
+    // cores, benchmark lassos).
+    faer::set_global_parallelism(faer::Par::Seq);
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
