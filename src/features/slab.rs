@@ -9,7 +9,7 @@
 
 use super::multiscale::MultiscaleSlabReader;
 use super::{FeatureError, FeatureSet, Neighbourhood, PAPER5_DIM, check_slab, inverse_span_mm};
-use crate::volume::Volume;
+use crate::volume::{ForegroundRows, Volume};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -25,6 +25,9 @@ pub struct FeatureSlabReader<'v> {
     /// The multi-scale set's block reader (`None` for the paper's set).
     multiscale: Option<MultiscaleSlabReader<'v>>,
     feature_set: FeatureSet,
+    /// Where the foreground is, when the caller promised to ask only for it: then only the
+    /// rows near foreground are decoded.
+    foreground_rows: Option<&'v ForegroundRows>,
     /// Three plane buffers and the z plane each holds (`None`: not loaded).
     planes: [Vec<f32>; 3],
     plane_z: [Option<usize>; 3],
@@ -45,6 +48,7 @@ impl<'v> FeatureSlabReader<'v> {
             volume,
             multiscale: feature_set.scales().map(|scales| MultiscaleSlabReader::new(volume, scales)),
             feature_set,
+            foreground_rows: None,
             planes: SPARE_PLANES.with(|spare| spare.borrow_mut().take()).unwrap_or_default(),
             plane_z: [None; 3],
             x_neighbours: neighbours(size_x),
@@ -58,6 +62,14 @@ impl<'v> FeatureSlabReader<'v> {
     /// multi-scale set can skip the rest of each block (no effect on the paper's set).
     pub fn with_foreground_threshold(mut self, threshold: f32) -> Self {
         self.multiscale = self.multiscale.take().map(|reader| reader.with_foreground_threshold(threshold));
+        self
+    }
+
+    /// Promises that only the voxels of `rows` will be asked for (their features, and the
+    /// values of their rows from [`plane`](Self::plane)): the other rows of a plane, which
+    /// most of a scan's are, are then neither decoded nor valid.
+    pub fn with_foreground_rows(mut self, rows: &'v ForegroundRows) -> Self {
+        self.foreground_rows = Some(rows);
         self
     }
 
@@ -209,9 +221,7 @@ impl<'v> FeatureSlabReader<'v> {
         check_slab(self.volume, &(z..z + 1))?;
         if self.multiscale.is_some() {
             // The multi-scale reader keeps blocks, not planes; the plane buffers are free.
-            let plane = self.volume.dims[0] * self.volume.dims[1];
-            self.planes[0].resize(plane, 0.0);
-            self.volume.read_z_slice_f32(z, &mut self.planes[0]);
+            self.decode(z, 0);
             return Ok(&self.planes[0]);
         }
         let [_, current, _] = self.load_planes_around(z);
@@ -223,7 +233,6 @@ impl<'v> FeatureSlabReader<'v> {
     fn load_planes_around(&mut self, z: usize) -> [usize; 3] {
         let size_z = self.volume.dims[2];
         let wanted = [z.saturating_sub(1), z, (z + 1).min(size_z - 1)];
-        let plane = self.volume.dims[0] * self.volume.dims[1];
         let mut slots = [usize::MAX; 3];
         for (k, &wanted_z) in wanted.iter().enumerate() {
             if let Some(slot) = self.plane_z.iter().position(|&held| held == Some(wanted_z)) {
@@ -237,8 +246,7 @@ impl<'v> FeatureSlabReader<'v> {
             // A buffer holding no wanted plane is free (there always is one: 3 buffers, at
             // most 3 distinct wanted planes, and this one is not held).
             let free = (0..3).find(|slot| !slots.contains(slot)).unwrap_or(k);
-            self.planes[free].resize(plane, 0.0);
-            self.volume.read_z_slice_f32(wanted[k], &mut self.planes[free]);
+            self.decode(wanted[k], free);
             self.plane_z[free] = Some(wanted[k]);
             slots[k] = free;
             // Clamping can ask for the same plane twice (z = 0 or the last slice).
@@ -249,6 +257,23 @@ impl<'v> FeatureSlabReader<'v> {
             }
         }
         slots
+    }
+
+    /// Decodes plane `z` into buffer `slot`: every row, or with foreground rows only those
+    /// near foreground (the others keep stale values nobody reads).
+    fn decode(&mut self, z: usize, slot: usize) {
+        let [size_x, size_y, _] = self.volume.dims;
+        let buffer = &mut self.planes[slot];
+        buffer.resize(size_x * size_y, 0.0);
+        let Some(rows) = self.foreground_rows else {
+            self.volume.read_z_slice_f32(z, buffer);
+            return;
+        };
+        for (y, row) in buffer.chunks_exact_mut(size_x).enumerate() {
+            if rows.near_foreground(y, z) {
+                self.volume.read_f32(size_x * (y + size_y * z), row);
+            }
+        }
     }
 }
 

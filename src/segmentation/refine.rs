@@ -1,5 +1,9 @@
 //! Whole-volume labelling, exact or coarse-to-fine (see the module doc of `segmentation`).
 //!
+//! A first parallel pass finds the foreground span of every row ([`ForegroundRows`], on the
+//! stored bytes of 8-bit scans): the passes after it skip air rows without reading them, and
+//! the feature readers decode only the rows near foreground.
+//!
 //! Work is split into z slabs run in parallel; each slab reads its planes once (the feature
 //! reader's plane buffers serve both the voxel selection and the features), selects the voxels
 //! to evaluate, computes only their features ([`FeatureSlabReader::compute_selected`]),
@@ -15,7 +19,7 @@
 use super::coarse_grid::{CoarseGrid, Row, RowNeighbours};
 use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
 use crate::features::FeatureSlabReader;
-use crate::volume::{Volume, any_at_or_above, foreground_span};
+use crate::volume::{ForegroundRows, Volume};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
@@ -40,6 +44,8 @@ struct Job<'a> {
     volume: &'a Volume,
     segmenter: &'a Segmenter,
     threshold: f32,
+    /// The foreground span of every row at `threshold`: rows without one are skipped unread.
+    rows: ForegroundRows,
     tolerance: f32,
     slab_depth: usize,
     cancel: &'a AtomicBool,
@@ -145,10 +151,16 @@ fn label_volume_in(
     cancel: &AtomicBool,
 ) -> Result<LabelVolume, SegmentationError> {
     let size_z = volume.dims[2];
+    let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32;
     let job = Job {
         volume,
         segmenter,
-        threshold: segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32,
+        threshold,
+        rows: if threshold == f32::NEG_INFINITY {
+            ForegroundRows::every_voxel(volume.dims)
+        } else {
+            ForegroundRows::find(volume, threshold)
+        },
         tolerance: (INTENSITY_TOLERANCE * segmenter.standardiser.std[0]) as f32,
         slab_depth,
         cancel,
@@ -194,7 +206,7 @@ fn label_slabs(job: &Job, coarse: Option<&CoarseGrid>, labels: &mut [u8]) -> Res
         .par_chunks_mut(plane * job.slab_depth)
         .enumerate()
         .map_init(
-            || (Worker::new(job.volume, job.segmenter), RowNeighbours::default()),
+            || (Worker::new(job), RowNeighbours::default()),
             |(worker, row_neighbours), (slab, slab_labels)| {
                 job.label_fine_planes(worker, row_neighbours, coarse, slab * job.slab_depth, slab_labels)
             },
@@ -213,7 +225,7 @@ fn classify_coarse_grid(job: &Job, grid: &mut CoarseGrid) -> Result<(), Segmenta
         .zip(grid.values.par_chunks_mut(coarse_plane * planes_per_task))
         .enumerate()
         .map_init(
-            || (Worker::new(job.volume, job.segmenter), Vec::new()),
+            || (Worker::new(job), Vec::new()),
             |(worker, coarse_indices), (task, (task_labels, task_values))| -> Result<(), SegmentationError> {
                 let first = task * planes_per_task;
                 job.classify_coarse_planes(
@@ -240,7 +252,7 @@ fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, Segme
         .par_chunks_mut(plane * job.slab_depth)
         .enumerate()
         .map_init(
-            || (Worker::new(job.volume, job.segmenter), RowNeighbours::default(), CoarseGrid::new([0; 3]), Vec::new()),
+            || (Worker::new(job), RowNeighbours::default(), CoarseGrid::new([0; 3]), Vec::new()),
             |(worker, row_neighbours, grid, coarse_indices), (slab, slab_labels)| -> Result<usize, SegmentationError> {
                 let first = slab * job.slab_depth;
                 let end = first + slab_labels.len() / plane;
@@ -265,6 +277,7 @@ fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, Segme
 struct Worker<'a> {
     reader: FeatureSlabReader<'a>,
     segmenter: &'a Segmenter,
+    rows: &'a ForegroundRows,
     size_x: usize,
     selected: Vec<usize>,
     /// One row's selection before it joins `selected` (room for a whole row; a row fills a
@@ -275,11 +288,14 @@ struct Worker<'a> {
 }
 
 impl<'a> Worker<'a> {
-    fn new(volume: &'a Volume, segmenter: &'a Segmenter) -> Worker<'a> {
+    fn new(job: &'a Job) -> Worker<'a> {
+        let (volume, segmenter) = (job.volume, job.segmenter);
         Worker {
             reader: FeatureSlabReader::new(volume, segmenter.feature_set)
-                .with_foreground_threshold(segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32),
+                .with_foreground_threshold(job.threshold)
+                .with_foreground_rows(&job.rows),
             segmenter,
+            rows: &job.rows,
             size_x: volume.dims[0],
             selected: Vec::new(),
             row_selected: vec![0; volume.dims[0]],
@@ -307,12 +323,12 @@ impl<'a> Worker<'a> {
         self.selected.clear();
         coarse_indices.clear();
         for cy in 0..coarse_y {
-            let row = &plane_values[size_x * 2 * cy..][..size_x];
-            // Air rows stay as they are: label 0, and a background voxel's value is never read.
-            if !any_at_or_above(row, threshold) {
+            // Air stays as it is: label 0, and a background voxel's value is never read.
+            let Some(span) = self.rows.span(2 * cy, z) else {
                 continue;
-            }
-            for cx in 0..coarse_x {
+            };
+            let row = &plane_values[size_x * 2 * cy..][..size_x];
+            for cx in span.start().div_ceil(2)..=span.end() / 2 {
                 let value = row[2 * cx];
                 let coarse_index = cx + coarse_x * cy;
                 values[coarse_index] = value;
@@ -349,7 +365,7 @@ impl<'a> Worker<'a> {
         let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
         for (y, (row_values, row_labels)) in rows.enumerate() {
             // Most rows of a scan are air.
-            let Some(span) = foreground_span(row_values, threshold) else {
+            let Some(span) = self.rows.span(y, z) else {
                 continue;
             };
             let (first, last) = span.into_inner();
@@ -394,6 +410,35 @@ mod tests {
     use super::*;
     use crate::features::FeatureSet;
     use crate::segmentation::{ClassifierKind, SegmentationOptions, train};
+
+    #[test]
+    fn exact_labels_are_the_classes_of_every_foreground_voxels_features() {
+        // The slab readers decode only the rows near foreground; whatever they skip, exact
+        // labelling must give each foreground voxel the class of its own features, computed
+        // here voxel by voxel from the volume, and leave the rest background.
+        let phantom = crate::phantom::demo_foot_with([40, 30, 21], 5).unwrap();
+        let strokes = crate::phantom::lassos_inside(&phantom, &[1, 2], 3, 2.0);
+        let training = crate::strokes::TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
+        let volume = &phantom.volume;
+        for options in [SegmentationOptions::paper(), SegmentationOptions::default()] {
+            let segmenter = train(volume, &training, &options).unwrap();
+            let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY);
+            let labels =
+                label_volume_in(volume, &segmenter, Order::Exact, 4, &|_| {}, &AtomicBool::new(false)).unwrap();
+            let foreground: Vec<usize> =
+                (0..volume.voxel_count()).filter(|&index| volume.value(index) >= threshold).collect();
+            assert!(foreground.len() > 1000 && foreground.len() < volume.voxel_count());
+            let mut features = crate::features::features_of_voxels(volume, options.feature_set, &foreground).unwrap();
+            let mut expected = vec![0u8; foreground.len()];
+            segmenter.classify_block(&mut features, &mut expected).unwrap();
+            let mut expected_labels = vec![0u8; volume.voxel_count()];
+            for (&index, &label) in foreground.iter().zip(&expected) {
+                expected_labels[index] = label;
+            }
+            assert!(labels.labels == expected_labels, "{:?}", options.feature_set);
+            assert_eq!(labels.classified_voxels, foreground.len());
+        }
+    }
 
     #[test]
     fn one_sweep_labels_as_two_passes_do() {

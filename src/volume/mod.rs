@@ -16,6 +16,7 @@
 pub mod cache;
 pub mod dicom;
 pub mod error;
+mod foreground;
 pub mod histogram;
 pub mod metaimage;
 pub mod nifti;
@@ -25,6 +26,7 @@ pub mod raw;
 pub mod storage;
 
 pub use error::VolumeError;
+pub use foreground::{ForegroundRows, any_at_or_above, foreground_span};
 pub use open::{OpenOptions, open};
 pub use storage::VoxelBytes;
 
@@ -289,14 +291,7 @@ impl Volume {
             }};
         }
         match self.voxel_type {
-            VoxelType::U8 => {
-                let src = &bytes[start..start + out.len()];
-                if identity {
-                    out.iter_mut().zip(src).for_each(|(o, &b)| *o = f32::from(b));
-                } else {
-                    out.iter_mut().zip(src).for_each(|(o, &b)| *o = (f64::from(b) * slope + intercept) as f32);
-                }
-            }
+            VoxelType::U8 => convert_bytes(&bytes[start..start + out.len()], self.scale, out),
             VoxelType::I8 => convert!(i8, 1),
             VoxelType::U16 => convert!(u16, 2),
             VoxelType::I16 => convert!(i16, 2),
@@ -397,6 +392,18 @@ fn read_stored(bytes: &[u8], voxel_type: VoxelType, order: ByteOrder, index: usi
     }
 }
 
+/// `u8` voxels to physical values: the one conversion of bytes, shared by [`Volume::read_f32`]
+/// and [`ForegroundRows`] (which must agree with it to the last bit).
+#[inline]
+fn convert_bytes(bytes: &[u8], scale: ValueScale, out: &mut [f32]) {
+    let pairs = out.iter_mut().zip(bytes);
+    if scale.is_identity() {
+        pairs.for_each(|(o, &b)| *o = f32::from(b));
+    } else {
+        pairs.for_each(|(o, &b)| *o = (f64::from(b) * scale.slope + scale.intercept) as f32);
+    }
+}
+
 /// The number of voxels, refusing zero and overflowing dimensions.
 pub fn checked_voxel_count(dims: [usize; 3], voxel_type: VoxelType, path: &Path) -> Result<usize, VolumeError> {
     if dims.contains(&0) {
@@ -415,28 +422,6 @@ pub fn checked_voxel_count(dims: [usize; 3], voxel_type: VoxelType, path: &Path)
             problem: "the voxel count overflows",
             path: path.to_path_buf(),
         })
-}
-
-/// Whether any of `values` is at least `threshold` (NaN never is), in chunks the compiler
-/// vectorises: most rows of a scan are air, and this is how scans skip them.
-#[inline(always)]
-pub fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
-    values.chunks(64).any(|chunk| chunk.iter().fold(false, |found, &value| found | (value >= threshold)))
-}
-
-/// The span from the first to the last of `values` that is at least `threshold` (NaN never
-/// is), or `None` when there is none. Tested a chunk at a time like [`any_at_or_above`], so a
-/// mostly-air row costs a few vector compares, not a branch per voxel.
-#[inline]
-pub fn foreground_span(values: &[f32], threshold: f32) -> Option<std::ops::RangeInclusive<usize>> {
-    const CHUNK: usize = 16;
-    let has_foreground = |chunk: &[f32]| chunk.iter().fold(false, |found, &value| found | (value >= threshold));
-    let first_chunk = values.chunks(CHUNK).position(has_foreground)?;
-    let last_chunk = values.chunks(CHUNK).rposition(has_foreground).unwrap_or(first_chunk);
-    let in_chunk = |chunk: usize| &values[chunk * CHUNK..((chunk + 1) * CHUNK).min(values.len())];
-    let first = in_chunk(first_chunk).iter().position(|&value| value >= threshold).unwrap_or(0);
-    let last = in_chunk(last_chunk).iter().rposition(|&value| value >= threshold).unwrap_or(0);
-    Some(first_chunk * CHUNK + first..=last_chunk * CHUNK + last)
 }
 
 #[cfg(test)]
@@ -521,34 +506,5 @@ mod tests {
         assert!(matches!(err, Err(VolumeError::DataSize { expected: 16, found: 15, .. })));
         assert!(checked_voxel_count([0, 5, 5], VoxelType::U8, Path::new("t")).is_err());
         assert!(checked_voxel_count([usize::MAX / 2, 4, 1], VoxelType::U8, Path::new("t")).is_err());
-    }
-
-    #[test]
-    fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
-        let mut values = vec![0.0f32; 200];
-        assert!(!any_at_or_above(&values, 1.0));
-        values[137] = f32::NAN;
-        assert!(!any_at_or_above(&values, 1.0));
-        values[199] = 1.0;
-        assert!(any_at_or_above(&values, 1.0));
-    }
-
-    #[test]
-    fn foreground_span_is_the_first_to_the_last_foreground_value() {
-        for length in [0, 1, 15, 16, 17, 47, 200] {
-            for first in 0..length {
-                for last in (first..length).step_by(7).chain([length - 1]) {
-                    let mut values = vec![0.0f32; length];
-                    values[first] = 2.0;
-                    values[last] = 1.0;
-                    if first + 1 < last {
-                        values[first + 1] = f32::NAN;
-                    }
-                    assert_eq!(foreground_span(&values, 1.0), Some(first..=last), "{length} {first} {last}");
-                }
-            }
-            assert_eq!(foreground_span(&vec![f32::NAN; length], 1.0), None);
-            assert_eq!(foreground_span(&vec![0.5; length], 1.0), None);
-        }
     }
 }
