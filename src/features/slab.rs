@@ -109,23 +109,8 @@ impl<'v> FeatureSlabReader<'v> {
             let next = &self.planes[next];
             let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
             for (y, row_out) in slice_out.chunks_exact_mut(size_x * dim).enumerate() {
-                let [y_minus, y_plus] = self.y_neighbours[y];
-                fn row(values: &[f32], y: usize, size_x: usize) -> &[f32] {
-                    &values[y * size_x..(y + 1) * size_x]
-                }
-                let (current_minus, current_0, current_plus) =
-                    (row(current, y_minus, size_x), row(current, y, size_x), row(current, y_plus, size_x));
-                let (previous_minus, previous_0, previous_plus) =
-                    (row(previous, y_minus, size_x), row(previous, y, size_x), row(previous, y_plus, size_x));
-                let (next_minus, next_0, next_plus) =
-                    (row(next, y_minus, size_x), row(next, y, size_x), row(next, y_plus, size_x));
                 let y_gradient_scale = self.y_gradient_scale[y];
-                let rows = NineRows {
-                    previous: [previous_minus, previous_0, previous_plus],
-                    current: [current_minus, current_0, current_plus],
-                    next: [next_minus, next_0, next_plus],
-                }
-                .cut_to(size_x);
+                let rows = NineRows::around(y, [previous, current, next], size_x, self.y_neighbours[y]);
                 let mut emit = |x: usize, x_minus: usize, x_plus: usize, x_scale: f32| {
                     let neighbourhood =
                         rows.neighbourhood([x_minus, x, x_plus], [x_scale, y_gradient_scale, z_gradient_scale]);
@@ -168,47 +153,23 @@ impl<'v> FeatureSlabReader<'v> {
             return Ok(());
         }
         let [previous, current, next] = self.load_planes_around(z);
-        let (previous, current, next) = (&self.planes[previous], &self.planes[current], &self.planes[next]);
+        let planes = [&self.planes[previous][..], &self.planes[current][..], &self.planes[next][..]];
         let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
+        // Selections come a row at a time: the nine rows are cut once per row, not per voxel.
+        let mut row: Option<(usize, NineRows)> = None;
         for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(PAPER5_DIM)) {
             let (x, y) = (index % size_x, index / size_x);
-            let [x_minus, x_plus] = self.x_neighbours[x];
-            let [y_minus, y_plus] = self.y_neighbours[y];
-            let at = |plane: &[f32], x: usize, y: usize| plane[x + size_x * y];
-            let neighbourhood = Neighbourhood {
-                centre: at(current, x, y),
-                xy: [
-                    at(current, x_minus, y_minus),
-                    at(current, x, y_minus),
-                    at(current, x_plus, y_minus),
-                    at(current, x_minus, y),
-                    at(current, x_plus, y),
-                    at(current, x_minus, y_plus),
-                    at(current, x, y_plus),
-                    at(current, x_plus, y_plus),
-                ],
-                xz: [
-                    at(previous, x_minus, y),
-                    at(previous, x, y),
-                    at(previous, x_plus, y),
-                    at(current, x_minus, y),
-                    at(current, x_plus, y),
-                    at(next, x_minus, y),
-                    at(next, x, y),
-                    at(next, x_plus, y),
-                ],
-                yz: [
-                    at(previous, x, y_minus),
-                    at(previous, x, y),
-                    at(previous, x, y_plus),
-                    at(current, x, y_minus),
-                    at(current, x, y_plus),
-                    at(next, x, y_minus),
-                    at(next, x, y),
-                    at(next, x, y_plus),
-                ],
-                gradient_scale: [self.x_gradient_scale[x], self.y_gradient_scale[y], z_gradient_scale],
+            let rows = match row {
+                Some((row_y, rows)) if row_y == y => rows,
+                _ => {
+                    let rows = NineRows::around(y, planes, size_x, self.y_neighbours[y]);
+                    row = Some((y, rows));
+                    rows
+                }
             };
+            let [x_minus, x_plus] = self.x_neighbours[x];
+            let gradient_scale = [self.x_gradient_scale[x], self.y_gradient_scale[y], z_gradient_scale];
+            let neighbourhood = rows.neighbourhood([x_minus, x, x_plus], gradient_scale);
             voxel_out.copy_from_slice(&neighbourhood.paper5());
         }
         Ok(())
@@ -293,6 +254,14 @@ struct NineRows<'a> {
 }
 
 impl<'a> NineRows<'a> {
+    /// Rows `y_minus`, `y`, `y_plus` (`y`'s clamped neighbours) of the three planes, each
+    /// `size_x` long.
+    fn around(y: usize, planes: [&'a [f32]; 3], size_x: usize, [y_minus, y_plus]: [usize; 2]) -> NineRows<'a> {
+        let rows = |plane: &'a [f32]| [y_minus, y, y_plus].map(|y| &plane[y * size_x..(y + 1) * size_x]);
+        let [previous, current, next] = planes;
+        NineRows { previous: rows(previous), current: rows(current), next: rows(next) }.cut_to(size_x)
+    }
+
     /// Every row cut to exactly `length`, so that the optimiser can drop bounds checks.
     fn cut_to(self, length: usize) -> NineRows<'a> {
         let cut = |rows: [&'a [f32]; 3]| rows.map(|row| &row[..length]);

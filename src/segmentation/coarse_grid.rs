@@ -141,9 +141,12 @@ impl RowNeighbours {
                 for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
                     // Label 0 (background) sets no bit and leaves the range alone.
                     *classes |= 1u32.wrapping_shl(u32::from(label)) >> 1;
+                    // Background leaves the range alone (its value may be stale). Plain
+                    // comparisons, as in `FineSpread::write`: foreground values are never NaN.
                     let foreground = label != 0;
-                    *low = low.min(if foreground { value } else { f32::INFINITY });
-                    *high = high.max(if foreground { value } else { f32::NEG_INFINITY });
+                    let (lower, higher) = if foreground { (value, value) } else { (f32::INFINITY, f32::NEG_INFINITY) };
+                    *low = if lower < *low { lower } else { *low };
+                    *high = if higher > *high { higher } else { *high };
                 }
             }
         }
@@ -160,17 +163,27 @@ impl RowNeighbours {
         self.single_class.resize(fine_len, 0);
         self.fine_low.resize(fine_len, 0.0);
         self.fine_high.resize(fine_len, 0.0);
-        let last = columns.end.saturating_sub(1);
-        for c in columns {
-            let right = (c + 1).min(last);
-            let (even, odd) = (2 * c, 2 * c + 1);
-            self.single_class[even] = single_class(self.classes[c]);
-            self.fine_low[even] = self.low[c] - tolerance;
-            self.fine_high[even] = self.high[c] + tolerance;
-            self.single_class[odd] = single_class(self.classes[c] | self.classes[right]);
-            self.fine_low[odd] = self.low[c].min(self.low[right]) - tolerance;
-            self.fine_high[odd] = self.high[c].max(self.high[right]) + tolerance;
+        let Some(last) = columns.end.checked_sub(1) else {
+            return;
+        };
+        let RowNeighbours { classes, low, high, single_class: single, fine_low, fine_high } = self;
+        // Each column with its right neighbour, through windows and chunks (no index checks,
+        // so that the loop vectorises); then the last column with itself.
+        let pairs = columns.start..last + 1;
+        let fine = 2 * columns.start..2 * last;
+        let coarse = classes[pairs.clone()].windows(2).zip(low[pairs.clone()].windows(2)).zip(high[pairs].windows(2));
+        let fine_columns = single[fine.clone()]
+            .chunks_exact_mut(2)
+            .zip(fine_low[fine.clone()].chunks_exact_mut(2))
+            .zip(fine_high[fine].chunks_exact_mut(2));
+        for (((single, fine_low), fine_high), ((classes, low), high)) in fine_columns.zip(coarse) {
+            let coarse =
+                FineSpread { classes: [classes[0], classes[1]], low: [low[0], low[1]], high: [high[0], high[1]] };
+            coarse.write(single, fine_low, fine_high, tolerance);
         }
+        let fine = 2 * last..2 * last + 2;
+        let coarse = FineSpread { classes: [classes[last]; 2], low: [low[last]; 2], high: [high[last]; 2] };
+        coarse.write(&mut single[fine.clone()], &mut fine_low[fine.clone()], &mut fine_high[fine], tolerance);
     }
 
     /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
@@ -229,10 +242,39 @@ impl RowNeighbours {
     }
 }
 
+/// A coarse column and its right neighbour, as [`RowNeighbours::spread_to_fine_columns`]
+/// reads them.
+struct FineSpread {
+    classes: [u32; 2],
+    low: [f32; 2],
+    high: [f32; 2],
+}
+
+impl FineSpread {
+    /// The summaries of the fine column on the coarse column and of the one after it
+    /// (`single`, `fine_low`, `fine_high`: two entries each).
+    #[inline(always)]
+    fn write(&self, single: &mut [u8], fine_low: &mut [f32], fine_high: &mut [f32], tolerance: f32) {
+        let FineSpread { classes: [classes, right_classes], low: [low, right_low], high: [high, right_high] } = *self;
+        single[0] = single_class(classes);
+        fine_low[0] = low - tolerance;
+        fine_high[0] = high + tolerance;
+        single[1] = single_class(classes | right_classes);
+        // Plain comparisons, not `f32::min`: no value here is NaN (coarse foreground is at or
+        // above the threshold, the rest is ±infinity), and NaN rules cost blends.
+        fine_low[1] = if right_low < low { right_low } else { low } - tolerance;
+        fine_high[1] = if right_high > high { right_high } else { high } + tolerance;
+    }
+}
+
 /// The class whose bit is the only one set in `classes`, or 0 for none or several.
 #[inline(always)]
 fn single_class(classes: u32) -> u8 {
-    if classes.is_power_of_two() { classes.trailing_zeros() as u8 + 1 } else { 0 }
+    // The bit's position is the f32 exponent of the set (exact: a power of two below 2^31, as
+    // `MAX_CLASSES` keeps it), which vectorises where a bit scan does not.
+    let position = (((classes & 0x7fff_ffff) as i32 as f32).to_bits() >> 23).wrapping_sub(126);
+    let single = (classes != 0) & (classes & classes.wrapping_sub(1) == 0) & (classes >> 31 == 0);
+    if single { position as u8 } else { 0 }
 }
 
 /// A span of one fine row: its voxels' values and labels from column `first` on, and the
@@ -303,6 +345,17 @@ mod tests {
         let mut row = RowNeighbours::default();
         row.summarise(&grid, 0, 0, 0..=1, tolerance);
         row
+    }
+
+    #[test]
+    fn single_class_is_the_one_bit_set_or_zero() {
+        for bit in 0..32 {
+            let expected = if bit < 31 { bit as u8 + 1 } else { 0 };
+            assert_eq!(single_class(1 << bit), expected, "bit {bit}");
+            assert_eq!(single_class((1 << bit) | 1), u8::from(bit == 0), "bits {bit} and 0");
+        }
+        assert_eq!(single_class(0), 0);
+        assert_eq!(single_class(u32::MAX), 0);
     }
 
     #[test]
