@@ -58,18 +58,13 @@ impl<'v> FeatureSlabReader<'v> {
         }
     }
 
-    /// Promises that only voxels at or above `threshold` will be asked for, so that the
-    /// multi-scale set can skip the rest of each block (no effect on the paper's set).
-    pub fn with_foreground_threshold(mut self, threshold: f32) -> Self {
-        self.multiscale = self.multiscale.take().map(|reader| reader.with_foreground_threshold(threshold));
-        self
-    }
-
     /// Promises that only the voxels of `rows` will be asked for (their features, and the
     /// values of their rows from [`plane`](Self::plane)): the other rows of a plane, which
     /// most of a scan's are, are then neither decoded nor valid.
+    /// The multi-scale set also skips the rest of each block.
     pub fn with_foreground_rows(mut self, rows: &'v ForegroundRows) -> Self {
         self.foreground_rows = Some(rows);
+        self.multiscale = self.multiscale.take().map(|reader| reader.with_foreground_rows(rows));
         self
     }
 

@@ -139,10 +139,10 @@ impl RowNeighbours {
                 let row_values = &grid.values[start + columns.start..start + columns.end];
                 let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
                 for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
-                    // Label 0 (background) sets no bit and leaves the range alone.
+                    // Label 0 (background) sets no bit and leaves the range alone (its value
+                    // may be stale). Plain comparisons, as in `FineSpread::write`: foreground
+                    // values are never NaN.
                     *classes |= 1u32.wrapping_shl(u32::from(label)) >> 1;
-                    // Background leaves the range alone (its value may be stale). Plain
-                    // comparisons, as in `FineSpread::write`: foreground values are never NaN.
                     let foreground = label != 0;
                     let (lower, higher) = if foreground { (value, value) } else { (f32::INFINITY, f32::NEG_INFINITY) };
                     *low = if lower < *low { lower } else { *low };

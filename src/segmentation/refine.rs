@@ -291,9 +291,7 @@ impl<'a> Worker<'a> {
     fn new(job: &'a Job) -> Worker<'a> {
         let (volume, segmenter) = (job.volume, job.segmenter);
         Worker {
-            reader: FeatureSlabReader::new(volume, segmenter.feature_set)
-                .with_foreground_threshold(job.threshold)
-                .with_foreground_rows(&job.rows),
+            reader: FeatureSlabReader::new(volume, segmenter.feature_set).with_foreground_rows(&job.rows),
             segmenter,
             rows: &job.rows,
             size_x: volume.dims[0],

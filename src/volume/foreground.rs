@@ -21,7 +21,7 @@ pub fn any_at_or_above(values: &[f32], threshold: f32) -> bool {
 /// mostly-air row costs a few vector compares, not a branch per voxel.
 /// Generic so that stored bytes can be scanned as they are (see [`ForegroundRows::find`]).
 #[inline]
-pub fn foreground_span<T: PartialOrd + Copy>(values: &[T], threshold: T) -> Option<RangeInclusive<usize>> {
+fn foreground_span<T: PartialOrd + Copy>(values: &[T], threshold: T) -> Option<RangeInclusive<usize>> {
     // A cache line per test: 16 f32 values, 64 stored bytes.
     let chunk_len = 64 / std::mem::size_of::<T>().clamp(1, 64);
     let has_foreground = |chunk: &[T]| chunk.iter().fold(false, |found, &value| found | (value >= threshold));
@@ -97,6 +97,11 @@ impl ForegroundRows {
         (first <= last).then_some(first..=last)
     }
 
+    /// Rows per plane.
+    pub fn size_y(&self) -> usize {
+        self.size_y
+    }
+
     /// Whether row (`y`, `z`) or one of its eight neighbours in y and z holds foreground: the
     /// rows a foreground voxel's 3x3x3 neighbourhood reads.
     pub fn near_foreground(&self, y: usize, z: usize) -> bool {
@@ -140,6 +145,12 @@ mod tests {
     use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType, convert_bytes};
     use std::path::Path;
 
+    /// A little-endian volume of `voxel_type` over `bytes`, stored values mapped by `scale`.
+    fn scaled_volume(dims: [usize; 3], voxel_type: VoxelType, scale: ValueScale, bytes: Vec<u8>) -> Volume {
+        let bytes = VoxelBytes::Owned(bytes);
+        Volume::new(dims, [1.0; 3], voxel_type, ByteOrder::Little, scale, bytes, Path::new("t")).unwrap()
+    }
+
     #[test]
     fn any_at_or_above_finds_one_voxel_anywhere_and_ignores_nan() {
         let mut values = vec![0.0f32; 200];
@@ -180,16 +191,7 @@ mod tests {
         stored[index(0, 3, 2)] = 2; // 4 is below the threshold
         let bytes = stored.iter().flat_map(|v| v.to_le_bytes()).collect();
         let scale = ValueScale { slope: 2.0, intercept: 0.0 };
-        let volume = Volume::new(
-            dims,
-            [1.0; 3],
-            VoxelType::I16,
-            ByteOrder::Little,
-            scale,
-            VoxelBytes::Owned(bytes),
-            Path::new("t"),
-        )
-        .unwrap();
+        let volume = scaled_volume(dims, VoxelType::I16, scale, bytes);
         let rows = ForegroundRows::find(&volume, 6.0);
         for z in 0..3 {
             for y in 0..4 {
@@ -225,16 +227,7 @@ mod tests {
             ValueScale { slope: -2.0, intercept: 100.0 },
         ];
         for scale in scales {
-            let volume = Volume::new(
-                dims,
-                [1.0; 3],
-                VoxelType::U8,
-                ByteOrder::Little,
-                scale,
-                VoxelBytes::Owned(bytes.clone()),
-                Path::new("t"),
-            )
-            .unwrap();
+            let volume = scaled_volume(dims, VoxelType::U8, scale, bytes.clone());
             let mut row = vec![0f32; dims[0]];
             for threshold in [-1e9, -5.1, 0.0, 4.0, 4.07, 19.0, 33.3, 60.0, 85.0, 255.0, 1e9, f32::NAN] {
                 let rows = ForegroundRows::find(&volume, threshold);
@@ -249,16 +242,7 @@ mod tests {
         }
         // Exact thresholds of the byte path: physical values 0.37 * b - 5.1 as f32.
         let scale = ValueScale { slope: 0.37, intercept: -5.1 };
-        let volume = Volume::new(
-            dims,
-            [1.0; 3],
-            VoxelType::U8,
-            ByteOrder::Little,
-            scale,
-            VoxelBytes::Owned(bytes),
-            Path::new("t"),
-        )
-        .unwrap();
+        let volume = scaled_volume(dims, VoxelType::U8, scale, bytes);
         for byte in [0u8, 1, 17, 200, 255] {
             let mut physical = [0f32];
             convert_bytes(&[byte], scale, &mut physical);

@@ -26,7 +26,7 @@ pub mod raw;
 pub mod storage;
 
 pub use error::VolumeError;
-pub use foreground::{ForegroundRows, any_at_or_above, foreground_span};
+pub use foreground::{ForegroundRows, any_at_or_above};
 pub use open::{OpenOptions, open};
 pub use storage::VoxelBytes;
 

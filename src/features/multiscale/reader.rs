@@ -4,7 +4,7 @@
 
 use super::super::{FeatureError, check_voxels};
 use super::{MultiscaleBlock, Scales, block_depth};
-use crate::volume::{Volume, any_at_or_above};
+use crate::volume::{ForegroundRows, Volume};
 use rayon::prelude::*;
 use std::ops::Range;
 
@@ -65,17 +65,16 @@ pub fn multiscale_features_of_voxels(
 }
 
 /// Whole-volume reader: keeps one block of full z planes and moves it forward when asked for
-/// a plane outside it. With a foreground threshold, a block covers only the xy bounding box of
-/// its planes' voxels at or above it (plus the halo), since only those are ever classified;
-/// a voxel outside that box reloads the block with whole planes.
+/// a plane outside it. With foreground rows, a block covers only the xy bounding box of its
+/// planes' foreground (plus the halo), since only that is ever classified; a voxel outside
+/// that box reloads the block with whole planes.
 pub struct MultiscaleSlabReader<'v> {
     volume: &'v Volume,
     block: MultiscaleBlock,
     depth: usize,
-    foreground_threshold: Option<f32>,
+    foreground_rows: Option<&'v ForegroundRows>,
     /// The z planes loaded, and whether the block covers them whole.
     loaded: Option<(Range<usize>, bool)>,
-    plane: Vec<f32>,
     /// The voxels asked for, as positions.
     voxels: Vec<[usize; 3]>,
 }
@@ -86,16 +85,15 @@ impl<'v> MultiscaleSlabReader<'v> {
             volume,
             block: MultiscaleBlock::new(volume, scales),
             depth: block_depth(volume.dims),
-            foreground_threshold: None,
+            foreground_rows: None,
             loaded: None,
-            plane: Vec::new(),
             voxels: Vec::new(),
         }
     }
 
-    /// Only voxels at or above `threshold` will be asked for (see the type's doc).
-    pub fn with_foreground_threshold(mut self, threshold: f32) -> Self {
-        self.foreground_threshold = Some(threshold);
+    /// Only the voxels of `rows` will be asked for (see the type's doc).
+    pub fn with_foreground_rows(mut self, rows: &'v ForegroundRows) -> Self {
+        self.foreground_rows = Some(rows);
         self
     }
 
@@ -129,8 +127,8 @@ impl<'v> MultiscaleSlabReader<'v> {
                 self.loaded = Some((planes, true));
             }
             None => {
-                let [xs, ys] = match self.foreground_threshold {
-                    Some(threshold) => self.foreground_box(planes.clone(), threshold),
+                let [xs, ys] = match self.foreground_rows {
+                    Some(rows) => foreground_box(rows, planes.clone()),
                     None => [0..size_x, 0..size_y],
                 };
                 let whole = xs.len() == size_x && ys.len() == size_y;
@@ -145,33 +143,24 @@ impl<'v> MultiscaleSlabReader<'v> {
         self.block.features_of(&self.voxels, out);
     }
 
-    /// The x and y ranges of the voxels at or above `threshold` in z planes `planes` (a single
-    /// voxel when there are none).
-    fn foreground_box(&mut self, planes: Range<usize>, threshold: f32) -> [Range<usize>; 2] {
-        let [size_x, size_y, _] = self.volume.dims;
-        let (mut low, mut high) = ([usize::MAX; 2], [0usize; 2]);
-        self.plane.resize(size_x * size_y, 0.0);
-        for z in planes {
-            self.volume.read_z_slice_f32(z, &mut self.plane);
-            for (y, row) in self.plane.chunks_exact(size_x).enumerate() {
-                // Most rows are air: a vectorised test skips them.
-                if !any_at_or_above(row, threshold) {
-                    continue;
-                }
-                let Some(first) = row.iter().position(|&v| v >= threshold) else {
-                    continue;
-                };
-                let last = row.iter().rposition(|&v| v >= threshold).unwrap_or(first);
-                low = [low[0].min(first), low[1].min(y)];
-                high = [high[0].max(last), high[1].max(y)];
-            }
-        }
-        if low[0] == usize::MAX { [0..1, 0..1] } else { [low[0]..high[0] + 1, low[1]..high[1] + 1] }
-    }
-
     pub fn depth(&self) -> usize {
         self.depth
     }
+}
+
+/// The x and y ranges of the foreground `rows` in z planes `planes` (a single voxel when there
+/// is none).
+fn foreground_box(rows: &ForegroundRows, planes: Range<usize>) -> [Range<usize>; 2] {
+    let (mut low, mut high) = ([usize::MAX; 2], [0usize; 2]);
+    for z in planes {
+        for y in 0..rows.size_y() {
+            if let Some(span) = rows.span(y, z) {
+                low = [low[0].min(*span.start()), low[1].min(y)];
+                high = [high[0].max(*span.end()), high[1].max(y)];
+            }
+        }
+    }
+    if low[0] == usize::MAX { [0..1, 0..1] } else { [low[0]..high[0] + 1, low[1]..high[1] + 1] }
 }
 
 /// Plane indices (`x + size_x * y`) to positions without a division per voxel: selections
