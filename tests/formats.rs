@@ -214,3 +214,104 @@ fn nifti_scaling_is_applied_and_gzip_nifti_is_cached() {
     assert_eq!(cached.value_range().max, 30393.0 * 2.0 - 10.0);
     assert_eq!(cached.value(1234), volume.value(1234));
 }
+
+/// Opens `name` from the shared data with a private cache.
+fn open_cached(name: &str, cache: &std::path::Path) -> volasso::volume::Volume {
+    let options = OpenOptions { cache_dir: Some(cache.to_path_buf()), ..OpenOptions::default() };
+    open(&data(name), &options).unwrap_or_else(|e| panic!("{name}: {e}"))
+}
+
+fn assert_close(found: [f64; 3], expected: [f64; 3], what: &str) {
+    assert!(found.iter().zip(&expected).all(|(f, e)| (f - e).abs() < 1e-4), "{what}: {found:?} != {expected:?}");
+}
+
+/// Letters and directions read by hand from each header (nibabel, pydicom, pynrrd): the
+/// series and the NIfTI are patient scans; tooth.nrrd names LPS; frog.nrrd gives only a
+/// `space dimension` (no patient frame); raw files say nothing.
+#[test]
+fn shared_files_pin_their_patient_orientation_through_the_cache() {
+    const LPS: Option<[&str; 3]> = Some(["L", "P", "S"]);
+    let expected = [
+        ("anatomical.nii", Some(["L", "A", "S"])),
+        ("tooth.nrrd", LPS),
+        ("frog.nrrd", None),
+        ("dicom/philips_phantom_5mm", LPS),
+        ("dicom/ge_head_tilt", LPS),
+        ("dicom/ct_small.dcm", LPS),
+        ("engine_256x256x256_uint8.raw", None),
+        ("cranium_ct_256x256x108_int16.raw", None),
+    ];
+    let cache = tempfile::tempdir().unwrap();
+    for (name, letters) in expected {
+        // Twice: DICOM series are imported into the cache, then read back from it.
+        for pass in ["first open", "cache hit"] {
+            let volume = open_cached(name, cache.path());
+            assert_eq!(volume.orientation.map(|o| o.anatomical_letters()), letters, "{name}, {pass}");
+        }
+    }
+    // The tilted GE head keeps its oblique axes after resampling: y leans 18.5° from posterior
+    // toward inferior, z from superior toward posterior. Its grid starts at the smallest
+    // in-plane position of any slice (u -125, v -167.219) on the first slice (w -33.665).
+    for pass in ["first open", "cache hit"] {
+        let ge = open_cached("dicom/ge_head_tilt", cache.path()).orientation.unwrap();
+        assert_close(ge.axis_direction_lps(0), [1.0, 0.0, 0.0], pass);
+        assert_close(ge.axis_direction_lps(1), [0.0, 0.948324, -0.317305], pass);
+        assert_close(ge.axis_direction_lps(2), [0.0, 0.317305, 0.948324], pass);
+        assert_close(ge.origin_lps_mm.unwrap(), [-125.0, -169.260367, 21.133724], pass);
+    }
+    let philips = open_cached("dicom/philips_phantom_5mm", cache.path()).orientation.unwrap();
+    assert_close(philips.origin_lps_mm.unwrap(), [-115.5, -1.85, 696.21], "philips origin");
+    let single = open_cached("dicom/ct_small.dcm", cache.path()).orientation.unwrap();
+    assert_close(single.origin_lps_mm.unwrap(), [-158.135803, -179.035797, -75.699997], "ct_small origin");
+    // anatomical.nii: qform and sform diag(-2, 2, 2) + (32, -40, -16) in RAS.
+    let nifti = open_cached("anatomical.nii", cache.path()).orientation.unwrap();
+    assert_close(nifti.axis_direction_lps(1), [0.0, -1.0, 0.0], "anatomical y");
+    assert_close(nifti.origin_lps_mm.unwrap(), [-32.0, 40.0, -16.0], "anatomical origin");
+}
+
+/// Files written here with known flipped and permuted axes read back with those axes, and a
+/// compressed file keeps them through the import cache.
+#[test]
+fn written_files_with_known_directions_read_back_their_orientation() {
+    let folder = tempfile::tempdir().unwrap();
+    let options = OpenOptions { cache_dir: Some(folder.path().join("cache")), ..OpenOptions::default() };
+    let letters = |name: &str| {
+        let path = folder.path().join(name);
+        (0..2).map(|_| open(&path, &options).unwrap().orientation.map(|o| o.anatomical_letters())).collect::<Vec<_>>()
+    };
+    let voxels = [7u8; 24];
+    // NRRD in RAS, x along -y (toward posterior... in RAS -A is P), y along +x (right), z up.
+    let mut nrrd = b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 3 4\nspace: right-anterior-superior\nspace directions: (0,-1,0) (1.5,0,0) (0,0,2)\nspace origin: (10,20,30)\nencoding: raw\n\n".to_vec();
+    nrrd.extend_from_slice(&voxels);
+    std::fs::write(folder.path().join("ras.nrrd"), &nrrd).unwrap();
+    assert_eq!(letters("ras.nrrd"), vec![Some(["P", "R", "S"]); 2]);
+    // The same as gzip: imported into the cache, then a cache hit.
+    let mut gzip = b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 3 4\nspace: left-posterior-superior\nspace directions: (0,0,-2) (1.5,0,0) (0,-1,0)\nencoding: gzip\n\n".to_vec();
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut encoder, &voxels).unwrap();
+    gzip.extend(encoder.finish().unwrap());
+    std::fs::write(folder.path().join("lps.nrrd"), &gzip).unwrap();
+    assert_eq!(letters("lps.nrrd"), vec![Some(["I", "L", "A"]); 2]);
+    // MetaImage: TransformMatrix lists axis x's direction first (here toward superior).
+    let mut mha = b"ObjectType = Image\nNDims = 3\nDimSize = 2 3 4\nOffset = 1 2 3\nTransformMatrix = 0 0 1 -1 0 0 0 1 0\nAnatomicalOrientation = SRP\nElementSpacing = 1 1 1\nElementType = MET_UCHAR\nElementDataFile = LOCAL\n".to_vec();
+    mha.extend_from_slice(&voxels);
+    std::fs::write(folder.path().join("v.mha"), &mha).unwrap();
+    assert_eq!(letters("v.mha"), vec![Some(["S", "R", "P"]); 2]);
+    // NIfTI (big-endian anatomical.nii) with an sform that swaps x and y and flips z: it wins
+    // over the qform, and survives gzip and the cache.
+    let mut nifti = std::fs::read(data("anatomical.nii")).unwrap();
+    nifti[254..256].copy_from_slice(&1i16.to_be_bytes());
+    let srow = [[0.0f32, 2.0, 0.0, 5.0], [2.0, 0.0, 0.0, 6.0], [0.0, 0.0, -2.0, 7.0]];
+    for (row, values) in srow.iter().enumerate() {
+        for (column, value) in values.iter().enumerate() {
+            let offset = 280 + 16 * row + 4 * column;
+            nifti[offset..offset + 4].copy_from_slice(&value.to_be_bytes());
+        }
+    }
+    std::fs::write(folder.path().join("swapped.nii"), &nifti).unwrap();
+    assert_eq!(letters("swapped.nii"), vec![Some(["A", "R", "I"]); 2]);
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut encoder, &nifti).unwrap();
+    std::fs::write(folder.path().join("swapped.nii.gz"), encoder.finish().unwrap()).unwrap();
+    assert_eq!(letters("swapped.nii.gz"), vec![Some(["A", "R", "I"]); 2]);
+}

@@ -33,7 +33,9 @@ pub fn default_folder() -> PathBuf {
 /// settings that change the result).
 pub fn content_key(files: &[PathBuf], options: &str) -> Result<String, VolumeError> {
     let mut hasher = Sha256::new();
-    hasher.update(b"volasso-cache/1\0");
+    // Version 2: entries carry the patient orientation (`space` fields); version 1 entries,
+    // written without it, are not reused.
+    hasher.update(b"volasso-cache/2\0");
     hasher.update(options.as_bytes());
     let mut buffer = vec![0u8; 1 << 20];
     for path in files {

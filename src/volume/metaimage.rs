@@ -3,6 +3,8 @@
 //!
 //! The header is `Key = Value` lines ending with `ElementDataFile`. Raw data is
 //! memory-mapped; `CompressedData = True` (zlib) is decompressed for the caller to cache.
+//! `TransformMatrix` (or `AnatomicalOrientation`) and `Offset` become the volume's patient
+//! orientation ([`super::orientation`]).
 //!
 //! Never: reads multi-channel images (`ElementNumberOfChannels` > 1) or lists of slice files.
 
@@ -24,6 +26,8 @@ pub struct MetaImageHeader {
     pub header_size: Option<u64>,
     /// Where the header ends (local data starts here).
     pub header_length: usize,
+    /// From `TransformMatrix` or `AnatomicalOrientation`, and `Offset` ([`super::orientation`]).
+    pub orientation: Option<super::PatientOrientation>,
 }
 
 /// Parses the MetaImage header at the start of `bytes`.
@@ -156,7 +160,24 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
                 .map_err(|_| VolumeError::header("HeaderSize", format!("'{v}' is not -1 or a whole number"), path))?,
         ),
     };
-    Ok(MetaImageHeader { dims, spacing_mm, voxel_type, byte_order, compressed, data_file, header_size, header_length })
+    let orientation = super::orientation::from_metaimage(
+        get("TransformMatrix").or(get("Rotation")).or(get("Orientation")),
+        get("AnatomicalOrientation"),
+        get("Offset").or(get("Origin")).or(get("Position")),
+        rank,
+        path,
+    );
+    Ok(MetaImageHeader {
+        dims,
+        spacing_mm,
+        voxel_type,
+        byte_order,
+        compressed,
+        data_file,
+        header_size,
+        header_length,
+        orientation,
+    })
 }
 
 /// What reading a MetaImage produced; `decoded` marks compressed data the caller should cache.
@@ -190,7 +211,7 @@ pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
         if data.len() < length {
             return Err(VolumeError::DataSize { expected: length, found: data.len(), path: data_path });
         }
-        let volume = Volume::new(
+        let mut volume = Volume::new(
             header.dims,
             header.spacing_mm,
             header.voxel_type,
@@ -199,6 +220,7 @@ pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
             VoxelBytes::Owned(data),
             path,
         )?;
+        volume.orientation = header.orientation;
         return Ok(MetaImageRead { volume, decoded: true });
     }
     let offset = match header.header_size {
@@ -213,7 +235,7 @@ pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
         }
     };
     let bytes = VoxelBytes::map_region(&data_path, offset, length)?;
-    let volume = Volume::new(
+    let mut volume = Volume::new(
         header.dims,
         header.spacing_mm,
         header.voxel_type,
@@ -222,6 +244,7 @@ pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
         bytes,
         path,
     )?;
+    volume.orientation = header.orientation;
     Ok(MetaImageRead { volume, decoded: false })
 }
 

@@ -22,12 +22,14 @@ pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
 pub mod open;
+pub mod orientation;
 pub mod raw;
 pub mod storage;
 
 pub use error::VolumeError;
 pub use foreground::{ForegroundRows, any_at_or_above};
 pub use open::{OpenOptions, open};
+pub use orientation::{PatientDirection, PatientOrientation};
 pub use storage::VoxelBytes;
 
 use rayon::prelude::*;
@@ -139,6 +141,9 @@ pub struct Volume {
     pub scale: ValueScale,
     /// Where the data came from (the file the user named, not the cache file).
     pub source: PathBuf,
+    /// Where the voxel axes point in the patient, when the file says ([`orientation`]);
+    /// `None` for raw files and files without (or with unusable) orientation fields.
+    pub orientation: Option<PatientOrientation>,
     bytes: VoxelBytes,
     range: ValueRange,
     /// [`Volume::otsu_threshold`], once asked for.
@@ -184,6 +189,7 @@ impl Volume {
             byte_order,
             scale,
             source: source.to_path_buf(),
+            orientation: None,
             bytes,
             range: ValueRange { min: 0.0, max: 0.0, non_finite_voxels: 0 },
             otsu: std::sync::OnceLock::new(),

@@ -5,8 +5,10 @@
 //! [`ValueScale`] (slope 0 means "no scaling", as the standard says). Uncompressed data is
 //! memory-mapped at `vox_offset`; gzip files are decompressed for the caller to cache.
 //!
-//! Never: applies the qform/sform orientation (the grid is shown as stored), or reads a
-//! 4-D series beyond its first volume.
+//! The sform or qform becomes the volume's patient orientation ([`super::orientation`]); the
+//! grid itself stays as stored.
+//!
+//! Never: resamples the grid to the qform/sform, or reads a 4-D series beyond its first volume.
 
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
 use std::io::Read;
@@ -27,6 +29,8 @@ pub struct NiftiHeader {
     pub data_offset: u64,
     /// True for a `.hdr`/`.img` pair.
     pub separate_image_file: bool,
+    /// From the sform or qform (see [`super::orientation::from_nifti`]).
+    pub orientation: Option<super::PatientOrientation>,
 }
 
 /// Parses a NIfTI-1 header from the first 348 bytes of `bytes`.
@@ -117,6 +121,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
     } else {
         ValueScale::IDENTITY
     };
+    let orientation = super::orientation::from_nifti(&reader.transform(), path);
     Ok(NiftiHeader {
         dims,
         spacing_mm,
@@ -125,6 +130,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         scale,
         data_offset: vox_offset as u64,
         separate_image_file,
+        orientation,
     })
 }
 
@@ -149,6 +155,19 @@ impl FieldReader<'_> {
             ByteOrder::Big => f32::from_be_bytes(raw),
         }
     }
+
+    /// The qform and sform fields (offsets of the NIfTI-1 header, 252..328).
+    fn transform(&self) -> super::orientation::NiftiTransform {
+        let f64_at = |offset: usize| self.f32(offset) as f64;
+        super::orientation::NiftiTransform {
+            qform_code: self.i16(252),
+            sform_code: self.i16(254),
+            quaternion_bcd: [f64_at(256), f64_at(260), f64_at(264)],
+            qoffset_mm: [f64_at(268), f64_at(272), f64_at(276)],
+            qfac: f64_at(76),
+            srow: std::array::from_fn(|row| std::array::from_fn(|column| f64_at(280 + 16 * row + 4 * column))),
+        }
+    }
 }
 
 /// What reading a NIfTI file produced; `decoded` marks gzip data the caller should cache.
@@ -169,8 +188,9 @@ pub fn read(path: &Path) -> Result<NiftiRead, VolumeError> {
     let data_path = if header.separate_image_file { image_file_for(path) } else { path.to_path_buf() };
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
     let bytes = VoxelBytes::map_region(&data_path, header.data_offset, length)?;
-    let volume =
+    let mut volume =
         Volume::new(header.dims, header.spacing_mm, header.voxel_type, header.byte_order, header.scale, bytes, path)?;
+    volume.orientation = header.orientation;
     Ok(NiftiRead { volume, decoded: false })
 }
 
@@ -198,7 +218,7 @@ fn read_gzip(path: &Path) -> Result<NiftiRead, VolumeError> {
     if data.len() < length {
         return Err(VolumeError::DataSize { expected: length, found: data.len(), path: path.to_path_buf() });
     }
-    let volume = Volume::new(
+    let mut volume = Volume::new(
         header.dims,
         header.spacing_mm,
         header.voxel_type,
@@ -207,6 +227,7 @@ fn read_gzip(path: &Path) -> Result<NiftiRead, VolumeError> {
         VoxelBytes::Owned(data),
         path,
     )?;
+    volume.orientation = header.orientation;
     Ok(NiftiRead { volume, decoded: true })
 }
 

@@ -36,6 +36,8 @@ pub struct NrrdHeader {
     /// Offset of the first byte after the blank line that ends the header (attached data
     /// starts here); `None` when no blank line was found (fine for a detached header).
     pub header_length: Option<usize>,
+    /// From `space`, `space directions` and `space origin` (see [`super::orientation`]).
+    pub orientation: Option<super::PatientOrientation>,
 }
 
 /// Maps every NRRD type spelling to a voxel type; `None` for names this product does not
@@ -151,6 +153,8 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
     checked_voxel_count(dims, voxel_type, path)?;
 
     let spacing_mm = parse_spacing(get("space directions"), get("spacings"), &spatial_axes, dimension, path)?;
+    let orientation =
+        super::orientation::from_nrrd(get("space"), get("space directions"), get("space origin"), &spatial_axes, path);
 
     let encoding =
         match get("encoding").ok_or(VolumeError::MissingField { field: "encoding", path: path.to_path_buf() })? {
@@ -214,6 +218,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
         byte_skip,
         line_skip,
         header_length,
+        orientation,
     })
 }
 
@@ -287,7 +292,7 @@ fn parse_spacing(
 }
 
 /// Splits `(1,0,0) (0,1,0) none` into its entries, allowing spaces inside the parentheses.
-fn split_direction_vectors(value: &str) -> Vec<&str> {
+pub(crate) fn split_direction_vectors(value: &str) -> Vec<&str> {
     let mut entries = Vec::new();
     let mut rest = value.trim_start();
     while !rest.is_empty() {
@@ -378,8 +383,9 @@ pub fn read(path: &Path) -> Result<NrrdRead, VolumeError> {
         }
     };
     let order = if header.encoding == NrrdEncoding::Ascii { ByteOrder::Little } else { header.byte_order };
-    let volume =
+    let mut volume =
         Volume::new(header.dims, header.spacing_mm, header.voxel_type, order, ValueScale::IDENTITY, bytes, path)?;
+    volume.orientation = header.orientation;
     Ok(NrrdRead { volume, decoded })
 }
 
@@ -437,7 +443,7 @@ fn parse_ascii(text: &[u8], voxel_type: VoxelType, voxel_count: usize, path: &Pa
 }
 
 mod write;
-pub use write::{header_text, push_value, write, write_volume};
+pub use write::{header_text, push_value, write, write_on_grid, write_volume};
 
 #[cfg(test)]
 mod tests;

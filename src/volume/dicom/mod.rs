@@ -22,7 +22,8 @@
 //! uneven gaps) is resampled onto a regular grid with a warning (`resample.rs`), or refused
 //! with [`Resample::Refuse`]. Volume axes: x along the image rows (ImageOrientationPatient's
 //! row cosines), y down the columns, z along their cross product. A resampled grid starts at
-//! the first slice and the smallest in-plane position of any slice's first pixel.
+//! the first slice and the smallest in-plane position of any slice's first pixel. The volume's
+//! patient orientation records these axes and that origin in LPS ([`super::orientation`]).
 //!
 //! Never: decompresses JPEG/RLE pixel data (refused with the transfer syntax named), reads
 //! colour or multi-frame images, or writes files (the import cache is the caller's).
@@ -39,7 +40,7 @@ mod synthetic;
 #[cfg(test)]
 mod tests;
 
-use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType};
+use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, orientation};
 use geometry::StackGeometry;
 use header::{FileKind, SliceHeader};
 use pixels::DecodedSlice;
@@ -114,9 +115,12 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
     let slices: Vec<DecodedSlice> = headers.par_iter().map(pixels::read_slice).collect::<Result<_, _>>()?;
     let files: Vec<PathBuf> = headers.iter().map(|h| h.path.clone()).collect();
     let volume = if regularity.is_regular() {
-        stack_slices(&slices, &geometry, &headers, path)?
+        let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
+        volume.orientation = series_orientation(&headers[0], None, path);
+        volume
     } else {
-        let (volume, grid) = resample_slices(&slices, &geometry, options, path)?;
+        let (mut volume, grid) = resample_slices(&slices, &geometry, options, path)?;
+        volume.orientation = series_orientation(&headers[0], Some(grid.origin_mm), path);
         warnings.push(format!(
             "{}: resampled onto {:.3} x {:.3} x {:.3} mm ({} x {} x {} voxels) along the image rows, columns and slice normal",
             regularity.describe(),
@@ -147,6 +151,26 @@ pub fn looks_like_dicom(path: &Path) -> bool {
     } else {
         series::is_dicomdir_name(path) || series::has_dicm_preamble(path)
     }
+}
+
+/// The series' patient orientation: x along the rows, y down the columns, z along the normal
+/// (see the module doc). Voxel (0, 0, 0) is the first slice's first pixel, or for a resampled
+/// grid the point `grid_origin` = (u, v, w) on those three directions.
+fn series_orientation(
+    first: &SliceHeader,
+    grid_origin: Option<[f64; 3]>,
+    path: &Path,
+) -> Option<orientation::PatientOrientation> {
+    let cosines = first.orientation?;
+    let Some(uvw) = grid_origin else {
+        return orientation::from_dicom(cosines, first.position_mm, path);
+    };
+    let frame = orientation::from_dicom(cosines, None, path)?;
+    let origin = (0..3).fold([0.0; 3], |sum: [f64; 3], axis| {
+        let direction = frame.axis_direction_lps(axis);
+        std::array::from_fn(|c| sum[c] + uvw[axis] * direction[c])
+    });
+    orientation::from_dicom(cosines, Some(origin), path)
 }
 
 /// A regular stack: the slices as they are, spaced by their mean gap.

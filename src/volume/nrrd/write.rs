@@ -1,8 +1,12 @@
 //! The NRRD writer: attached headers with raw little- or big-endian data, written atomically.
+//! A volume with a patient orientation is written in `space: left-posterior-superior` with its
+//! `space directions` and `space origin` ([`orientation::nrrd_space_fields`]), so the import
+//! cache and `volasso import` keep it; without one, `space dimension: 3` and axis-aligned
+//! directions, which say nothing about the patient.
 
 use super::type_name;
 use crate::atomic_file::write_atomically;
-use crate::volume::{ByteOrder, Volume, VolumeError, VoxelType, checked_voxel_count};
+use crate::volume::{ByteOrder, PatientOrientation, Volume, VolumeError, VoxelType, checked_voxel_count, orientation};
 use std::io::Write;
 use std::path::Path;
 
@@ -20,10 +24,12 @@ pub fn push_value(bytes: &mut Vec<u8>, voxel_type: VoxelType, value: f64) {
     }
 }
 
-/// The header of a raw-encoded attached NRRD for `dims`, `spacing_mm` and `voxel_type`.
+/// The header of a raw-encoded attached NRRD for `dims`, `spacing_mm`, `orientation` and
+/// `voxel_type`.
 pub fn header_text(
     dims: [usize; 3],
     spacing_mm: [f64; 3],
+    orientation: Option<&PatientOrientation>,
     voxel_type: VoxelType,
     byte_order: ByteOrder,
     comment: &str,
@@ -36,22 +42,26 @@ pub fn header_text(
     for line in comment.lines() {
         text.push_str(&format!("# {line}\n"));
     }
+    let space = match orientation {
+        Some(orientation) => orientation::nrrd_space_fields(orientation, spacing_mm),
+        None => format!(
+            "space dimension: 3\nspace directions: ({},0,0) (0,{},0) (0,0,{})\n",
+            spacing_mm[0], spacing_mm[1], spacing_mm[2]
+        ),
+    };
     text.push_str(&format!(
-        "type: {}\ndimension: 3\nsizes: {} {} {}\nspace dimension: 3\nspace directions: ({},0,0) (0,{},0) (0,0,{})\nkinds: domain domain domain\nendian: {endian}\nencoding: raw\n\n",
+        "type: {}\ndimension: 3\nsizes: {} {} {}\n{space}kinds: domain domain domain\nendian: {endian}\nencoding: raw\n\n",
         type_name(voxel_type),
         dims[0],
         dims[1],
         dims[2],
-        spacing_mm[0],
-        spacing_mm[1],
-        spacing_mm[2],
     ));
     text
 }
 
 /// Writes raw voxel `bytes` as an attached NRRD at `path`, atomically: a temporary file beside
 /// it is written, flushed and renamed over `path`, so a crash leaves either the old file or the
-/// whole new one.
+/// whole new one. The file says nothing about the patient; [`write_on_grid`] does.
 pub fn write(
     path: &Path,
     dims: [usize; 3],
@@ -61,6 +71,37 @@ pub fn write(
     bytes: &[u8],
     comment: &str,
 ) -> Result<(), VolumeError> {
+    write_with_header(
+        path,
+        dims,
+        voxel_type,
+        bytes,
+        &header_text(dims, spacing_mm, None, voxel_type, byte_order, comment),
+    )
+}
+
+/// Writes `bytes` (voxels of `voxel_type` on the grid of `grid`: its dims, spacing and patient
+/// orientation) as an attached NRRD at `path`, atomically. Label and colour volumes written
+/// this way lie on their scan in other viewers.
+pub fn write_on_grid(
+    path: &Path,
+    grid: &Volume,
+    voxel_type: VoxelType,
+    byte_order: ByteOrder,
+    bytes: &[u8],
+    comment: &str,
+) -> Result<(), VolumeError> {
+    let header = header_text(grid.dims, grid.spacing_mm, grid.orientation.as_ref(), voxel_type, byte_order, comment);
+    write_with_header(path, grid.dims, voxel_type, bytes, &header)
+}
+
+fn write_with_header(
+    path: &Path,
+    dims: [usize; 3],
+    voxel_type: VoxelType,
+    bytes: &[u8],
+    header: &str,
+) -> Result<(), VolumeError> {
     let voxel_count = checked_voxel_count(dims, voxel_type, path)?;
     if bytes.len() != voxel_count * voxel_type.size_bytes() {
         return Err(VolumeError::DataSize {
@@ -69,7 +110,6 @@ pub fn write(
             path: path.to_path_buf(),
         });
     }
-    let header = header_text(dims, spacing_mm, voxel_type, byte_order, comment);
     write_atomically(path, |file| {
         file.write_all(header.as_bytes())?;
         file.write_all(bytes)
@@ -80,11 +120,11 @@ pub fn write(
 /// Writes a whole volume (its physical values for scaled volumes, as `float32`) to `path`.
 pub fn write_volume(path: &Path, volume: &Volume, comment: &str) -> Result<(), VolumeError> {
     if volume.scale.is_identity() {
-        write(path, volume.dims, volume.spacing_mm, volume.voxel_type, volume.byte_order, volume.raw_bytes(), comment)
+        write_on_grid(path, volume, volume.voxel_type, volume.byte_order, volume.raw_bytes(), comment)
     } else {
         let mut values = vec![0f32; volume.voxel_count()];
         volume.read_f32(0, &mut values);
         let bytes: Vec<u8> = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        write(path, volume.dims, volume.spacing_mm, VoxelType::F32, ByteOrder::Little, &bytes, comment)
+        write_on_grid(path, volume, VoxelType::F32, ByteOrder::Little, &bytes, comment)
     }
 }
