@@ -59,3 +59,35 @@ fn render_classifies_and_writes_a_png_of_the_requested_size() {
     let lit = image.pixels().filter(|p| p.0[0] as u32 + p.0[1] as u32 + p.0[2] as u32 > 120).count();
     assert!(lit > 160 * 120 / 20 && lit < 160 * 120 * 3 / 4, "{lit} lit pixels");
 }
+
+#[test]
+fn info_json_gives_anatomical_axes_or_null_and_import_keeps_them() {
+    let folder = tempfile::tempdir().unwrap();
+    let info = |path: &str| -> serde_json::Value {
+        let output = volasso(&["info", path, "--json"], folder.path());
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        serde_json::from_slice(&output.stdout).unwrap()
+    };
+    let nifti = data("anatomical.nii");
+    assert_eq!(info(nifti.to_str().unwrap())["anatomical_axes"], serde_json::json!(["L", "A", "S"]));
+    assert_eq!(
+        info(data("dicom/ge_head_tilt").to_str().unwrap())["anatomical_axes"],
+        serde_json::json!(["L", "P", "S"])
+    );
+    assert_eq!(
+        info(data("lobster_301x324x56_uint8.raw").to_str().unwrap())["anatomical_axes"],
+        serde_json::Value::Null
+    );
+    // `import` writes the orientation as an LPS space; the NRRD reads back with the same axes.
+    let out = folder.path().join("anatomical.nrrd");
+    let output = volasso(&["import", nifti.to_str().unwrap(), "--out", out.to_str().unwrap()], folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let header = String::from_utf8_lossy(&std::fs::read(&out).unwrap()[..400]).into_owned();
+    assert!(
+        header.contains(
+            "space: left-posterior-superior\nspace directions: (2,0,0) (0,-2,0) (0,0,2)\nspace origin: (-32,40,-16)\n"
+        ),
+        "{header}"
+    );
+    assert_eq!(info(out.to_str().unwrap())["anatomical_axes"], serde_json::json!(["L", "A", "S"]));
+}

@@ -315,3 +315,59 @@ fn written_files_with_known_directions_read_back_their_orientation() {
     std::fs::write(folder.path().join("swapped.nii.gz"), encoder.finish().unwrap()).unwrap();
     assert_eq!(letters("swapped.nii.gz"), vec![Some(["A", "R", "I"]); 2]);
 }
+
+/// The scans `info` and the work screen open: every shared volume and DICOM series.
+const SHARED_SCANS: [&str; 10] = [
+    "engine_256x256x256_uint8.raw",
+    "lobster_301x324x56_uint8.raw",
+    "vismale_128x256x256_uint8.raw",
+    "cranium_ct_256x256x108_int16.raw",
+    "tooth.nrrd",
+    "frog.nrrd",
+    "anatomical.nii",
+    "dicom/ge_head_tilt",
+    "dicom/philips_phantom_5mm",
+    "dicom/ct_small.dcm",
+];
+
+/// Voxels at or above `threshold` in every slice of every axis, counted plane by plane.
+fn foreground_counts(volume: &volasso::volume::Volume, threshold: f64) -> [Vec<u64>; 3] {
+    let [nx, ny, nz] = volume.dims;
+    let mut counts = [vec![0u64; nx], vec![0u64; ny], vec![0u64; nz]];
+    let mut plane = vec![0f32; nx * ny];
+    for z in 0..nz {
+        volume.read_z_slice_f32(z, &mut plane);
+        for (index, &value) in plane.iter().enumerate() {
+            if value as f64 >= threshold {
+                counts[0][index % nx] += 1;
+                counts[1][index / nx] += 1;
+                counts[2][z] += 1;
+            }
+        }
+    }
+    counts
+}
+
+#[test]
+fn top_slices_lie_in_the_central_80_percent_of_the_foreground_for_every_shared_scan() {
+    use volasso::slices::{Axis, central_band, foreground_extent, foreground_slice_entropies, slice_entropies};
+    let cache = tempfile::tempdir().unwrap();
+    let options = OpenOptions { cache_dir: Some(cache.path().to_path_buf()), ..OpenOptions::default() };
+    for name in SHARED_SCANS {
+        let volume = open(&data(name), &options).unwrap_or_else(|e| panic!("{name}: {e}"));
+        let started = std::time::Instant::now();
+        let ranked = foreground_slice_entropies(&volume);
+        let seconds = started.elapsed().as_secs_f64();
+        let plain = slice_entropies(&volume).top_slices();
+        let counts = foreground_counts(&volume, volume.otsu_threshold());
+        let mut report = Vec::new();
+        for axis in Axis::ALL {
+            let extent = foreground_extent(&counts[axis.position()]).expect("every scan has foreground");
+            let band = central_band(extent.clone());
+            let top = ranked.axis(axis).top();
+            assert!(band.contains(&top), "{name} {axis}: top slice {top} outside {band:?} (extent {extent:?})");
+            report.push(format!("{axis} {top} in {band:?} of {extent:?} (plain {})", plain[axis.position()]));
+        }
+        println!("{name}: {} ({seconds:.3} s)", report.join(", "));
+    }
+}

@@ -4,7 +4,7 @@
 //!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
-use crate::slices::{Axis, DisplayWindow, SliceEntropies, slice_entropies, slice_image};
+use crate::slices::{Axis, DisplayWindow, SliceEntropies, foreground_slice_entropies, slice_image};
 use crate::transfer::RgbImage;
 use crate::volume::{OpenOptions, Volume, open::detect_format};
 use std::path::{Path, PathBuf};
@@ -122,7 +122,7 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
     if volume.voxel_count() == 0 {
         return Err(format!("{} has no voxels", source.name()));
     }
-    let entropies = slice_entropies(&volume);
+    let entropies = foreground_slice_entropies(&volume);
     // Here, off the interactive path: every training on the volume needs it.
     volume.otsu_threshold();
     let window = DisplayWindow::automatic(&volume);

@@ -17,8 +17,12 @@ pub struct VolumeInfo {
     pub value_max: f64,
     pub non_finite_voxels: u64,
     pub memory_mapped: bool,
-    /// The highest-entropy slice along x, y and z (paper §3.1, eq. 1).
+    /// The slice the work screen opens on, along x, y and z: the highest foreground entropy
+    /// (paper §3.1, eq. 1) inside the body ([`crate::slices::foreground_slice_entropies`]).
     pub top_slices: [usize; 3],
+    /// The patient direction each voxel axis x, y, z increases toward, in DICOM's letters
+    /// (nearest for oblique axes), or `null` when the file does not say (`interfaces.md`).
+    pub anatomical_axes: Option<[&'static str; 3]>,
     pub resident_memory: Option<memory::ResidentMemory>,
 }
 
@@ -34,7 +38,8 @@ impl VolumeInfo {
             value_max: range.max,
             non_finite_voxels: range.non_finite_voxels,
             memory_mapped: volume.is_memory_mapped(),
-            top_slices: crate::slices::slice_entropies(volume).top_slices(),
+            top_slices: crate::slices::foreground_slice_entropies(volume).top_slices(),
+            anatomical_axes: volume.orientation.map(|orientation| orientation.anatomical_letters()),
             resident_memory: memory::resident_memory(),
         }
     }
@@ -64,8 +69,12 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
     if info.non_finite_voxels > 0 {
         println!("non-finite:  {} voxels (NaN or infinite)", info.non_finite_voxels);
     }
+    match info.anatomical_axes {
+        Some([x, y, z]) => println!("orientation: x toward {x}, y toward {y}, z toward {z} (patient, DICOM letters)"),
+        None => println!("orientation: unknown (the file does not say)"),
+    }
     println!(
-        "top slices:  x {}, y {}, z {} (highest entropy)",
+        "top slices:  x {}, y {}, z {} (highest entropy inside the body)",
         info.top_slices[0], info.top_slices[1], info.top_slices[2]
     );
     println!("storage:     {}", if info.memory_mapped { "memory-mapped" } else { "in memory" });

@@ -8,11 +8,13 @@
 //!
 //! One parallel pass over z-slabs fills the histograms of all three axes at once: each worker
 //! keeps per-x and per-y histograms for the slices it has seen (merged at the end) and finishes
-//! each z slice's histogram on the spot.
+//! each z slice's histogram on the spot. The same pass, counting only voxels at or above a
+//! threshold, serves the foreground ranking (`foreground.rs`).
 
 use super::Axis;
 use crate::volume::{Volume, VoxelType};
 use rayon::prelude::*;
+use std::ops::RangeInclusive;
 
 /// Number of histogram bins per slice.
 pub const ENTROPY_BINS: usize = 256;
@@ -70,16 +72,39 @@ pub struct RankedSlices {
     pub axis: Axis,
     /// Entropy of slice `k` in nats, indexed by slice.
     pub entropies_nats: Vec<f64>,
-    /// Slice indices by descending entropy; ties keep the lower index first.
+    /// Every slice index once: first the `preferred_count` preferred slices by descending
+    /// entropy, then the others by descending entropy; ties keep the lower index first.
     pub order: Vec<usize>,
+    /// How many slices lead `order` as preferred: every slice for the plain ranking, those in
+    /// the central 80 % of the foreground's extent for the foreground ranking.
+    pub preferred_count: usize,
 }
 
 impl RankedSlices {
-    /// Ranks `entropies_nats` (one per slice, by index).
+    /// Ranks `entropies_nats` (one per slice, by index), every slice alike.
     pub fn new(axis: Axis, entropies_nats: Vec<f64>) -> RankedSlices {
+        let every = 0..=entropies_nats.len().saturating_sub(1);
+        RankedSlices::preferring(axis, entropies_nats, every)
+    }
+
+    /// Ranks `entropies_nats` with the slices in `preferred` ahead of all others.
+    pub fn preferring(axis: Axis, entropies_nats: Vec<f64>, preferred: RangeInclusive<usize>) -> RankedSlices {
         let mut order: Vec<usize> = (0..entropies_nats.len()).collect();
-        order.sort_by(|&a, &b| entropies_nats[b].total_cmp(&entropies_nats[a]).then(a.cmp(&b)));
-        RankedSlices { axis, entropies_nats, order }
+        order.sort_by(|&a, &b| {
+            preferred
+                .contains(&b)
+                .cmp(&preferred.contains(&a))
+                .then(entropies_nats[b].total_cmp(&entropies_nats[a]))
+                .then(a.cmp(&b))
+        });
+        let preferred_count = order.iter().filter(|slice| preferred.contains(slice)).count();
+        RankedSlices { axis, entropies_nats, order, preferred_count }
+    }
+
+    /// The preferred slices (a run of consecutive indices); `None` when there are none.
+    pub fn preferred_slices(&self) -> Option<RangeInclusive<usize>> {
+        let preferred = &self.order[..self.preferred_count.min(self.order.len())];
+        Some(*preferred.iter().min()?..=*preferred.iter().max()?)
     }
 
     /// The most informative slice (every volume has at least one slice per axis).
@@ -117,69 +142,92 @@ impl SliceEntropies {
     }
 }
 
+/// The histogram slot of voxels that are not counted (non-finite, or below the foreground
+/// threshold): one past the last bin, so the counting loop needs no branch.
+const NOT_COUNTED: usize = ENTROPY_BINS;
+/// Histogram slots per slice: the bins and [`NOT_COUNTED`].
+const SLOTS: usize = ENTROPY_BINS + 1;
+
 /// One worker's share of the pass: histograms of every x and y slice over the z slices it
-/// has seen, and the finished entropies of those z slices.
+/// has seen, and the finished entropies and counts of those z slices.
 struct Partial {
     x_counts: Vec<u32>,
     y_counts: Vec<u32>,
-    z_entropies: Vec<(usize, f64)>,
+    z_slices: Vec<(usize, f64, u64)>,
     values: Vec<f32>,
-    bins: Vec<u8>,
+    slots: Vec<u16>,
 }
 
-/// Ranks the slices of all three axes of `volume` by entropy (eq. 1), in one parallel pass.
+/// What one pass found along one axis: per slice, the entropy of its counted voxels and how
+/// many voxels were counted.
+pub(super) struct AxisPass {
+    pub entropies_nats: Vec<f64>,
+    pub counted_voxels: Vec<u64>,
+}
+
+/// Ranks the slices of all three axes of `volume` by entropy (eq. 1) over all finite voxels,
+/// in one parallel pass. The work screen opens on [`super::foreground_slice_entropies`]
+/// instead, which ranks inside the body first.
 pub fn slice_entropies(volume: &Volume) -> SliceEntropies {
+    let binning = EntropyBinning::for_volume(volume);
+    let [x, y, z] = slice_histograms(volume, binning, None);
+    SliceEntropies {
+        x: RankedSlices::new(Axis::X, x.entropies_nats),
+        y: RankedSlices::new(Axis::Y, y.entropies_nats),
+        z: RankedSlices::new(Axis::Z, z.entropies_nats),
+        binning,
+    }
+}
+
+/// The entropy and counted voxels of every slice of every axis, counting finite voxels (at or
+/// above `threshold` when one is given) into `binning`'s bins, in one parallel pass over z.
+pub(super) fn slice_histograms(volume: &Volume, binning: EntropyBinning, threshold: Option<f64>) -> [AxisPass; 3] {
     let [size_x, size_y, size_z] = volume.dims;
     let plane = size_x * size_y;
-    let binning = EntropyBinning::for_volume(volume);
+    let threshold = threshold.unwrap_or(f64::NEG_INFINITY);
+    let slot = |value: f64| if value >= threshold { binning.bin(value).unwrap_or(NOT_COUNTED) } else { NOT_COUNTED };
     // 8-bit data without scaling bins through a table straight from the stored bytes.
-    let byte_table: Option<[u8; 256]> = (volume.voxel_type == VoxelType::U8 && volume.scale.is_identity())
-        .then(|| std::array::from_fn(|value| binning.bin(value as f64).unwrap_or(0) as u8));
+    let byte_table: Option<[u16; 256]> = (volume.voxel_type == VoxelType::U8 && volume.scale.is_identity())
+        .then(|| std::array::from_fn(|value| slot(value as f64) as u16));
     let new_partial = || Partial {
-        x_counts: vec![0; size_x * ENTROPY_BINS],
-        y_counts: vec![0; size_y * ENTROPY_BINS],
-        z_entropies: Vec::new(),
+        x_counts: vec![0; size_x * SLOTS],
+        y_counts: vec![0; size_y * SLOTS],
+        z_slices: Vec::new(),
         values: Vec::new(),
-        bins: vec![0; plane],
+        slots: vec![0; plane],
     };
     let merged = (0..size_z)
         .into_par_iter()
         .with_min_len(4)
         .fold(new_partial, |mut partial, z| {
-            // Non-finite voxels (float data only) are skipped in the counting loop; the check
-            // costs one scan of the slice and is skipped entirely for integer data.
-            let mut finite = true;
             match &byte_table {
                 Some(table) => {
                     let bytes = &volume.raw_bytes()[z * plane..(z + 1) * plane];
-                    for (bin, &byte) in partial.bins.iter_mut().zip(bytes) {
-                        *bin = table[byte as usize];
+                    for (slot, &byte) in partial.slots.iter_mut().zip(bytes) {
+                        *slot = table[byte as usize];
                     }
                 }
                 None => {
                     partial.values.resize(plane, 0.0);
                     volume.read_z_slice_f32(z, &mut partial.values);
-                    finite = partial.values.iter().all(|v| v.is_finite());
-                    for (bin, &value) in partial.bins.iter_mut().zip(&partial.values) {
-                        *bin = binning.bin(value as f64).unwrap_or(0) as u8;
+                    for (out, &value) in partial.slots.iter_mut().zip(&partial.values) {
+                        *out = slot(value as f64) as u16;
                     }
                 }
             }
-            let mut z_counts = [0u32; ENTROPY_BINS];
+            let mut z_counts = [0u32; SLOTS];
             for y in 0..size_y {
                 let row = y * size_x..(y + 1) * size_x;
-                let y_counts = &mut partial.y_counts[y * ENTROPY_BINS..(y + 1) * ENTROPY_BINS];
-                for (x, &bin) in partial.bins[row.clone()].iter().enumerate() {
-                    if !finite && !partial.values[row.start + x].is_finite() {
-                        continue;
-                    }
-                    let bin = bin as usize;
-                    partial.x_counts[x * ENTROPY_BINS + bin] += 1;
-                    y_counts[bin] += 1;
-                    z_counts[bin] += 1;
+                let y_counts = &mut partial.y_counts[y * SLOTS..(y + 1) * SLOTS];
+                for (x, &slot) in partial.slots[row].iter().enumerate() {
+                    let slot = slot as usize;
+                    partial.x_counts[x * SLOTS + slot] += 1;
+                    y_counts[slot] += 1;
+                    z_counts[slot] += 1;
                 }
             }
-            partial.z_entropies.push((z, entropy_nats(&z_counts)));
+            let bins = &z_counts[..ENTROPY_BINS];
+            partial.z_slices.push((z, entropy_nats(bins), bins.iter().map(|&c| c as u64).sum()));
             partial
         })
         .reduce_with(|mut a, b| {
@@ -189,28 +237,28 @@ pub fn slice_entropies(volume: &Volume) -> SliceEntropies {
             for (sum, add) in a.y_counts.iter_mut().zip(&b.y_counts) {
                 *sum += add;
             }
-            a.z_entropies.extend(b.z_entropies);
+            a.z_slices.extend(b.z_slices);
             a
         });
-    let mut z_entropies = vec![0.0; size_z];
-    let (x_entropies, y_entropies) = match merged {
-        Some(partial) => {
-            for (z, entropy) in partial.z_entropies {
-                z_entropies[z] = entropy;
-            }
-            (
-                partial.x_counts.chunks_exact(ENTROPY_BINS).map(entropy_nats).collect(),
-                partial.y_counts.chunks_exact(ENTROPY_BINS).map(entropy_nats).collect(),
-            )
-        }
-        None => (vec![0.0; size_x], vec![0.0; size_y]),
+    let summarise = |counts: &[u32]| AxisPass {
+        entropies_nats: counts.chunks_exact(SLOTS).map(|slice| entropy_nats(&slice[..ENTROPY_BINS])).collect(),
+        counted_voxels: counts
+            .chunks_exact(SLOTS)
+            .map(|slice| slice[..ENTROPY_BINS].iter().map(|&c| c as u64).sum())
+            .collect(),
     };
-    SliceEntropies {
-        x: RankedSlices::new(Axis::X, x_entropies),
-        y: RankedSlices::new(Axis::Y, y_entropies),
-        z: RankedSlices::new(Axis::Z, z_entropies),
-        binning,
-    }
+    let mut z = AxisPass { entropies_nats: vec![0.0; size_z], counted_voxels: vec![0; size_z] };
+    let (x, y) = match merged {
+        Some(partial) => {
+            for (slice, entropy, counted) in partial.z_slices {
+                z.entropies_nats[slice] = entropy;
+                z.counted_voxels[slice] = counted;
+            }
+            (summarise(&partial.x_counts), summarise(&partial.y_counts))
+        }
+        None => (summarise(&vec![0; size_x * SLOTS]), summarise(&vec![0; size_y * SLOTS])),
+    };
+    [x, y, z]
 }
 
 #[cfg(test)]

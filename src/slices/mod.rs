@@ -2,8 +2,10 @@
 //!
 //! A *slice* is the plane of voxels with one index fixed along an [`Axis`] (the axis normal to
 //! it). [`slice_entropies`] ranks the slices of every axis by the entropy of their intensity
-//! histogram in one parallel pass over the volume; the top slice of each axis is what the user
-//! lassos on. [`slice_image`] turns a slice into grey pixels through a [`DisplayWindow`].
+//! histogram in one parallel pass over the volume; [`foreground_slice_entropies`] ranks by the
+//! entropy of the foreground (the body) and puts slices inside it first, and its top slice of
+//! each axis is what the user lassos on. [`slice_image`] turns a slice into grey pixels through
+//! a [`DisplayWindow`].
 //!
 //! Slice image axes (`interfaces.md`): for axis z the image is (x, y), for y it is (x, z), for x
 //! it is (y, z); pixel (i, j) is the voxel whose centre is at image coordinates (i, j), stored
@@ -13,9 +15,14 @@
 
 mod display;
 mod entropy;
+mod foreground;
 
 pub use display::{DisplayWindow, GreyImage, slice_image};
 pub use entropy::{ENTROPY_BINS, EntropyBinning, RankedSlices, SliceEntropies, entropy_nats, slice_entropies};
+pub use foreground::{
+    EDGE_FRACTION, EXTENT_MIN_FRACTION, central_band, foreground_extent, foreground_slice_entropies,
+    foreground_slice_entropies_above,
+};
 
 use serde::{Deserialize, Serialize};
 
