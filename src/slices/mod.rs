@@ -11,11 +11,17 @@
 //! it is (y, z); pixel (i, j) is the voxel whose centre is at image coordinates (i, j), stored
 //! row-major (row j). [`SliceGeometry`] maps between the two.
 //!
+//! How slices lie on the screen (radiological convention, edge letters, screen <-> image
+//! points) is [`SliceLayout`] with [`plane_axes`]; the 3-D view's anterior home position is
+//! [`HomeView`]. Both read the volume's patient orientation.
+//!
 //! Never: draws on the image, knows about classes or strokes, or copies the volume.
 
 mod display;
 mod entropy;
 mod foreground;
+mod home_view;
+mod layout;
 
 pub use display::{DisplayWindow, GreyImage, slice_image};
 pub use entropy::{ENTROPY_BINS, EntropyBinning, RankedSlices, SliceEntropies, entropy_nats, slice_entropies};
@@ -23,6 +29,8 @@ pub use foreground::{
     EDGE_FRACTION, EXTENT_MIN_FRACTION, central_band, foreground_extent, foreground_slice_entropies,
     foreground_slice_entropies_above,
 };
+pub use home_view::HomeView;
+pub use layout::{EdgeLetters, PlaneKind, SliceLayout, plane_axes};
 
 use serde::{Deserialize, Serialize};
 
