@@ -89,13 +89,22 @@ impl RankedSlices {
 
     /// Ranks `entropies_nats` with the slices in `preferred` ahead of all others.
     pub fn preferring(axis: Axis, entropies_nats: Vec<f64>, preferred: RangeInclusive<usize>) -> RankedSlices {
+        let scores = entropies_nats.clone();
+        RankedSlices::preferring_by_score(axis, entropies_nats, &scores, preferred)
+    }
+
+    /// Ranks the slices by descending `scores` (one per slice), with the slices in `preferred`
+    /// ahead of all others; `entropies_nats` is kept as each slice's entropy.
+    pub fn preferring_by_score(
+        axis: Axis,
+        entropies_nats: Vec<f64>,
+        scores: &[f64],
+        preferred: RangeInclusive<usize>,
+    ) -> RankedSlices {
+        let score = |slice: usize| scores.get(slice).copied().unwrap_or(f64::NEG_INFINITY);
         let mut order: Vec<usize> = (0..entropies_nats.len()).collect();
         order.sort_by(|&a, &b| {
-            preferred
-                .contains(&b)
-                .cmp(&preferred.contains(&a))
-                .then(entropies_nats[b].total_cmp(&entropies_nats[a]))
-                .then(a.cmp(&b))
+            preferred.contains(&b).cmp(&preferred.contains(&a)).then(score(b).total_cmp(&score(a))).then(a.cmp(&b))
         });
         let preferred_count = order.iter().filter(|slice| preferred.contains(slice)).count();
         RankedSlices { axis, entropies_nats, order, preferred_count }

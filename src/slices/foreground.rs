@@ -13,8 +13,12 @@
 //!   fullest slice (so a few noisy voxels in the air do not stretch it);
 //! * the *central band* is the middle 80 % of that extent: the slices whose centre lies at
 //!   least [`EDGE_FRACTION`] (10 %) of the extent's length from either end;
-//! * slices in the band are ranked first, by descending foreground entropy; the rest follow,
-//!   also by descending foreground entropy, so every slice stays reachable by rank.
+//! * slices in the band are ranked first, by descending *information*: the slice's foreground
+//!   entropy (eq. 1) times its number of foreground voxels, the Shannon information of what
+//!   the slice shows of the body. Entropy alone still favours slices grazing the body's surface
+//!   (a thin rim of partial-volume voxels has a busy histogram); weighting by the foreground
+//!   they hold prefers slices through the body's bulk, where a user has structures to lasso.
+//!   The rest follow, in the same order, so every slice stays reachable by rank.
 //!
 //! Entry point: [`foreground_slice_entropies`] (what `info` reports and the work screen opens
 //! on); [`super::slice_entropies`] is the plain ranking of every finite voxel. Both are one
@@ -53,7 +57,10 @@ pub fn foreground_slice_entropies_above(volume: &Volume, threshold: f64) -> Slic
     let rank = |axis: Axis, pass: super::entropy::AxisPass| {
         let every = 0..=pass.counted_voxels.len().saturating_sub(1);
         let band = foreground_extent(&pass.counted_voxels).map_or(every, central_band);
-        RankedSlices::preferring(axis, pass.entropies_nats, band)
+        let information: Vec<f64> = (pass.entropies_nats.iter().zip(&pass.counted_voxels))
+            .map(|(&entropy, &voxels)| entropy * voxels as f64)
+            .collect();
+        RankedSlices::preferring_by_score(axis, pass.entropies_nats, &information, band)
     };
     SliceEntropies { x: rank(Axis::X, x), y: rank(Axis::Y, y), z: rank(Axis::Z, z), binning }
 }

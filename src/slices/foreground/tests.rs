@@ -131,6 +131,20 @@ fn a_head_cut_at_the_neck_opens_inside_the_body_not_on_the_cut() {
         let slices = ranked.axis(axis);
         let band = slices.preferred_slices().unwrap();
         assert!(band.contains(&slices.top()), "{axis}: {} outside {band:?}", slices.top());
+        // Ranked by information (entropy x foreground voxels): the top slice goes through the
+        // head's bulk, not a rim grazing its surface.
+        let foreground: Vec<u64> = (0..volume.dims[axis.position()])
+            .map(|slice| foreground_entropy_by_hand(&volume, axis, slice, threshold).1)
+            .collect();
+        let fullest = foreground.iter().copied().max().unwrap();
+        assert!(
+            foreground[slices.top()] * 2 >= fullest,
+            "{axis}: top {} holds {} of {fullest}",
+            slices.top(),
+            foreground[slices.top()]
+        );
+        let information = |slice: usize| slices.entropies_nats[slice] * foreground[slice] as f64;
+        assert!(band.clone().all(|slice| information(slice) <= information(slices.top())), "{axis}");
         // Every slice stays reachable by rank, the band's first.
         assert_eq!(slices.preferred_count, band.clone().count());
         assert!(slices.order[..slices.preferred_count].iter().all(|s| band.contains(s)));
