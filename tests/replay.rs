@@ -108,3 +108,24 @@ fn a_touch_storm_leaves_the_ui_answering_with_bounded_memory() {
     assert!(peak_mb < 1500.0, "peak resident memory {peak_mb} MB: {report}");
     eprintln!("touch storm: {report}");
 }
+
+/// A recording whose clock jumps by 10^10 s (a lying or corrupt timestamp) is refused at once
+/// with the line and the jump, instead of being replayed frame by frame for days.
+#[test]
+fn a_recording_with_an_absurd_time_jump_is_refused_at_once() {
+    let work = tempfile::tempdir().unwrap();
+    let recording = work.path().join("jump.events");
+    std::fs::write(
+        &recording,
+        "volasso-events/1\nx: 0 32767\ny: 0 32767\n0.000000 EV_ABS ABS_X 100\n0.000000 EV_SYN SYN_REPORT 0\n10000000000.000000 EV_ABS ABS_X 200\n10000000000.000000 EV_SYN SYN_REPORT 0\n",
+    )
+    .unwrap();
+    let started = std::time::Instant::now();
+    let output = support::volasso(&["replay", recording.to_str().unwrap()], &work.path().join("cache"));
+    support::assert_clean_error(
+        &output,
+        "line 6: the event at 10000000000.000000 s comes 10000000000.000000 s after",
+        "jump",
+    );
+    assert!(started.elapsed().as_secs() < 60, "took {:?}", started.elapsed());
+}
