@@ -160,8 +160,12 @@ fn write_hostile_files(folder: &Path) {
 
 /// Runs `volasso replay` and returns its output and JSON line (if it printed one); unlike
 /// [`replay`], panics caught inside the app (a reader's, logged) are allowed.
-fn replay_allowing_caught_panics(args: &[&str], work: &Path) -> (std::process::Output, Option<serde_json::Value>) {
-    let output = support::volasso(args, &work.join("cache"));
+fn replay_allowing_caught_panics(
+    args: &[impl AsRef<str>],
+    work: &Path,
+) -> (std::process::Output, Option<serde_json::Value>) {
+    let args: Vec<&str> = args.iter().map(AsRef::as_ref).collect();
+    let output = support::volasso(&args, &work.join("cache"));
     let stdout = String::from_utf8_lossy(&output.stdout);
     let report = stdout.lines().last().and_then(|line| serde_json::from_str(line).ok());
     (output, report)
@@ -202,6 +206,17 @@ fn session_file(volume: &Path) -> String {
     .to_string()
 }
 
+/// A data folder of hostile files and a session folder whose saved session is on the one named
+/// `volume`; the arguments that replay `restore-set-aside.touch` with them.
+fn saved_session_on(work: &Path, volume: &str) -> (Vec<String>, PathBuf) {
+    let (data, sessions) = (work.join("data"), work.join("sessions"));
+    write_hostile_files(&data);
+    std::fs::create_dir_all(&sessions).unwrap();
+    std::fs::write(sessions.join("session.json"), session_file(&data.join(volume))).unwrap();
+    let restore = script("restore-set-aside.touch").display().to_string();
+    (vec!["replay".into(), restore, "--session-dir".into(), sessions.display().to_string()], sessions)
+}
+
 /// The files of a session folder, sorted.
 fn session_files(folder: &Path) -> Vec<String> {
     let mut names: Vec<String> =
@@ -216,12 +231,7 @@ fn session_files(folder: &Path) -> Vec<String> {
 #[test]
 fn a_saved_session_on_a_hostile_volume_is_set_aside_with_a_banner() {
     let work = tempfile::tempdir().unwrap();
-    let (data, sessions) = (work.path().join("data"), work.path().join("sessions"));
-    write_hostile_files(&data);
-    std::fs::create_dir_all(&sessions).unwrap();
-    std::fs::write(sessions.join("session.json"), session_file(&data.join("skip.nrrd"))).unwrap();
-    let restore = script("restore-set-aside.touch");
-    let args = ["replay", restore.to_str().unwrap(), "--session-dir", sessions.to_str().unwrap()];
+    let (args, sessions) = saved_session_on(work.path(), "skip.nrrd");
     let (output, report) = replay_allowing_caught_panics(&args, work.path());
     assert_replayed(&output, &report);
     let files = session_files(&sessions);
@@ -236,12 +246,7 @@ fn a_saved_session_on_a_hostile_volume_is_set_aside_with_a_banner() {
 #[test]
 fn a_restore_that_stops_the_app_is_not_tried_again() {
     let work = tempfile::tempdir().unwrap();
-    let (data, sessions) = (work.path().join("data"), work.path().join("sessions"));
-    write_hostile_files(&data);
-    std::fs::create_dir_all(&sessions).unwrap();
-    std::fs::write(sessions.join("session.json"), session_file(&data.join("huge.nrrd"))).unwrap();
-    let restore = script("restore-set-aside.touch");
-    let args = ["replay", restore.to_str().unwrap(), "--session-dir", sessions.to_str().unwrap()];
+    let (args, sessions) = saved_session_on(work.path(), "huge.nrrd");
     let (first, report) = replay_allowing_caught_panics(&args, work.path());
     if first.status.success() {
         // The reader refused the file with an error: set aside at once.
