@@ -48,12 +48,16 @@ fn import_writes_a_mappable_nrrd_and_replaces_it_atomically() {
 fn render_classifies_and_writes_a_png_of_the_requested_size() {
     let folder = tempfile::tempdir().unwrap();
     let out = folder.path().join("demo.png");
+    // What a render killed while writing left: removed by the next run.
+    let stale = folder.path().join(".demo.png.4999999-0.tmp");
+    std::fs::write(&stale, b"half a PNG").unwrap();
     let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
     let output = volasso(
         &["render", "demo", "--strokes", strokes, "--out", out.to_str().unwrap(), "--size", "160x120"],
         folder.path(),
     );
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(!stale.exists());
     let image = image::open(&out).unwrap().to_rgba8();
     assert_eq!(image.dimensions(), (160, 120));
     // The foot fills part of the frame: some pixels are lit, the corners are background.
