@@ -120,12 +120,12 @@ root_image="$work/root.img"
 mkfs.erofs -zlz4hc -U "$root_fs_uuid" -T "$SOURCE_DATE_EPOCH" --ignore-mtime \
     "$root_image" "$root" > "$work/mkfs-erofs.log"
 
-stage "data partition (ext4: volumes, sessions)"
+stage "data partition (ext4: volumes, sessions, cache)"
 data="$work/data"
-mkdir -p "$data/volumes" "$data/sessions"
+mkdir -p "$data/volumes" "$data/sessions" "$data/cache"
 for volume in "${volumes[@]}"; do cp -- "$volume" "$data/volumes/"; done
-chown -R "$kiosk_uid:$kiosk_uid" "$data/volumes" "$data/sessions"
-chmod 0750 "$data/volumes" "$data/sessions"
+chown -R "$kiosk_uid:$kiosk_uid" "$data/volumes" "$data/sessions" "$data/cache"
+chmod 0750 "$data/volumes" "$data/sessions" "$data/cache"
 find "$data" -exec touch --no-dereference -d "@$SOURCE_DATE_EPOCH" {} +
 data_image="$work/data.img"
 mkfs.ext4 -q -F -L volasso-data -U "$data_fs_uuid" -E "hash_seed=$data_fs_uuid,root_owner=0:0" \

@@ -1,4 +1,5 @@
-//! The `volasso` binary's contracts (`interfaces.md`): output, exit codes, atomic writes.
+//! The `volasso` binary's contracts (`interfaces.md`): output, exit codes, atomic writes (and
+//! outputs written as one unit under SIGKILL), clear errors.
 
 use crate::support::{data, volasso};
 
@@ -47,12 +48,16 @@ fn import_writes_a_mappable_nrrd_and_replaces_it_atomically() {
 fn render_classifies_and_writes_a_png_of_the_requested_size() {
     let folder = tempfile::tempdir().unwrap();
     let out = folder.path().join("demo.png");
+    // What a render killed while writing left: removed by the next run.
+    let stale = folder.path().join(".demo.png.4999999-0.tmp");
+    std::fs::write(&stale, b"half a PNG").unwrap();
     let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
     let output = volasso(
         &["render", "demo", "--strokes", strokes, "--out", out.to_str().unwrap(), "--size", "160x120"],
         folder.path(),
     );
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    assert!(!stale.exists());
     let image = image::open(&out).unwrap().to_rgba8();
     assert_eq!(image.dimensions(), (160, 120));
     // The foot fills part of the frame: some pixels are lit, the corners are background.
@@ -90,4 +95,122 @@ fn info_json_gives_anatomical_axes_or_null_and_import_keeps_them() {
         "{header}"
     );
     assert_eq!(info(out.to_str().unwrap())["anatomical_axes"], serde_json::json!(["L", "A", "S"]));
+}
+
+/// The run named in an output: the `# volasso run RUN` line of an NRRD, the `run` field of a
+/// class table; `None` when the file is missing.
+fn run_of(path: &std::path::Path) -> Option<String> {
+    let bytes = std::fs::read(path).ok()?;
+    if path.extension().is_some_and(|e| e == "json") {
+        let table: serde_json::Value = serde_json::from_slice(&bytes).expect("a whole class table");
+        return Some(table["run"].as_str().expect("the table names its run").to_string());
+    }
+    let header = String::from_utf8_lossy(&bytes[..bytes.len().min(4096)]).into_owned();
+    let run = header.lines().find_map(|line| line.strip_prefix("# volasso run ")).expect("the header names its run");
+    Some(run.to_string())
+}
+
+/// A run's start time in nanoseconds (`NANOSECONDS-PID`).
+fn started(run: &str) -> u128 {
+    run.split('-').next().and_then(|n| n.parse().ok()).expect("NANOSECONDS-PID")
+}
+
+fn temporaries(folder: &std::path::Path) -> Vec<String> {
+    std::fs::read_dir(folder)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| name.ends_with(".tmp"))
+        .collect()
+}
+
+/// `classify` killed (SIGKILL) at moments spread over a whole run: after every kill the outputs
+/// on disk are each old or whole, and the newer ones are renamed first (RGBA volume, class
+/// table, labels last), so labels never sit beside an older table. The next complete run
+/// leaves three outputs of one run and no temporary file, its own or a killed run's.
+#[test]
+fn classify_killed_at_any_moment_leaves_matching_outputs_after_the_next_run() {
+    let folder = tempfile::tempdir().unwrap();
+    let (labels, table, rgba) =
+        (folder.path().join("labels.nrrd"), folder.path().join("labels.classes.json"), folder.path().join("rgba.nrrd"));
+    let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
+    let args =
+        ["classify", "demo", "--strokes", strokes, "--out", labels.to_str().unwrap(), "--rgba", rgba.to_str().unwrap()];
+    let command = || {
+        let mut command = std::process::Command::new(env!("CARGO_BIN_EXE_volasso"));
+        command.args(args).env("VOLASSO_CACHE_DIR", folder.path().join("cache")).env_remove("RUST_LOG");
+        command.stdout(std::process::Stdio::null()).stderr(std::process::Stdio::null());
+        command
+    };
+    let check_order = |moment: &str| {
+        let (l, t, r) = (run_of(&labels), run_of(&table), run_of(&rgba));
+        if let Some(l) = &l {
+            let t = t.as_ref().unwrap_or_else(|| panic!("{moment}: labels without a class table"));
+            assert!(started(t) >= started(l), "{moment}: labels of run {l} beside an older table {t}");
+        }
+        if let (Some(t), Some(r)) = (&t, &r) {
+            assert!(started(r) >= started(t), "{moment}: table of run {t} beside an older RGBA volume {r}");
+        }
+    };
+    // One whole run, to spread the kills over its length.
+    let whole = std::time::Instant::now();
+    assert!(command().status().unwrap().success());
+    let length = whole.elapsed();
+    let mut left_temporaries = 0;
+    for step in 1..=8u32 {
+        let mut child = command().spawn().unwrap();
+        std::thread::sleep(length * step / 8);
+        let _ = child.kill();
+        let _ = child.wait();
+        left_temporaries += usize::from(!temporaries(folder.path()).is_empty());
+        check_order(&format!("kill {step} at {:?}", length * step / 8));
+    }
+    // A killed run of a process that is gone, whatever the kills above hit.
+    std::fs::write(folder.path().join(".labels.nrrd.4999999-0.tmp"), b"half").unwrap();
+    std::fs::write(folder.path().join(".rgba.nrrd.4999999-3.tmp"), b"half").unwrap();
+    assert!(command().status().unwrap().success());
+    let run = run_of(&labels).unwrap();
+    assert_eq!((run_of(&table).unwrap(), run_of(&rgba).unwrap()), (run.clone(), run));
+    assert_eq!(temporaries(folder.path()), Vec::<String>::new());
+    eprintln!("run of {length:?}; {left_temporaries} of 8 kills left temporary files");
+}
+
+/// Strokes files that are wrong in ways a user makes say what is wrong; a UTF-8 byte-order
+/// mark (Windows editors) is not one of them.
+#[test]
+fn strokes_errors_say_what_is_wrong_and_a_byte_order_mark_is_accepted() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("labels.nrrd");
+    let square =
+        |x: f64, size: f64| format!("[[{x},{x}],[{},{x}],[{},{}],[{x},{}]]", x + size, x + size, x + size, x + size);
+    let class = |name: &str, points: &str| {
+        format!(r#"{{"name":"{name}","strokes":[{{"axis":"z","slice":40,"points":{points}}}]}}"#)
+    };
+    let file = |classes: &[String]| format!(r#"{{"format":"volasso-strokes/1","classes":[{}]}}"#, classes.join(","));
+    let cases = [
+        ("no-class", file(&[]), "the strokes file defines no class"),
+        (
+            "inside-another",
+            file(&[class("bone", &square(40.0, 30.0)), class("marrow", &square(50.0, 5.0))]),
+            "class 2 'marrow' select only voxels that class 1 'bone' also selects",
+        ),
+    ];
+    for (name, text, expected) in cases {
+        let path = folder.path().join(format!("{name}.json"));
+        std::fs::write(&path, text).unwrap();
+        let output = volasso(
+            &["classify", "demo", "--strokes", path.to_str().unwrap(), "--out", out.to_str().unwrap()],
+            folder.path(),
+        );
+        crate::support::assert_clean_error(&output, expected, name);
+        assert!(!out.exists(), "{name}: nothing is written on error");
+    }
+    let strokes =
+        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json")).unwrap();
+    let path = folder.path().join("bom.json");
+    std::fs::write(&path, [b"\xEF\xBB\xBF".as_slice(), &strokes].concat()).unwrap();
+    let output = volasso(
+        &["classify", "demo", "--strokes", path.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        folder.path(),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
 }

@@ -10,11 +10,13 @@
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
+//! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
 mod classification;
 mod cli;
+mod deploy;
 mod formats;
 mod malformed;
 mod replay;

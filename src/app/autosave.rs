@@ -7,7 +7,15 @@
 //! "strokes"}` where `strokes` is a `volasso-strokes/1` document, so saved sessions can be
 //! classified with `volasso classify` as they are.
 //!
-//! Never: fails the app; a damaged file is logged and ignored (and left for inspection).
+//! A restore can itself be what stops the app (a volume that aborts its reader, a session whose
+//! classification crashes), and systemd would restart it into the same restore forever. So
+//! [`begin_restore`] leaves a marker (`session.restoring`) that [`restored`] removes once the
+//! restored session has opened and classified; a marker found at start-up means the last
+//! restore never got there, and the session is set aside instead of restored. A session that
+//! cannot be read or restored is set aside too: renamed to `session-failed-SECONDS.json`
+//! beside it, never deleted, so nothing a visitor drew is lost.
+//!
+//! Never: fails the app, or restores a session that stopped the app before.
 
 use crate::atomic_file::write_atomically;
 use crate::strokes::StrokesFile;
@@ -20,6 +28,138 @@ pub const SESSION_FORMAT: &str = "volasso-session/1";
 /// The saved session file in a session folder.
 pub fn session_path(session_dir: &Path) -> PathBuf {
     session_dir.join("session.json")
+}
+
+/// The marker of a restore in progress in a session folder.
+pub fn marker_path(session_dir: &Path) -> PathBuf {
+    session_dir.join("session.restoring")
+}
+
+/// What start-up does with the session folder ([`begin_restore`]).
+#[derive(Clone, Debug, PartialEq)]
+pub enum Restore {
+    /// No saved session.
+    Nothing,
+    /// Restore this session; the marker is down until [`restored`] or [`abandon`].
+    Session(SavedSession),
+    /// A saved session that will not be restored, and why; the banner says so.
+    SetAside(SetAside),
+}
+
+/// A session moved out of the way, for the banner.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SetAside {
+    /// The name of the session's volume, when known.
+    pub volume: Option<String>,
+    /// Why it is not restored, in words.
+    pub reason: String,
+    /// Where it went; `None` when even the rename failed (it is then left where it was).
+    pub kept_as: Option<PathBuf>,
+}
+
+impl SetAside {
+    /// The banner's sentence.
+    pub fn message(&self) -> String {
+        let kept = match &self.kept_as {
+            Some(path) => format!("It was kept as {}.", path.file_name().unwrap_or_default().to_string_lossy()),
+            None => "It could not be moved aside (see the log).".to_string(),
+        };
+        let on = self.volume.as_ref().map_or(String::new(), |volume| format!(" ({volume})"));
+        format!("The last session{on} was not restored: {}. {kept}", self.reason)
+    }
+}
+
+/// Start-up: the session to restore (with the marker down), a session set aside (the last
+/// restore stopped the app, or the file cannot be read), or nothing.
+pub fn begin_restore(session_dir: &Path) -> Restore {
+    let marker = marker_path(session_dir);
+    if marker.exists() && !session_path(session_dir).exists() {
+        // The session went (idle timeout) before the marker: nothing to set aside.
+        remove_marker(session_dir);
+        return Restore::Nothing;
+    }
+    if marker.exists() {
+        let key = std::fs::read_to_string(&marker).unwrap_or_default();
+        let volume = (!key.trim().is_empty()).then(|| volume_name(key.trim()));
+        let set_aside = set_aside(session_dir, volume, "the app stopped while opening it".to_string());
+        remove_marker(session_dir);
+        return Restore::SetAside(set_aside);
+    }
+    match read(session_dir) {
+        Ok(None) => Restore::Nothing,
+        Ok(Some(session)) => {
+            let written =
+                crate::atomic_file::write_atomically(&marker, |writer| writer.write_all(session.volume.as_bytes()));
+            if let Err(error) = written {
+                // Without a marker a restore that stops the app would repeat: do not restore.
+                return Restore::SetAside(set_aside(
+                    session_dir,
+                    Some(volume_name(&session.volume)),
+                    format!("the session folder is not writable ({error})"),
+                ));
+            }
+            Restore::Session(session)
+        }
+        Err(problem) => {
+            log::warn!("cannot read the saved session in {}: {problem}", session_dir.display());
+            Restore::SetAside(set_aside(session_dir, None, format!("it cannot be read ({problem})")))
+        }
+    }
+}
+
+/// The restored session opened and classified: a later stop is not the restore's doing.
+pub fn restored(session_dir: &Path) {
+    remove_marker(session_dir);
+}
+
+/// The restore failed without stopping the app (`reason`, e.g. why the volume `volume` cannot
+/// be opened): the session is set aside and the marker removed.
+pub fn abandon(session_dir: &Path, volume: String, reason: String) -> SetAside {
+    let set_aside = set_aside(session_dir, Some(volume), reason);
+    remove_marker(session_dir);
+    set_aside
+}
+
+/// Renames the saved session to `session-failed-SECONDS[-N].json` beside it.
+fn set_aside(session_dir: &Path, volume: Option<String>, reason: String) -> SetAside {
+    let path = session_path(session_dir);
+    if !path.exists() {
+        return SetAside { volume, reason, kept_as: None };
+    }
+    let seconds = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
+    let free = (0..100)
+        .map(|n| match n {
+            0 => session_dir.join(format!("session-failed-{seconds}.json")),
+            n => session_dir.join(format!("session-failed-{seconds}-{n}.json")),
+        })
+        .find(|candidate| !candidate.exists());
+    let kept_as = free.and_then(|target| match std::fs::rename(&path, &target) {
+        Ok(()) => Some(target),
+        Err(error) => {
+            log::error!("cannot set the saved session {} aside: {error}", path.display());
+            None
+        }
+    });
+    log::warn!("the saved session was not restored: {reason}");
+    if kept_as.is_none() {
+        // Left in place, it would be restored again: out of the way at any price.
+        remove(session_dir);
+    }
+    SetAside { volume, reason, kept_as }
+}
+
+/// A saved volume key as the banner names it: the file's name, or the key itself (`demo`).
+fn volume_name(key: &str) -> String {
+    Path::new(key).file_name().map_or_else(|| key.to_string(), |name| name.to_string_lossy().into_owned())
+}
+
+fn remove_marker(session_dir: &Path) {
+    let marker = marker_path(session_dir);
+    if let Err(error) = std::fs::remove_file(&marker)
+        && error.kind() != std::io::ErrorKind::NotFound
+    {
+        log::error!("cannot remove the restore marker {}: {error}", marker.display());
+    }
 }
 
 /// What is saved.
@@ -61,27 +201,35 @@ pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), String> {
 
 /// The saved session, if there is a readable one.
 pub fn load(session_dir: &Path) -> Option<SavedSession> {
+    match read(session_dir) {
+        Ok(session) => session,
+        Err(problem) => {
+            log::warn!("ignoring the saved session {}: {problem}", session_path(session_dir).display());
+            None
+        }
+    }
+}
+
+/// The saved session; `Ok(None)` when there is none, `Err` when it cannot be read.
+fn read(session_dir: &Path) -> Result<Option<SavedSession>, String> {
     let path = session_path(session_dir);
-    let text = std::fs::read_to_string(&path).ok()?;
-    let parsed = serde_json::from_str::<SessionFile>(&text).map_err(|e| e.to_string()).and_then(|file| {
+    let text = match std::fs::read_to_string(&path) {
+        Ok(text) => text,
+        Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
+        Err(error) => return Err(error.to_string()),
+    };
+    serde_json::from_str::<SessionFile>(&text).map_err(|e| e.to_string()).and_then(|file| {
         if file.format != SESSION_FORMAT {
             return Err(format!("format '{}' is not {SESSION_FORMAT}", file.format));
         }
         let strokes = StrokesFile::parse(&file.strokes.to_string()).map_err(|e| e.to_string())?;
-        Ok(SavedSession {
+        Ok(Some(SavedSession {
             volume: file.volume,
             template: file.template,
             rotation_degrees: file.rotation_degrees,
             strokes,
-        })
-    });
-    match parsed {
-        Ok(session) => Some(session),
-        Err(problem) => {
-            log::warn!("ignoring the saved session {}: {problem}", path.display());
-            None
-        }
-    }
+        }))
+    })
 }
 
 /// Forgets the saved session.
@@ -119,6 +267,65 @@ mod tests {
         remove(&dir);
         assert_eq!(load(&dir), None);
         remove(&dir);
+    }
+
+    fn files(dir: &Path) -> Vec<String> {
+        let mut names: Vec<String> =
+            std::fs::read_dir(dir).unwrap().map(|e| e.unwrap().file_name().to_string_lossy().into_owned()).collect();
+        names.sort();
+        names
+    }
+
+    #[test]
+    fn a_restore_that_stopped_the_app_is_set_aside_at_the_next_start() {
+        let folder = tempfile::tempdir().unwrap();
+        let dir = folder.path();
+        assert_eq!(begin_restore(dir), Restore::Nothing);
+        save(dir, &session()).unwrap();
+        // First start: restore, with the marker down.
+        assert_eq!(begin_restore(dir), Restore::Session(session()));
+        assert_eq!(files(dir), ["session.json", "session.restoring"]);
+        // The app died before `restored`: the next start sets the session aside, once.
+        let Restore::SetAside(aside) = begin_restore(dir) else { panic!("the session must be set aside") };
+        assert_eq!(aside.volume.as_deref(), Some("demo"));
+        assert!(aside.message().starts_with("The last session (demo) was not restored: the app stopped while opening it. It was kept as session-failed-"), "{}", aside.message());
+        let kept = aside.kept_as.clone().unwrap();
+        assert_eq!(files(dir), [kept.file_name().unwrap().to_string_lossy().into_owned()]);
+        assert!(kept.file_name().unwrap().to_string_lossy().starts_with("session-failed-"));
+        // Nothing is lost: the file set aside is the session.
+        let text = std::fs::read_to_string(&kept).unwrap();
+        assert!(text.contains(SESSION_FORMAT) && text.contains("Class 1"));
+        assert_eq!(begin_restore(dir), Restore::Nothing);
+    }
+
+    #[test]
+    fn a_restore_that_opened_keeps_the_session_and_one_that_failed_sets_it_aside() {
+        let folder = tempfile::tempdir().unwrap();
+        let dir = folder.path();
+        save(dir, &session()).unwrap();
+        assert!(matches!(begin_restore(dir), Restore::Session(_)));
+        restored(dir);
+        assert_eq!(files(dir), ["session.json"]);
+        assert!(matches!(begin_restore(dir), Restore::Session(_)));
+        let aside = abandon(dir, "demo".into(), "the reader failed".into());
+        assert_eq!(aside.reason, "the reader failed");
+        assert_eq!(files(dir).len(), 1);
+        assert!(files(dir)[0].starts_with("session-failed-"));
+        // A second failure in the same second does not overwrite the first.
+        save(dir, &session()).unwrap();
+        assert!(matches!(begin_restore(dir), Restore::Session(_)));
+        abandon(dir, "demo".into(), "again".into());
+        assert_eq!(files(dir).len(), 2);
+    }
+
+    #[test]
+    fn an_unreadable_session_is_set_aside_not_overwritten() {
+        let folder = tempfile::tempdir().unwrap();
+        std::fs::write(session_path(folder.path()), b"{\"format\": \"volasso-session/1\", \"vol").unwrap();
+        let Restore::SetAside(aside) = begin_restore(folder.path()) else { panic!("a damaged file is set aside") };
+        assert!(aside.reason.starts_with("it cannot be read"), "{}", aside.reason);
+        assert!(aside.kept_as.unwrap().exists());
+        assert!(!session_path(folder.path()).exists());
     }
 
     #[test]

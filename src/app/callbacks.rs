@@ -121,12 +121,14 @@ fn reset_to_start(window: &AppWindow, state: &Shared) {
         state.jobs.cancel();
         state.work = None;
         state.restore = None;
+        state.restore_unconfirmed = false;
         state.chosen_template = None;
         state.camera = Camera::default();
         state.banner.clear();
         state.status.clear();
         if let Some(dir) = &state.config.session_dir {
             autosave::remove(dir);
+            autosave::restored(dir);
         }
     }
     log::info!("idle timeout: back to the start screen, session cleared");

@@ -72,9 +72,12 @@ impl ClassificationJobs {
         let generation = self.generation;
         let options = self.options.lock().map(|o| o.clone()).unwrap_or_default();
         let spawned = std::thread::Builder::new().name("classify".into()).spawn(move || {
-            let outcome = match classify(&volume, &strokes, template, &options, &progress, &cancel) {
-                Ok(classified) => JobOutcome::Done(classified),
-                Err(message) => JobOutcome::Failed(message),
+            // A panic is caught here, so the app hears of it instead of "Classifying..." forever.
+            let run = || classify(&volume, &strokes, template, &options, &progress, &cancel);
+            let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
+                Ok(Ok(classified)) => JobOutcome::Done(classified),
+                Ok(Err(message)) => JobOutcome::Failed(message),
+                Err(_) => JobOutcome::Failed("the classifier failed (see the log)".to_string()),
             };
             if !cancel.load(Ordering::Relaxed) {
                 let _ = sender.send((generation, outcome));

@@ -1,6 +1,12 @@
 //! The volumes the chooser offers: the built-in demo phantom and every volume file or DICOM
 //! folder in the data folder; opening one (with its ranked slices and display window) and
-//! its thumbnail happen on worker threads, and failures come back as messages for a banner.
+//! its thumbnail happen on worker threads, and failures come back as messages for a card or a
+//! banner.
+//!
+//! Every file is treated as hostile (it may come from a USB stick or the network): a reader
+//! that fails returns its error, and one that panics is caught at the worker's boundary
+//! ([`guarded`]) and reported the same way, so one bad file neither stops the other thumbnails
+//! nor leaves the chooser "Opening..." forever.
 //!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
@@ -110,6 +116,38 @@ pub struct LoadedVolume {
     pub window: DisplayWindow,
 }
 
+/// Runs `work`, turning a panic inside it into an error: the worker survives, and the file
+/// that made a reader panic gets a card that says it cannot be opened.
+pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)) {
+        Ok(result) => result,
+        Err(payload) => {
+            let message = payload
+                .downcast_ref::<&str>()
+                .map(|text| text.to_string())
+                .or_else(|| payload.downcast_ref::<String>().cloned())
+                .unwrap_or_else(|| "no message".to_string());
+            log::error!("the reader failed inside on {}: {message}", source.key());
+            Err(format!("the reader failed on this file ({message})"))
+        }
+    }
+}
+
+/// An error message for a card or banner that already names the file: without the path that
+/// errors carry last (", in /var/lib/volasso/volumes/x.nrrd").
+pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {
+    let mut reason = message.trim();
+    if let VolumeSource::Path(path) = source {
+        let path = path.display().to_string();
+        if let Some(shorter) = reason.strip_suffix(path.as_str()) {
+            let shorter = shorter.trim_end();
+            reason = shorter.strip_suffix(", in").or_else(|| shorter.strip_suffix(" in")).unwrap_or(shorter);
+            reason = reason.trim_end_matches([',', ':', ' ']);
+        }
+    }
+    if reason.is_empty() { "unknown error".to_string() } else { reason.to_string() }
+}
+
 /// Opens `source` and ranks its slices (paper eq. 1).
 pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, String> {
     let volume = match source {
@@ -172,7 +210,7 @@ impl Loader {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         spawn("thumbnails", move || {
             for (index, source) in sources {
-                let result = load(&source, &options).and_then(|loaded| thumbnail(&loaded));
+                let result = guarded(&source, || load(&source, &options).and_then(|loaded| thumbnail(&loaded)));
                 if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
                     return;
                 }
@@ -184,7 +222,8 @@ impl Loader {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         let failed = sender.clone();
         if !spawn("open", move || {
-            let _ = sender.send(LoaderEvent::Opened { index, result: load(&source, &options) });
+            let result = guarded(&source, || load(&source, &options));
+            let _ = sender.send(LoaderEvent::Opened { index, result });
         }) {
             let _ = failed.send(LoaderEvent::Opened { index, result: Err("cannot start a thread to open it".into()) });
         }
@@ -243,6 +282,47 @@ mod tests {
         std::fs::write(&path, b"NRRD0004\ntype: short\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n").unwrap();
         let error = load(&VolumeSource::Path(path), &OpenOptions::default()).err().unwrap();
         assert!(!error.is_empty());
+    }
+
+    #[test]
+    fn reasons_for_display_drop_the_path_the_card_already_names() {
+        let source = VolumeSource::Path("/data/empty.nii".into());
+        let reason = |message: &str| reason_for_display(message, &source);
+        assert_eq!(
+            reason("0 bytes of voxel data (truncated), in /data/empty.nii"),
+            "0 bytes of voxel data (truncated)"
+        );
+        assert_eq!(reason("cannot read: /data/empty.nii"), "cannot read");
+        assert_eq!(reason("unreadable DICOM file in /data/empty.nii"), "unreadable DICOM file");
+        assert_eq!(reason("bad header in /data/other.nii"), "bad header in /data/other.nii");
+        assert_eq!(reason(""), "unknown error");
+    }
+
+    #[test]
+    fn a_panicking_reader_is_an_error_and_the_thumbnail_worker_goes_on() {
+        let source = VolumeSource::Path("hostile.nrrd".into());
+        let error = guarded(&source, || -> Result<(), String> { panic!("byte skip overflows") }).unwrap_err();
+        assert_eq!(error, "the reader failed on this file (byte skip overflows)");
+        let error = guarded(&source, || -> Result<(), String> { panic!("{} voxels", 7) }).unwrap_err();
+        assert!(error.contains("7 voxels"), "{error}");
+        assert_eq!(guarded(&source, || Ok(3)), Ok(3));
+
+        // Files that fail, then the demo: every thumbnail is reported, in order.
+        let folder = tempfile::tempdir().unwrap();
+        let empty = folder.path().join("empty.nii");
+        std::fs::write(&empty, b"").unwrap();
+        let loader = Loader::new(OpenOptions { cache_dir: Some(folder.path().join("cache")), ..Default::default() });
+        loader.thumbnails(vec![(1, VolumeSource::Path(empty)), (0, VolumeSource::Demo)]);
+        let mut reported = Vec::new();
+        let started = std::time::Instant::now();
+        while reported.len() < 2 && started.elapsed().as_secs() < 60 {
+            match loader.poll() {
+                Some(LoaderEvent::Thumbnail { index, result }) => reported.push((index, result.is_ok())),
+                Some(LoaderEvent::Opened { .. }) => panic!("nothing was opened"),
+                None => std::thread::sleep(std::time::Duration::from_millis(10)),
+            }
+        }
+        assert_eq!(reported, [(1, false), (0, true)]);
     }
 
     #[test]

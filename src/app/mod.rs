@@ -5,9 +5,14 @@
 //! data between them and Slint, so it never blocks (issue 6).
 //!
 //! Data flow: callbacks (callbacks.rs) change [`State`]; a 16 ms poll timer collects finished
-//! work; `refresh.rs` pushes state into the `Session` global. Beyond the paper (§3.2-3.5),
-//! every lasso reclassifies at once, with the lassos not yet defined as a provisional class,
-//! so the user sees the result of a lasso before deciding to define the class.
+//! work (`loading.rs` applies what the loader reports); `refresh.rs` pushes state into the
+//! `Session` global. Every volume file is treated as hostile: one that fails or panics its
+//! reader becomes a "Cannot open" card, and a saved session that cannot be restored (or that
+//! stopped the app while restoring) is set aside with a banner (`autosave.rs`).
+//!
+//! Beyond the paper (§3.2-3.5), every lasso reclassifies at once, with the lassos not yet
+//! defined as a provisional class, so the user sees the result of a lasso before deciding to
+//! define the class.
 //!
 //! Never: draws pixels itself or reads input devices; the platform (src/kiosk or Slint's own
 //! winit backend) does that.
@@ -17,6 +22,7 @@ mod callbacks;
 pub mod drawing;
 pub mod jobs;
 pub mod library;
+mod loading;
 pub mod pictures;
 mod refresh;
 pub mod session;
@@ -32,7 +38,7 @@ use drawing::FingerPath;
 use jobs::{ClassificationJobs, Classified};
 use library::{LoadedVolume, Loader, VolumeSource};
 use session::WorkSession;
-use slint::ComponentHandle;
+use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
@@ -138,6 +144,9 @@ struct State {
     status: String,
     /// A session read at start-up, applied once its volume is open.
     restore: Option<autosave::SavedSession>,
+    /// The restore marker is down (autosave.rs): the restored session has not yet shown that it
+    /// opens and classifies without stopping the app.
+    restore_unconfirmed: bool,
     slices_model: Rc<slint::VecModel<ui::SliceView>>,
     classes_model: Rc<slint::VecModel<ui::ClassEntry>>,
     volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
@@ -180,7 +189,11 @@ impl App {
     pub fn new(config: AppConfig) -> Result<App, slint::PlatformError> {
         let window = AppWindow::new()?;
         let sources = library::scan(config.data_dir.as_deref());
-        let restore = config.session_dir.as_deref().and_then(autosave::load);
+        let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
+            Some(autosave::Restore::Session(session)) => (Some(session), String::new()),
+            Some(autosave::Restore::SetAside(set_aside)) => (None, set_aside.message()),
+            Some(autosave::Restore::Nothing) | None => (None, String::new()),
+        };
         let state = State {
             loader: Loader::new(config.open_options.clone()),
             sources,
@@ -196,8 +209,9 @@ impl App {
             orbit_from: None,
             view_dirty: false,
             view_size: [0, 0],
-            banner: String::new(),
+            banner,
             status: String::new(),
+            restore_unconfirmed: restore.is_some(),
             restore,
             slices_model: Rc::new(slint::VecModel::default()),
             classes_model: Rc::new(slint::VecModel::default()),
@@ -287,7 +301,8 @@ impl App {
 
     /// The app's state by name, for replay scripts' `expect KEY VALUE`: `screen` (start,
     /// chooser, work), `classes`, `pending`, `volume`, `banner`, `busy`, `classifying`, `classified`,
-    /// `template`, `slice-z` / `slice-y` / `slice-x`.
+    /// `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the chooser's cards) and
+    /// `cannot-open` (those whose file cannot be opened).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
@@ -301,6 +316,8 @@ impl App {
             "busy" => (state.jobs.busy() || state.opening.is_some()).to_string(),
             "classifying" => state.jobs.busy().to_string(),
             "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
+            "cards" => state.volumes_model.row_count().to_string(),
+            "cannot-open" => state.volumes_model.iter().filter(|card| card.failed).count().to_string(),
             "template" => {
                 let template = state.template();
                 format!("{} {}", template.template.name(), template.rotation_degrees)

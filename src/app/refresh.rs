@@ -2,12 +2,11 @@
 //! renderer threads (the poll timer). Each `push_*` sets only the `Session` properties it names.
 
 use super::jobs::JobOutcome;
-use super::library::{LoadedVolume, LoaderEvent};
+use super::loading;
 use super::pictures::{Highlight, class_colour, slice_picture};
-use super::session::WorkSession;
 use super::ui::{AppWindow, ClassEntry, Session, SliceView, VolumeCard};
 use super::view3d::RenderReply;
-use super::{PANEL_AXES, Panel, Screen, State, Work, autosave};
+use super::{PANEL_AXES, Screen, State, autosave};
 use crate::strokes::{ClassStrokes, StrokesFile};
 use crate::transfer::{ClassStyle, RgbImage, apply_template};
 use slint::{ComponentHandle, Model};
@@ -22,7 +21,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         // A separate statement: the borrow must end before the event is handled.
         let event = state.borrow().loader.poll();
         let Some(event) = event else { break };
-        loader_event(window, state, event);
+        loading::loader_event(window, state, event);
     }
     let outcome = state.borrow_mut().jobs.poll();
     match outcome {
@@ -40,6 +39,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         Some(JobOutcome::Failed(message)) => state.borrow_mut().status = message,
         None => {}
     }
+    loading::confirm_restore(state);
     let reply = state.borrow_mut().renderer.poll();
     match reply {
         Some(RenderReply::Picture(picture)) => {
@@ -59,100 +59,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     }
     request_frame_if_needed(window, state);
     push_status(window, state);
-    rescan_data_folder(state);
-}
-
-/// Appends the volumes that appeared in the data folder since the last listing (with their
-/// thumbnails, once the chooser has asked for thumbnails). Counted in polls, so that the
-/// replay harness's clock drives it like every other timer.
-fn rescan_data_folder(state: &Shared) {
-    let mut state = state.borrow_mut();
-    state.polls_since_scan += 1;
-    if state.polls_since_scan < super::RESCAN_POLLS || state.config.data_dir.is_none() {
-        return;
-    }
-    state.polls_since_scan = 0;
-    let found = super::library::scan(state.config.data_dir.as_deref());
-    let added = super::library::appeared(&state.sources, found);
-    if added.is_empty() {
-        return;
-    }
-    log::info!("{} new volume(s) in the data folder", added.len());
-    for (_, source) in &added {
-        state.sources.push(source.clone());
-        state.volumes_model.push(VolumeCard {
-            name: source.name().into(),
-            detail: "".into(),
-            thumbnail: slint::Image::default(),
-        });
-    }
-    if state.thumbnails_requested {
-        state.thumbnails_pending += added.len();
-        state.loader.thumbnails(added);
-    }
-}
-
-fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
-    match event {
-        LoaderEvent::Thumbnail { index, result } => {
-            let model = state.borrow().volumes_model.clone();
-            {
-                let mut state = state.borrow_mut();
-                state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
-            }
-            let Some(mut card) = model.row_data(index) else { return };
-            match result {
-                Ok((image, detail)) => {
-                    card.thumbnail = to_slint_image(&image);
-                    card.detail = detail.into();
-                }
-                Err(message) => card.detail = format!("cannot open: {message}").into(),
-            }
-            model.set_row_data(index, card);
-        }
-        LoaderEvent::Opened { index, result } => {
-            let mut state_ref = state.borrow_mut();
-            if state_ref.opening != Some(index) {
-                return;
-            }
-            state_ref.opening = None;
-            match result {
-                Ok(loaded) => {
-                    state_ref.status.clear();
-                    drop(state_ref);
-                    open_work(window, state, loaded);
-                }
-                Err(message) => {
-                    state_ref.status.clear();
-                    state_ref.banner = message;
-                }
-            }
-        }
-    }
-}
-
-/// The work screen on a newly opened volume, with the saved session's classes if it was saved
-/// for this volume.
-fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
-    {
-        let mut state = state.borrow_mut();
-        let panels = PANEL_AXES.map(|axis| Panel { axis, rank: 0, slice: loaded.entropies.axis(axis).top() });
-        let mut session = WorkSession::default();
-        if let Some(saved) = state.restore.take()
-            && saved.volume == loaded.source.key()
-        {
-            session = WorkSession::from_strokes(&saved.strokes);
-            if let Some(template) = crate::transfer::TemplateType::from_name(&saved.template) {
-                state.chosen_template = Some(crate::transfer::HueTemplate::new(template, saved.rotation_degrees));
-            }
-        }
-        state.renderer.set_volume(loaded.volume.clone());
-        state.camera = crate::render::Camera::default();
-        state.work = Some(Work { loaded, session, panels, drawing: None, classified: None, requested: None });
-    }
-    window.global::<Session>().set_view_picture(slint::Image::default());
-    show_screen(window, Screen::Work);
-    session_changed(window, state);
+    loading::rescan_data_folder(state);
 }
 
 pub(super) fn show_screen(window: &AppWindow, screen: Screen) {
@@ -323,7 +230,12 @@ pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
     let cards: Vec<VolumeCard> = state
         .sources
         .iter()
-        .map(|source| VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default() })
+        .map(|source| VolumeCard {
+            name: source.name().into(),
+            detail: "".into(),
+            thumbnail: slint::Image::default(),
+            failed: false,
+        })
         .collect();
     state.volumes_model.set_vec(cards);
     drop(state);
@@ -430,7 +342,7 @@ fn request_frame_if_needed(window: &AppWindow, state: &Shared) {
     state.renderer.request_frame(camera, size);
 }
 
-fn to_slint_image(image: &RgbImage) -> slint::Image {
+pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {
     if image.width == 0 || image.height == 0 {
         return slint::Image::default();
     }

@@ -1,7 +1,15 @@
 //! `volasso classify VOLUME --strokes S.json --out LABELS.nrrd [--rgba RGBA.nrrd]`: the paper's
 //! pipeline on the command line. Beside the labels it writes `LABELS.classes.json`, the
-//! per-class colour table (§3.5, `transfer::ClassTable`). Prints one JSON line (`interfaces.md`); writes the label volume only when the
-//! whole result is valid, through a temporary file and a rename.
+//! per-class colour table (§3.5, `transfer::ClassTable`). Prints one JSON line (`interfaces.md`).
+//!
+//! The outputs are written as one unit, and only when the whole result is valid: each goes to
+//! a temporary file beside its target first (the RGBA volume streamed, never held whole), and
+//! only then are they renamed, the RGBA volume first and the label volume last. A reader that
+//! sees new labels can trust the class table beside them is new too; a kill at any moment
+//! leaves each file old or whole, and the next run removes the temporaries the killed one left
+//! (`atomic_file::remove_stale_temporaries`). Every output names its run: the NRRD headers
+//! carry a `# volasso run RUN` line and the class table a `"run": "RUN"` field, where RUN is
+//! `NANOSECONDS-PID` (nanoseconds since 1970, so later runs sort after earlier ones).
 //!
 //! Timings in the JSON: `load` opens the volume and rasterises the lassos; `features` computes
 //! and standardises the training voxels' features; `train` fits the classifier; `predict`
@@ -12,20 +20,23 @@
 
 use super::CliError;
 use super::args::{ClassifierChoice, ClassifyArgs};
+use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
 use crate::segmentation::{self, ClassifierKind, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter};
 use crate::strokes::{StrokesFile, TrainingSet};
-use crate::transfer::{self, ClassTable, HueTemplate, class_table_path};
+use crate::transfer::{self, ClassTable, HueTemplate, TransferError, class_table_path};
 use crate::volume::{ByteOrder, Volume, VoxelType, nrrd};
 use serde_json::json;
+use std::io::Write;
 use std::path::Path;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 
 pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     let total = Instant::now();
+    remove_stale_outputs(args);
     let volume = super::open_volume(&args.volume, &args.open)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
     let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;
@@ -66,17 +77,36 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     // after interpolation and restyle without classifying again.
     let class_count = strokes.classes.len();
     let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
-    let rgba = match &args.rgba {
-        Some(_) => Some(transfer::rgba_volume(&volume, &labels.labels, &table.styles)?),
-        None => None,
-    };
-    // Every output is complete before the first is written.
-    let comment = format!("volasso labels of {} from {}", volume.source.display(), args.strokes.display());
-    nrrd::write(&args.out, labels.dims, volume.spacing_mm, VoxelType::U8, ByteOrder::Little, &labels.labels, &comment)?;
-    table.write(&class_table_path(&args.out))?;
-    if let (Some(path), Some(rgba)) = (&args.rgba, &rgba) {
-        transfer::write_rgba_nrrd(path, volume.dims, volume.spacing_mm, rgba, &comment)?;
+    let run = run_id();
+    let comment =
+        format!("volasso labels of {} from {}\nvolasso run {run}", volume.source.display(), args.strokes.display());
+    // Every output is staged (written whole beside its target) before the first is renamed.
+    fn output(path: &Path) -> impl FnOnce(std::io::Error) -> CliError + '_ {
+        move |source| CliError::Output { source, path: path.to_path_buf() }
     }
+    let header = nrrd::header_text(
+        labels.dims,
+        volume.spacing_mm,
+        volume.orientation.as_ref(),
+        VoxelType::U8,
+        ByteOrder::Little,
+        &comment,
+    );
+    let staged_labels = stage(&args.out, |file| {
+        file.write_all(header.as_bytes())?;
+        file.write_all(&labels.labels)
+    })
+    .map_err(output(&args.out))?;
+    let table_path = class_table_path(&args.out);
+    let table_text = serde_json::to_string_pretty(&TableOfRun { table: &table, run: &run })
+        .map_err(|source| TransferError::TableJson { source, path: table_path.clone() })?;
+    let staged_table = stage(&table_path, |file| file.write_all(table_text.as_bytes())).map_err(output(&table_path))?;
+    let mut staged = Vec::new();
+    if let Some(path) = &args.rgba {
+        staged.push(transfer::stage_rgba_nrrd(path, &volume, &labels.labels, &table.styles, &comment)?);
+    }
+    staged.extend([staged_table, staged_labels]);
+    commit_in_order(staged).map_err(|(source, path)| CliError::Output { source, path })?;
     let total_seconds = load_seconds + features_seconds + train_seconds + predict_seconds;
 
     let summary = &segmenter.summary;
@@ -117,6 +147,30 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     }
     println!("{line}");
     Ok(())
+}
+
+/// The class table as written beside the labels: its fields, then the run that wrote it.
+#[derive(serde::Serialize)]
+struct TableOfRun<'a> {
+    #[serde(flatten)]
+    table: &'a ClassTable,
+    run: &'a str,
+}
+
+/// `NANOSECONDS-PID`: when this run started its outputs, and which process it is.
+fn run_id() -> String {
+    let nanoseconds = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_nanos());
+    format!("{nanoseconds}-{}", std::process::id())
+}
+
+/// Removes what killed runs left beside this run's outputs (temporaries of dead processes).
+fn remove_stale_outputs(args: &ClassifyArgs) {
+    let outputs = [Some(args.out.clone()), Some(class_table_path(&args.out)), args.rgba.clone()];
+    for path in outputs.iter().flatten() {
+        for removed in remove_stale_temporaries(path) {
+            log::info!("removed {}, left by a run that was stopped", removed.display());
+        }
+    }
 }
 
 pub(super) fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {

@@ -1,6 +1,7 @@
 //! `volasso render VOLUME --strokes S.json --out IMAGE.png`: classify with the defaults of
 //! `classify`, colour with the default hue template, and ray-cast one frame headless (wgpu;
-//! Mesa's lavapipe where there is no GPU). The PNG is written whole or not at all.
+//! Mesa's lavapipe where there is no GPU). The PNG is written whole or not at all, and the
+//! temporary files killed runs left beside it are removed first.
 
 use super::CliError;
 use super::args::{RenderArgs, RenderModeChoice};
@@ -12,6 +13,9 @@ use crate::transfer::{ClassTable, HueTemplate};
 use std::sync::atomic::AtomicBool;
 
 pub fn run(args: &RenderArgs) -> Result<(), CliError> {
+    for removed in crate::atomic_file::remove_stale_temporaries(&args.out) {
+        log::info!("removed {}, left by a run that was stopped", removed.display());
+    }
     let volume = super::open_volume(&args.volume, &args.open)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
     let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;

@@ -1,10 +1,12 @@
 //! The kiosk around the app: the Slint platform that draws with the software renderer
 //! (platform.rs), the routing of touches to the UI (router.rs), the replay harness that drives
-//! the real UI from scripts (harness.rs, replay.rs), and the appliance's loop that shows it on
-//! a DRM display with touch from evdev (drm_loop.rs).
+//! the real UI from scripts (harness.rs, replay.rs), the appliance's loop that shows it on a
+//! DRM display with touch from evdev (drm_loop.rs), and the memory one volume may take in the
+//! kiosk (memory.rs).
 
 pub mod drm_loop;
 pub mod harness;
+pub mod memory;
 pub mod platform;
 pub mod replay;
 pub mod router;

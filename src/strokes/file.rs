@@ -5,7 +5,7 @@ use super::{ClassStrokes, Lasso, StrokesError};
 use crate::slices::{Axis, slice_count};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
-use std::path::{Path, PathBuf};
+use std::path::Path;
 
 /// The format string every strokes file starts with.
 pub const FORMAT: &str = "volasso-strokes/1";
@@ -49,8 +49,11 @@ struct FileOut<'a> {
 }
 
 impl StrokesFile {
-    /// Parses the JSON text of a strokes file; checks format, axes, slice signs and points.
+    /// Parses the JSON text of a strokes file (a leading UTF-8 byte-order mark is skipped);
+    /// checks format, axes, slice signs and points.
     pub fn parse(text: &str) -> Result<StrokesFile, StrokesError> {
+        // Editors on Windows start UTF-8 files with a byte-order mark; JSON has no use for it.
+        let text = text.strip_prefix('\u{feff}').unwrap_or(text);
         let format: FormatOnly = serde_json::from_str(text).map_err(|source| StrokesError::Json { source })?;
         match format.format {
             Some(serde_json::Value::String(found)) if found == FORMAT => {}
@@ -150,35 +153,9 @@ impl StrokesFile {
     pub fn write(&self, path: &Path) -> Result<(), StrokesError> {
         let mut text = self.to_json().map_err(|e| e.with_path(path))?;
         text.push('\n');
-        write_atomically(path, text.as_bytes())
+        crate::atomic_file::write_atomically(path, |file| file.write_all(text.as_bytes()))
+            .map_err(|source| StrokesError::Io { source, path: path.to_path_buf() })
     }
-}
-
-/// Writes `bytes` to `path` by way of a temporary sibling file and a rename.
-fn write_atomically(path: &Path, bytes: &[u8]) -> Result<(), StrokesError> {
-    let io_error = |source, at: &Path| StrokesError::Io { source, path: at.to_path_buf() };
-    let file_name = path.file_name().ok_or_else(|| {
-        io_error(std::io::Error::new(std::io::ErrorKind::InvalidInput, "the path names no file"), path)
-    })?;
-    let folder = match path.parent() {
-        Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
-        _ => PathBuf::from("."),
-    };
-    let mut temporary_name = std::ffi::OsString::from(".");
-    temporary_name.push(file_name);
-    temporary_name.push(format!(".{}.tmp", std::process::id()));
-    let temporary = folder.join(temporary_name);
-    let result = (|| {
-        let mut file = std::fs::File::create(&temporary).map_err(|e| io_error(e, &temporary))?;
-        file.write_all(bytes).map_err(|e| io_error(e, &temporary))?;
-        file.sync_all().map_err(|e| io_error(e, &temporary))?;
-        std::fs::rename(&temporary, path).map_err(|e| io_error(e, path))
-    })();
-    if result.is_err() {
-        // Best effort: the temporary file may not exist if creating it failed.
-        let _ = std::fs::remove_file(&temporary);
-    }
-    result
 }
 
 #[cfg(test)]
@@ -210,6 +187,16 @@ mod tests {
         assert_eq!(file.classes[1].strokes[0].axis, Axis::X);
         assert!(file.classes[1].strokes[1].points.is_empty());
         file.check_for_volume([100, 100, 100]).unwrap();
+    }
+
+    #[test]
+    fn a_byte_order_mark_is_accepted() {
+        let with_bom = format!("\u{feff}{GOOD}");
+        assert_eq!(StrokesFile::parse(&with_bom).unwrap(), StrokesFile::parse(GOOD).unwrap());
+        let folder = tempfile::tempdir().unwrap();
+        let path = folder.path().join("bom.json");
+        std::fs::write(&path, with_bom.as_bytes()).unwrap();
+        assert_eq!(StrokesFile::read(&path).unwrap().classes.len(), 2);
     }
 
     #[test]

@@ -65,6 +65,12 @@ pub enum StrokesError {
     NonFinitePoint { class: String, stroke: usize, point: usize },
     #[error("the lassos of class {class_id} '{class}' select no voxel inside the volume")]
     EmptyClass { class: String, class_id: usize },
+    #[error(
+        "the lassos of class {class_id} '{class}' select only voxels that class {other_id} '{other}' also selects (voxels of two classes are left out of training)"
+    )]
+    Overlapped { class: String, class_id: usize, other: String, other_id: usize },
+    #[error("the strokes file defines no class")]
+    NoClasses,
     #[error("{count} classes is more than the 255 a label volume can hold")]
     TooManyClasses { count: usize },
     #[error("{source}, in {}", path.display())]

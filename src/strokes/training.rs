@@ -34,9 +34,22 @@ pub struct TrainingSet {
 
 impl TrainingSet {
     /// The training voxels of `file` in a volume of `dims`. Checks the file against the volume,
-    /// and refuses a class whose lassos select nothing ([`StrokesError::EmptyClass`]).
+    /// refuses a file without classes ([`StrokesError::NoClasses`]), a class whose lassos
+    /// select nothing ([`StrokesError::EmptyClass`]) and one whose every voxel another class
+    /// also selects ([`StrokesError::Overlapped`]).
     pub fn from_strokes(file: &StrokesFile, dims: [usize; 3]) -> Result<TrainingSet, StrokesError> {
-        let set = TrainingSet::from_strokes_keeping_empty(file, dims)?;
+        if file.classes.is_empty() {
+            return Err(StrokesError::NoClasses);
+        }
+        let (set, overlapped_by) = TrainingSet::build(file, dims)?;
+        if let Some((position, &Some(other))) = overlapped_by.iter().enumerate().find(|(_, by)| by.is_some()) {
+            return Err(StrokesError::Overlapped {
+                class: set.classes[position].name.clone(),
+                class_id: position + 1,
+                other: set.classes[other].name.clone(),
+                other_id: other + 1,
+            });
+        }
         set.check_every_class_has_voxels()?;
         Ok(set)
     }
@@ -44,6 +57,12 @@ impl TrainingSet {
     /// As [`from_strokes`](Self::from_strokes), but a class may end up without voxels (a
     /// caller that builds the set while the user is still drawing).
     pub fn from_strokes_keeping_empty(file: &StrokesFile, dims: [usize; 3]) -> Result<TrainingSet, StrokesError> {
+        TrainingSet::build(file, dims).map(|(set, _)| set)
+    }
+
+    /// The set, and for each class that only contested voxels emptied, the position of the
+    /// first other class that selects one of them.
+    fn build(file: &StrokesFile, dims: [usize; 3]) -> Result<(TrainingSet, Vec<Option<usize>>), StrokesError> {
         file.check_for_volume(dims)?;
         let mut classes: Vec<ClassSamples> = file
             .classes
@@ -67,16 +86,23 @@ impl TrainingSet {
                 }
             })
             .collect();
+        let mut overlapped_by = vec![None; classes.len()];
         let contested = contested_voxels(&classes);
         if !contested.is_empty() {
             log::warn!("{} voxels are selected by more than one class; they are left out of training", contested.len());
-            for class in &mut classes {
-                let (voxels, strokes) = class
+            let selected: Vec<Vec<usize>> = classes.iter().map(|c| c.voxels.clone()).collect();
+            for (position, class) in classes.iter_mut().enumerate() {
+                let (voxels, strokes): (Vec<usize>, Vec<u32>) = class
                     .voxels
                     .iter()
                     .zip(&class.stroke_of_voxel)
                     .filter(|(voxel, _)| contested.binary_search(voxel).is_err())
                     .unzip();
+                if voxels.is_empty() && !class.voxels.is_empty() {
+                    let shares = |other: &Vec<usize>| class.voxels.iter().any(|v| other.binary_search(v).is_ok());
+                    overlapped_by[position] =
+                        selected.iter().enumerate().position(|(k, other)| k != position && shares(other));
+                }
                 class.voxels = voxels;
                 class.stroke_of_voxel = strokes;
             }
@@ -84,7 +110,7 @@ impl TrainingSet {
         for class in &mut classes {
             class.count_per_stroke();
         }
-        Ok(TrainingSet { classes, contested_voxels: contested.len() })
+        Ok((TrainingSet { classes, contested_voxels: contested.len() }, overlapped_by))
     }
 
     /// `Err(EmptyClass)` naming the first class without voxels.
@@ -265,6 +291,30 @@ mod tests {
         let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
         assert!(kept.classes[1].voxels.is_empty());
         assert_eq!(kept.classes[1].stroke_voxel_counts, vec![0]);
+    }
+
+    #[test]
+    fn a_class_inside_another_class_names_the_other_and_no_class_is_its_own_error() {
+        let file = StrokesFile {
+            classes: vec![
+                class("bone", vec![rectangle(1, 0, 0, 9, 9)]),
+                // Wholly inside bone's lasso: every voxel is contested.
+                class("marrow", vec![rectangle(1, 2, 2, 4, 4)]),
+            ],
+        };
+        let error = TrainingSet::from_strokes(&file, DIMS).unwrap_err();
+        assert!(
+            matches!(&error, StrokesError::Overlapped { class, class_id: 2, other, other_id: 1 } if class == "marrow" && other == "bone"),
+            "{error:?}"
+        );
+        let message = error.to_string();
+        assert!(message.contains("class 2 'marrow' select only voxels that class 1 'bone' also selects"), "{message}");
+        // Bone keeps voxels outside marrow: only marrow is refused.
+        let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
+        assert_eq!((kept.classes[0].voxels.len(), kept.classes[1].voxels.len()), (100 - 9, 0));
+        let none = TrainingSet::from_strokes(&StrokesFile::default(), DIMS).unwrap_err();
+        assert!(matches!(none, StrokesError::NoClasses));
+        assert_eq!(none.to_string(), "the strokes file defines no class");
     }
 
     #[test]

@@ -13,7 +13,8 @@
 //!
 //! `N:` names the device, `B: 01` lines give its keys, `A:` lines its axes; `I:`, `P:`, `L:`
 //! and `S:` are checked for shape and otherwise ignored. `E:` lines are `sec.usec type code
-//! value` with type and code in hex and the value in decimal. Never panics; every problem is a
+//! value` with type and code in hex and the value in decimal. A pause longer than
+//! [`event::MAX_PAUSE_US`] between events is refused. Never panics; every problem is a
 //! [`TouchError::Parse`] with its line number.
 //!
 //! Never: writes evemu files (we record `volasso-events/1`).
@@ -36,6 +37,7 @@ pub fn parse(text: &str) -> Result<Recording, TouchError> {
     let mut axes: Vec<(u16, i32, i32)> = Vec::new();
     let mut key_mask: Vec<u8> = Vec::new();
     let mut events = Vec::new();
+    let mut pauses = event::PauseCheck::default();
     let mut described = false;
     for (index, line) in text.lines().enumerate() {
         let line_number = index + 1;
@@ -82,7 +84,9 @@ pub fn parse(text: &str) -> Result<Recording, TouchError> {
                     return Err(TouchError::TooManyEvents { limit: MAX_EVENTS });
                 }
                 let content = rest.split('#').next().unwrap_or("");
-                events.push(parse_event(content).map_err(|problem| parse_error(line_number, problem))?);
+                let event = parse_event(content).map_err(|problem| parse_error(line_number, problem))?;
+                pauses.next(event.time_us).map_err(|problem| parse_error(line_number, problem))?;
+                events.push(event);
             }
             _ => return Err(parse_error(line_number, format!("unknown line type '{prefix}:'"))),
         }
@@ -225,6 +229,7 @@ E: 0.080123 0000 0000 0000	# ------------ SYN_REPORT (0) ---------- +80ms
             ("N: x\nE: 0.1 0003 0035 1.5\n", 2, "integer"),
             ("N: x\nE: abc 0003 0035 1\n", 2, "time"),
             ("N: x\nhello\n", 2, "expected"),
+            ("N: x\nE: 1.000000 0000 0000 0\nE: 10000000001.000000 0000 0000 0\n", 3, "may pause at most 3600 s"),
         ];
         for (text, line, fragment) in cases {
             let error = parse(text).unwrap_err();

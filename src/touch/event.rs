@@ -18,6 +18,44 @@ pub struct RawEvent {
     pub value: i32,
 }
 
+/// The longest pause a recording may hold between an event and the next: an hour, longer than
+/// any of the app's timers (the idle timeout is two minutes), which a replay steps through in
+/// under a second (225,000 frames of 16 ms; about 2 µs each on the start screen). A replay moves
+/// its clock through every frame of a pause, so a lying timestamp (a jump of centuries) would
+/// keep it busy for weeks.
+pub const MAX_PAUSE_US: u64 = 3_600_000_000;
+
+/// Refuses a recording's event that comes more than [`MAX_PAUSE_US`] after the latest one
+/// before it. Times that go back are not pauses (a replay never moves its clock back).
+#[derive(Clone, Copy, Debug, Default)]
+pub struct PauseCheck {
+    latest_us: Option<u64>,
+}
+
+impl PauseCheck {
+    /// Checks the next event's time; the problem in words if it jumps too far.
+    pub fn next(&mut self, time_us: u64) -> Result<(), String> {
+        let latest_us = self.latest_us.map_or(time_us, |latest| latest.max(time_us));
+        if let Some(before) = self.latest_us
+            && time_us - before.min(time_us) > MAX_PAUSE_US
+        {
+            return Err(format!(
+                "the event at {} s comes {} s after the one before it (at {} s); a recording may pause at most {} s between events",
+                seconds(time_us),
+                seconds(time_us - before),
+                seconds(before),
+                MAX_PAUSE_US / 1_000_000
+            ));
+        }
+        self.latest_us = Some(latest_us);
+        Ok(())
+    }
+}
+
+fn seconds(time_us: u64) -> String {
+    format!("{}.{:06}", time_us / 1_000_000, time_us % 1_000_000)
+}
+
 impl RawEvent {
     pub const fn new(time_us: u64, kind: u16, code: u16, value: i32) -> RawEvent {
         RawEvent { time_us, kind, code, value }

@@ -18,7 +18,8 @@
 //! then one event per line, `SECONDS.MICROS TYPE CODE VALUE`, type and code by the kernel's
 //! names or as numbers (decimal or `0x` hex), an optional `# comment` after. Parsing never
 //! panics: any problem is a [`TouchError::Parse`] with its line number; lines longer than
-//! [`MAX_LINE_CHARS`] and more than [`MAX_EVENTS`] events are refused.
+//! [`MAX_LINE_CHARS`], more than [`MAX_EVENTS`] events and pauses longer than
+//! [`event::MAX_PAUSE_US`] between events are refused.
 //!
 //! Never: interprets the events (see `contacts`).
 
@@ -55,6 +56,7 @@ pub fn parse(text: &str) -> Result<Recording, TouchError> {
     let mut name = String::from("unnamed touchscreen");
     let (mut x, mut y, mut slots, mut multitouch) = (None, None, None, None);
     let mut events = Vec::new();
+    let mut pauses = event::PauseCheck::default();
     for (line_number, line) in lines {
         if line.len() > MAX_LINE_CHARS {
             return Err(parse_error(line_number, format!("line longer than {MAX_LINE_CHARS} bytes")));
@@ -100,7 +102,9 @@ pub fn parse(text: &str) -> Result<Recording, TouchError> {
             return Err(TouchError::TooManyEvents { limit: MAX_EVENTS });
         }
         let content = trimmed.split('#').next().unwrap_or("");
-        events.push(parse_event(content).map_err(|problem| parse_error(line_number, problem))?);
+        let event = parse_event(content).map_err(|problem| parse_error(line_number, problem))?;
+        pauses.next(event.time_us).map_err(|problem| parse_error(line_number, problem))?;
+        events.push(event);
     }
     if !seen_magic {
         return Err(TouchError::Incomplete { format: FORMAT, problem: format!("empty; expected '{MAGIC}'") });
@@ -276,6 +280,12 @@ mod tests {
             ("volasso-events/1\nx: 0 1\n1 EV_ABS ABS_X 1\ny: 0 1\n", 4, "after the first event"),
             ("volasso-events/1\ncolour: red\n", 2, "unknown header"),
             ("volasso-events/1\nslots: 0\n", 2, "slots"),
+            // A jump of 317 years: refused, not replayed frame by frame.
+            (
+                "volasso-events/1\nx: 0 1\ny: 0 1\n1 EV_SYN SYN_REPORT 0\n0.5 EV_SYN SYN_REPORT 0\n10000000000 EV_SYN SYN_REPORT 0\n",
+                6,
+                "comes 9999999999.000000 s after the one before it (at 1.000000 s); a recording may pause at most 3600 s",
+            ),
         ];
         for (text, line, fragment) in cases {
             let error = parse(text).unwrap_err();
@@ -319,8 +329,18 @@ mod tests {
         }
 
         #[test]
-        fn any_events_round_trip(events in proptest::collection::vec((any::<u64>(), 0u16..=0x1f, any::<u16>(), any::<i32>()), 0..50)) {
-            let events: Vec<RawEvent> = events.into_iter().map(|(t, k, c, v)| RawEvent::new(t, k, c, v)).collect();
+        fn any_events_round_trip(
+            start in 0..u64::MAX / 2,
+            events in proptest::collection::vec((0..=event::MAX_PAUSE_US, 0u16..=0x1f, any::<u16>(), any::<i32>()), 0..50)
+        ) {
+            let mut time_us = start;
+            let events: Vec<RawEvent> = events
+                .into_iter()
+                .map(|(pause, k, c, v)| {
+                    time_us += pause;
+                    RawEvent::new(time_us, k, c, v)
+                })
+                .collect();
             let recording = Recording { device: DeviceInfo::virtual_tablet(), events };
             prop_assert_eq!(parse(&write(&recording)).unwrap(), recording);
         }

@@ -28,7 +28,7 @@ pub use harmony::{
     styles_from_statistics,
 };
 pub use overlay::{DEFAULT_OVERLAY_ALPHA, RgbImage, slice_overlay, write_png};
-pub use rgba::{composite_along_z, rgba_volume, write_rgba_nrrd};
+pub use rgba::{composite_along_z, for_each_rgba_group, rgba_volume, stage_rgba_nrrd, write_rgba_nrrd};
 pub use style::{ClassStyle, hsv_to_rgb};
 pub use table::{CLASS_TABLE_FORMAT, ClassTable, class_table_path};
 pub use templates::{HueTemplate, TemplateType};

@@ -1,6 +1,7 @@
 //! The paper's pre-classified RGBA volume (§3.5, last step): each voxel's class style evaluated
 //! at its own gradient factor, 4 x u8 per voxel (straight alpha), background and hidden classes
-//! fully transparent; its NRRD file; and a CPU front-to-back compositing along z for previews
+//! fully transparent; its NRRD file, streamed a group of z slices at a time so that a 1024³
+//! volume's 4 GiB never sit in memory; and a CPU front-to-back compositing along z for previews
 //! and tests.
 //!
 //! Never: renders on the GPU, or changes styles.
@@ -8,58 +9,148 @@
 use super::harmony::check_labels;
 use super::overlay::RgbImage;
 use super::{ClassStyle, TransferError};
-use crate::atomic_file::write_atomically;
+use crate::atomic_file::{Staged, stage, write_atomically};
 use crate::features::{FeatureSet, FeatureSlabReader};
 use crate::volume::Volume;
 use rayon::prelude::*;
 use std::io::Write;
 use std::path::Path;
 
-/// z slices per parallel task.
-const SLAB_DEPTH_Z: usize = 4;
+/// z slices one parallel task colours, one after another (its feature reader keeps the planes
+/// around the last slice, so neighbours are read once).
+const TASK_SLICES: usize = 4;
 
-/// RGBA of every voxel (x fastest), 4 bytes each: `styles[k - 1]` at the voxel's gradient for
-/// class `k`, `[0, 0, 0, 0]` for background (label 0); parallel over z slabs.
-pub fn rgba_volume(volume: &Volume, labels: &[u8], styles: &[ClassStyle]) -> Result<Vec<u8>, TransferError> {
+/// The most RGBA bytes held at once while streaming: one group of slices coloured in parallel.
+pub const GROUP_BYTES: usize = 64 << 20;
+
+/// Colours the RGBA volume a group of whole z slices at a time (x fastest within each) and
+/// hands each group to `sink` in z order: `styles[k - 1]` at the voxel's gradient for class
+/// `k`, `[0, 0, 0, 0]` for background (label 0). At most [`GROUP_BYTES`] (or one slice, if
+/// larger) are held; the groups' slices are coloured in parallel.
+pub fn for_each_rgba_group(
+    volume: &Volume,
+    labels: &[u8],
+    styles: &[ClassStyle],
+    mut sink: impl FnMut(&[u8]) -> Result<(), TransferError>,
+) -> Result<(), TransferError> {
     check_labels(volume, labels, styles.len())?;
     let [size_x, size_y, size_z] = volume.dims;
     let plane = size_x * size_y;
-    let mut rgba = vec![0u8; volume.voxel_count() * 4];
     if plane == 0 || size_z == 0 {
-        return Ok(rgba);
+        return Ok(());
     }
-    rgba.par_chunks_mut(plane * SLAB_DEPTH_Z * 4).enumerate().try_for_each_init(
-        || (FeatureSlabReader::new(volume, FeatureSet::Paper5), Vec::new()),
-        |(reader, block), (slab, out)| -> Result<(), TransferError> {
-            let z_start = slab * SLAB_DEPTH_Z;
-            let z_range = z_start..z_start + out.len() / (plane * 4);
-            let first_voxel = z_start * plane;
-            let voxel_labels = &labels[first_voxel..first_voxel + out.len() / 4];
-            // Skip the features of a slab that is all background.
-            if voxel_labels.iter().all(|&l| l == 0) {
-                return Ok(());
-            }
-            reader.compute(z_range, block)?;
-            let dim = reader.feature_set().dim();
-            for (offset, (&label, pixel)) in voxel_labels.iter().zip(out.chunks_exact_mut(4)).enumerate() {
-                if label == 0 {
-                    continue;
+    let slice_bytes = plane * 4;
+    let threads = rayon::current_num_threads().max(1);
+    let group_slices = (GROUP_BYTES / slice_bytes).min(threads * TASK_SLICES).max(1);
+    let task_slices = group_slices.div_ceil(threads).clamp(1, TASK_SLICES);
+    let mut group = Vec::new();
+    for group_start in (0..size_z).step_by(group_slices) {
+        let group_end = (group_start + group_slices).min(size_z);
+        group.clear();
+        group.resize((group_end - group_start) * slice_bytes, 0u8);
+        group.par_chunks_mut(task_slices * slice_bytes).enumerate().try_for_each_init(
+            || (FeatureSlabReader::new(volume, FeatureSet::Paper5), Vec::new(), Vec::new()),
+            |(reader, block, selected), (task, out)| -> Result<(), TransferError> {
+                for (offset, slice_out) in out.chunks_exact_mut(slice_bytes).enumerate() {
+                    let z = group_start + task * task_slices + offset;
+                    let slice_labels = &labels[z * plane..(z + 1) * plane];
+                    colour_slice(reader, z, slice_labels, styles, slice_out, block, selected)?;
                 }
-                let gradient = block[offset * dim + 1];
-                let gradient = if gradient.is_finite() { gradient } else { 0.0 };
-                let colour = styles[label as usize - 1].rgba(gradient);
-                for (byte, channel) in pixel.iter_mut().zip(colour) {
-                    *byte = (channel * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
-                }
-            }
-            Ok(())
-        },
-    )?;
+                Ok(())
+            },
+        )?;
+        sink(&group)?;
+    }
+    Ok(())
+}
+
+/// Colours one z slice into `out` (zeroed): features only of its labelled voxels.
+fn colour_slice(
+    reader: &mut FeatureSlabReader,
+    z: usize,
+    labels: &[u8],
+    styles: &[ClassStyle],
+    out: &mut [u8],
+    block: &mut Vec<f32>,
+    selected: &mut Vec<usize>,
+) -> Result<(), TransferError> {
+    selected.clear();
+    selected.extend(labels.iter().enumerate().filter(|&(_, &label)| label != 0).map(|(i, _)| i));
+    if selected.is_empty() {
+        return Ok(());
+    }
+    reader.compute_selected(z, selected, block)?;
+    let dim = reader.feature_set().dim();
+    for (k, &i) in selected.iter().enumerate() {
+        let gradient = block[k * dim + 1];
+        let gradient = if gradient.is_finite() { gradient } else { 0.0 };
+        let colour = styles[labels[i] as usize - 1].rgba(gradient);
+        for (byte, channel) in out[4 * i..4 * i + 4].iter_mut().zip(colour) {
+            *byte = (channel * 255.0 + 0.5).clamp(0.0, 255.0) as u8;
+        }
+    }
+    Ok(())
+}
+
+/// The whole RGBA volume in memory (4 bytes per voxel, x fastest); see [`for_each_rgba_group`].
+/// For small volumes, previews and tests: files are written with [`stage_rgba_nrrd`].
+pub fn rgba_volume(volume: &Volume, labels: &[u8], styles: &[ClassStyle]) -> Result<Vec<u8>, TransferError> {
+    let mut rgba = Vec::with_capacity(volume.voxel_count() * 4);
+    for_each_rgba_group(volume, labels, styles, |group| {
+        rgba.extend_from_slice(group);
+        Ok(())
+    })?;
+    rgba.resize(volume.voxel_count() * 4, 0);
     Ok(rgba)
 }
 
-/// Writes an RGBA volume as an attached, raw NRRD (`sizes: 4 X Y Z`, `kinds: RGBA-color domain
-/// domain domain`), atomically.
+/// The header of an attached raw RGBA NRRD (`sizes: 4 X Y Z`, `kinds: RGBA-color domain domain
+/// domain`), each line of `comment` as a `#` line.
+fn rgba_header(dims: [usize; 3], spacing_mm: [f64; 3], comment: &str) -> String {
+    let mut header = String::from("NRRD0004\n");
+    for line in comment.lines() {
+        header.push_str(&format!("# {line}\n"));
+    }
+    header.push_str(&format!(
+        "type: uint8\ndimension: 4\nsizes: 4 {} {} {}\nspace dimension: 3\nspace directions: none ({},0,0) (0,{},0) (0,0,{})\nkinds: RGBA-color domain domain domain\nencoding: raw\n\n",
+        dims[0], dims[1], dims[2], spacing_mm[0], spacing_mm[1], spacing_mm[2],
+    ));
+    header
+}
+
+/// Writes the RGBA volume of `volume`'s `labels` as an attached raw NRRD beside `path`,
+/// streamed group by group, and returns it staged: nothing is at `path` until the caller
+/// commits it (with the other outputs of the same run).
+pub fn stage_rgba_nrrd(
+    path: &Path,
+    volume: &Volume,
+    labels: &[u8],
+    styles: &[ClassStyle],
+    comment: &str,
+) -> Result<Staged, TransferError> {
+    check_labels(volume, labels, styles.len())?;
+    let header = rgba_header(volume.dims, volume.spacing_mm, comment);
+    // The colouring's own error, kept apart from the file's: `stage` only carries io errors.
+    let mut failure = None;
+    let staged = stage(path, |file| {
+        file.write_all(header.as_bytes())?;
+        let result = for_each_rgba_group(volume, labels, styles, |group| {
+            file.write_all(group).map_err(|source| TransferError::Io { source, path: path.to_path_buf() })
+        });
+        result.map_err(|error| {
+            let io = std::io::Error::other(error.to_string());
+            failure = Some(error);
+            io
+        })
+    });
+    match (staged, failure) {
+        (Ok(staged), _) => Ok(staged),
+        (Err(_), Some(error)) => Err(error),
+        (Err(source), None) => Err(TransferError::Io { source, path: path.to_path_buf() }),
+    }
+}
+
+/// Writes an RGBA volume already in memory as an attached, raw NRRD, atomically.
 pub fn write_rgba_nrrd(
     path: &Path,
     dims: [usize; 3],
@@ -71,14 +162,7 @@ pub fn write_rgba_nrrd(
     if rgba.len() != expected {
         return Err(TransferError::RgbaSize { dims, expected, found: rgba.len() });
     }
-    let mut header = String::from("NRRD0004\n");
-    for line in comment.lines() {
-        header.push_str(&format!("# {line}\n"));
-    }
-    header.push_str(&format!(
-        "type: uint8\ndimension: 4\nsizes: 4 {} {} {}\nspace dimension: 3\nspace directions: none ({},0,0) (0,{},0) (0,0,{})\nkinds: RGBA-color domain domain domain\nencoding: raw\n\n",
-        dims[0], dims[1], dims[2], spacing_mm[0], spacing_mm[1], spacing_mm[2],
-    ));
+    let header = rgba_header(dims, spacing_mm, comment);
     write_atomically(path, |file| {
         file.write_all(header.as_bytes())?;
         file.write_all(rgba)
@@ -152,6 +236,39 @@ mod tests {
             }
         }
         assert!(matches!(rgba_volume(&volume, &labels, &styles[..2]), Err(TransferError::LabelOutOfRange { .. })));
+    }
+
+    #[test]
+    fn the_streamed_file_holds_the_same_bytes_in_groups_no_larger_than_the_bound() {
+        // 30 slices of 48 x 40: several groups of at most 4 slices per thread each.
+        let phantom = demo_foot_with([48, 40, 30], 5).unwrap();
+        let (volume, labels) = (phantom.volume, phantom.truth);
+        let styles = class_styles(&volume, &labels, 3, &HueTemplate::default_for(3)).unwrap();
+        let whole = rgba_volume(&volume, &labels, &styles).unwrap();
+        let mut largest = 0;
+        let mut streamed = Vec::new();
+        for_each_rgba_group(&volume, &labels, &styles, |group| {
+            largest = largest.max(group.len());
+            assert_eq!(group.len() % (48 * 40 * 4), 0, "whole slices only");
+            streamed.extend_from_slice(group);
+            Ok(())
+        })
+        .unwrap();
+        assert_eq!(streamed, whole);
+        assert!(largest <= GROUP_BYTES);
+
+        let folder = tempfile::tempdir().unwrap();
+        let path = folder.path().join("rgba.nrrd");
+        let staged = stage_rgba_nrrd(&path, &volume, &labels, &styles, "run 7").unwrap();
+        assert!(!path.exists(), "nothing at the target before the commit");
+        staged.commit().unwrap();
+        let bytes = std::fs::read(&path).unwrap();
+        assert!(bytes.starts_with(b"NRRD0004\n# run 7\n"));
+        assert!(bytes.ends_with(&whole));
+        // Labels that do not fit the styles: an error, and no file or temporary left.
+        let failed = stage_rgba_nrrd(&folder.path().join("bad.nrrd"), &volume, &labels, &styles[..1], "");
+        assert!(matches!(failed, Err(TransferError::LabelOutOfRange { .. })));
+        assert_eq!(std::fs::read_dir(folder.path()).unwrap().count(), 1);
     }
 
     #[test]
