@@ -20,6 +20,8 @@ pub struct VolumeInfo {
     /// The highest-entropy slice along x, y and z (paper §3.1, eq. 1).
     pub top_slices: [usize; 3],
     pub resident_memory: Option<memory::ResidentMemory>,
+    /// What the reader tolerated or changed (a DICOM series resampled, opened across a gap).
+    pub warnings: Vec<String>,
 }
 
 impl VolumeInfo {
@@ -36,6 +38,7 @@ impl VolumeInfo {
             memory_mapped: volume.is_memory_mapped(),
             top_slices: crate::slices::slice_entropies(volume).top_slices(),
             resident_memory: memory::resident_memory(),
+            warnings: volume.warnings.clone(),
         }
     }
 }
@@ -69,6 +72,9 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         info.top_slices[0], info.top_slices[1], info.top_slices[2]
     );
     println!("storage:     {}", if info.memory_mapped { "memory-mapped" } else { "in memory" });
+    for warning in &info.warnings {
+        println!("warning:     {warning}");
+    }
     if let Some(memory) = info.resident_memory {
         println!(
             "resident:    {:.1} MiB anonymous, {:.1} MiB of mapped files, peak {:.1} MiB",
