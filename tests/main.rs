@@ -3,6 +3,8 @@
 //! * `formats`: every volume in `../shared/data` opens with the right dimensions, type, spacing
 //!   and values (checked against figures computed independently with numpy).
 //! * `malformed`: broken, truncated and lying files each give one clear error, never a panic.
+//! * `mutations`: a short fuzz pass (seeded mutations of `fuzz/seeds`) through every reader,
+//!   in a process of its own so that its allocations can be counted.
 //! * `hostile`: files built to exhaust memory or reach outside their folder (bombs, wrapping
 //!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
 //! * `accuracy`: the accuracy harness on small phantoms (issue 9): the default classifier
@@ -20,5 +22,6 @@ mod cli;
 mod formats;
 mod hostile;
 mod malformed;
+mod mutations;
 mod replay;
 mod support;

@@ -4,6 +4,12 @@
 //! Entry point: [`open`]. Formats (`interfaces.md`): NRRD (`.nrrd`, `.nhdr`), MetaImage
 //! (`.mha`, `.mhd`), NIfTI-1 (`.nii`, `.hdr`, `.nii.gz`), DICOM (a folder, a DICOMDIR, a
 //! file), Open SciVis raw (`name_XxYxZ_type.raw`), any raw file with explicit dims and type.
+//!
+//! Every reader works within [`OpenOptions::limits`] ([`super::limits`]); a detached data file
+//! is checked before the cache is consulted, and the cache key covers exactly the files the
+//! reader reads (the header and its data file, or the DICOM listing).
+//!
+//! Never: opens anything but a regular file or a folder.
 
 use super::dicom::{self, DicomOptions};
 use super::limits::{self, ReadLimits};

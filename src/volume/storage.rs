@@ -124,4 +124,16 @@ mod tests {
         assert!(error.to_string().ends_with(&format!("in {}", path.display())), "{error}");
         assert!(VoxelBytes::Owned(vec![1, 2]).check_still_mapped().is_ok());
     }
+
+    #[test]
+    fn an_opened_volume_reports_its_file_shrinking() {
+        let folder = tempfile::tempdir().unwrap();
+        let path = folder.path().join("v_16x16x16_uint8.raw");
+        std::fs::write(&path, vec![9u8; 4096]).unwrap();
+        let volume = crate::volume::open(&path, &crate::volume::OpenOptions::default()).unwrap();
+        assert!(volume.is_memory_mapped());
+        volume.check_still_mapped().unwrap();
+        std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(0).unwrap();
+        assert!(matches!(volume.check_still_mapped(), Err(VolumeError::Shrunk { found: 0, .. })));
+    }
 }

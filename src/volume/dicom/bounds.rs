@@ -21,7 +21,7 @@ use crate::volume::{VolumeError, VoxelType};
 use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry};
 use dicom_core::{Tag, VR};
 use dicom_dictionary_std::{StandardDataDictionary, tags};
-use dicom_object::file::ReadPreamble;
+use dicom_object::file::{OddLengthStrategy, ReadPreamble};
 use dicom_object::{DefaultDicomObject, OpenFileOptions};
 use std::io::Read;
 use std::path::Path;
@@ -86,7 +86,9 @@ pub(super) fn read_object(path: &Path, scope: Scope, limits: &ReadLimits) -> Res
             }
         }
     };
-    let options = OpenFileOptions::new().read_preamble(ReadPreamble::Always);
+    // The walk above assumed exactly this reading: the preamble, and odd lengths as they are.
+    let options =
+        OpenFileOptions::new().read_preamble(ReadPreamble::Always).odd_length_strategy(OddLengthStrategy::Accept);
     let options = if scope == Scope::Header { options.read_until(tags::PIXEL_DATA) } else { options };
     options.from_reader(&bytes[..end as usize]).map_err(|error| invalid(format!("unreadable DICOM file ({error})")))
 }
@@ -200,7 +202,12 @@ impl<'a> Walker<'a> {
             // the data set in explicit VR little endian.
             Some(_) => EXPLICIT_LITTLE,
         };
-        self.data_set(position, None, syntax, 0)
+        let end = self.data_set(position, None, syntax, 0)?;
+        // The walk skips values it need not look at; dicom-object reads them all.
+        if end > self.bytes.len() as u64 {
+            return Err(Stop::NeedMore);
+        }
+        Ok(end)
     }
 
     /// The element or item header at `position`.
@@ -414,6 +421,22 @@ mod tests {
         nested.extend([0xFE, 0xFF, 0x00, 0xE0, 0xF0, 0xFF, 0xFF, 0xFF]);
         let Err(Stop::Invalid(problem)) = walk(&nested, Scope::Header) else { panic!("accepted") };
         assert!(problem.contains("(FFFE,E000) declares 4294967280"), "{problem}");
+    }
+
+    #[test]
+    fn a_header_without_pixel_data_is_read_whole_however_long() {
+        let folder = tempfile::tempdir().unwrap();
+        let mut bytes = std::fs::read(CT_SMALL).unwrap();
+        let pixel_data = find_tag(&bytes, tags::PIXEL_DATA, b"OW");
+        bytes.truncate(pixel_data);
+        // A private OB element of 200 KB ends the file: longer than the first header read.
+        bytes.extend([0x09, 0x00, 0x10, 0x10, b'O', b'B', 0, 0]);
+        bytes.extend(200_000u32.to_le_bytes());
+        bytes.extend(std::iter::repeat_n(7u8, 200_000));
+        let path = folder.path().join("report.dcm");
+        std::fs::write(&path, &bytes).unwrap();
+        let object = read_object(&path, Scope::Header, &ReadLimits::default()).unwrap();
+        assert!(object.get(Tag(0x0009, 0x1010)).is_some());
     }
 
     #[test]
