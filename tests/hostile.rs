@@ -12,7 +12,7 @@
 //! `ru_maxrss` cannot serve: exec carries the spawning test process's own peak into it.
 //! A case that runs longer than 30 s is killed and fails.
 
-use crate::support::{assert_clean_error, data};
+use crate::support::{assert_clean_error, data, gzip, nifti_header};
 use std::io::Read;
 use std::os::unix::process::CommandExt;
 use std::path::{Path, PathBuf};
@@ -90,30 +90,10 @@ fn run_measured(args: &[&str], cache: &Path) -> Measured {
     Measured { output, peak_bytes }
 }
 
-fn gzip(bytes: &[u8]) -> Vec<u8> {
-    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::best());
-    std::io::Write::write_all(&mut encoder, bytes).unwrap();
-    encoder.finish().unwrap()
-}
-
 fn zlib(bytes: &[u8]) -> Vec<u8> {
     let mut encoder = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
     std::io::Write::write_all(&mut encoder, bytes).unwrap();
     encoder.finish().unwrap()
-}
-
-fn nifti_header(datatype: i16, bitpix: i16, dims: [i16; 3], vox_offset: f32, magic: &[u8; 4]) -> Vec<u8> {
-    let mut h = vec![0u8; 352];
-    h[0..4].copy_from_slice(&348i32.to_le_bytes());
-    h[40..42].copy_from_slice(&3i16.to_le_bytes());
-    for (i, d) in dims.iter().enumerate() {
-        h[42 + 2 * i..44 + 2 * i].copy_from_slice(&d.to_le_bytes());
-    }
-    h[70..72].copy_from_slice(&datatype.to_le_bytes());
-    h[72..74].copy_from_slice(&bitpix.to_le_bytes());
-    h[108..112].copy_from_slice(&vox_offset.to_le_bytes());
-    h[344..348].copy_from_slice(magic);
-    h
 }
 
 /// The offset of the first explicit-VR little-endian element `(group,element)` with `vr`.
@@ -303,37 +283,33 @@ fn cases() -> Vec<Case> {
         case(
             "huge-dims.nii",
             "truncated",
-            file("huge-dims.nii", [nifti_header(64, 64, [32767; 3], 352.0, b"n+1\0"), vec![0; 1000]].concat()),
+            file("huge-dims.nii", [nifti_header(64, 64, [32767; 3], 352.0), vec![0; 1000]].concat()),
         ),
         case(
             "huge-dims.nii.gz",
             "can hold at most",
-            file(
-                "huge-dims.nii.gz",
-                gzip(&[nifti_header(64, 64, [32767; 3], 352.0, b"n+1\0"), vec![0; 1000]].concat()),
-            ),
+            file("huge-dims.nii.gz", gzip(&[nifti_header(64, 64, [32767; 3], 352.0), vec![0; 1000]].concat())),
         ),
         case(
             "offset-past-end.nii",
             "truncated",
-            file("offset-past-end.nii", [nifti_header(2, 8, [10; 3], 4.0e9, b"n+1\0"), vec![0; 1000]].concat()),
+            file("offset-past-end.nii", [nifti_header(2, 8, [10; 3], 4.0e9), vec![0; 1000]].concat()),
         ),
         case(
             "offset-past-end.nii.gz",
             "can hold at most",
-            file(
-                "offset-past-end.nii.gz",
-                gzip(&[nifti_header(2, 8, [10; 3], 3.0e38, b"n+1\0"), vec![0; 1000]].concat()),
-            ),
+            file("offset-past-end.nii.gz", gzip(&[nifti_header(2, 8, [10; 3], 3.0e38), vec![0; 1000]].concat())),
         ),
         case(
             "bomb.nii.gz",
             "more than the 1000 bytes",
-            file("bomb.nii.gz", gzip(&[nifti_header(2, 8, [10; 3], 352.0, b"n+1\0"), vec![0; 64 << 20]].concat())),
+            file("bomb.nii.gz", gzip(&[nifti_header(2, 8, [10; 3], 352.0), vec![0; 64 << 20]].concat())),
         ),
         case("linked-image.hdr", "outside the header's folder", |folder: &Path| {
             std::os::unix::fs::symlink("/dev/zero", folder.join("linked-image.img")).unwrap();
-            file("linked-image.hdr", nifti_header(2, 8, [10; 3], 0.0, b"ni1\0")[..348].to_vec())(folder)
+            let mut header = nifti_header(2, 8, [10; 3], 0.0);
+            header[344..348].copy_from_slice(b"ni1\0");
+            file("linked-image.hdr", header[..348].to_vec())(folder)
         }),
         // DICOM: copies of a real slice, edited to lie.
         case("pixel-length.dcm", "declares 4294967280 bytes", {
