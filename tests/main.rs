@@ -3,6 +3,10 @@
 //! * `formats`: every volume in `../shared/data` opens with the right dimensions, type, spacing
 //!   and values (checked against figures computed independently with numpy).
 //! * `malformed`: broken, truncated and lying files each give one clear error, never a panic.
+//! * `mutations`: a short fuzz pass (seeded mutations of `fuzz/seeds`) through every reader,
+//!   in a process of its own so that its allocations can be counted.
+//! * `hostile`: files built to exhaust memory or reach outside their folder (bombs, wrapping
+//!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
 //! * `accuracy`: the accuracy harness on small phantoms (issue 9): the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, and
@@ -18,6 +22,8 @@ mod classification;
 mod cli;
 mod deploy;
 mod formats;
+mod hostile;
 mod malformed;
+mod mutations;
 mod replay;
 mod support;

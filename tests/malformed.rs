@@ -1,30 +1,10 @@
 //! Malformed inputs, each written by the test: every one gives exactly one clear error line
 //! naming the problem, exit status 1, and no panic (issue 2, "bad input").
 
-use crate::support::{assert_clean_error, volasso};
+use crate::support::{assert_clean_error, gzip, nifti_header, volasso};
 use std::path::Path;
 
 const NRRD: &str = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n";
-
-fn gzip(bytes: &[u8]) -> Vec<u8> {
-    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
-    std::io::Write::write_all(&mut encoder, bytes).unwrap();
-    encoder.finish().unwrap()
-}
-
-fn nifti_header(datatype: i16, bitpix: i16, dims: [i16; 3], vox_offset: f32) -> Vec<u8> {
-    let mut h = vec![0u8; 352];
-    h[0..4].copy_from_slice(&348i32.to_le_bytes());
-    h[40..42].copy_from_slice(&3i16.to_le_bytes());
-    for (i, d) in dims.iter().enumerate() {
-        h[42 + 2 * i..44 + 2 * i].copy_from_slice(&d.to_le_bytes());
-    }
-    h[70..72].copy_from_slice(&datatype.to_le_bytes());
-    h[72..74].copy_from_slice(&bitpix.to_le_bytes());
-    h[108..112].copy_from_slice(&vox_offset.to_le_bytes());
-    h[344..348].copy_from_slice(b"n+1\0");
-    h
-}
 
 fn with_data(header: &str, data_len: usize) -> Vec<u8> {
     let mut bytes = header.as_bytes().to_vec();

@@ -1,4 +1,4 @@
-//! Test fixtures: paths to the shared data, running the real binary.
+//! Test fixtures: paths to the shared data, running the real binary, bytes of test files.
 
 use std::path::{Path, PathBuf};
 use std::process::Output;
@@ -36,4 +36,27 @@ pub fn assert_clean_error(output: &Output, expected: &str, case: &str) {
         "{case}: error '{}' does not mention '{expected}'",
         errors[0]
     );
+}
+
+/// `bytes` compressed as one gzip member.
+pub fn gzip(bytes: &[u8]) -> Vec<u8> {
+    let mut encoder = flate2::write::GzEncoder::new(Vec::new(), flate2::Compression::fast());
+    std::io::Write::write_all(&mut encoder, bytes).unwrap();
+    encoder.finish().unwrap()
+}
+
+/// A little-endian single-file NIfTI-1 header (352 bytes with the extension flag, magic
+/// `n+1`) for `dims` of `datatype` and `bitpix`, its data at `vox_offset`.
+pub fn nifti_header(datatype: i16, bitpix: i16, dims: [i16; 3], vox_offset: f32) -> Vec<u8> {
+    let mut h = vec![0u8; 352];
+    h[0..4].copy_from_slice(&348i32.to_le_bytes());
+    h[40..42].copy_from_slice(&3i16.to_le_bytes());
+    for (i, d) in dims.iter().enumerate() {
+        h[42 + 2 * i..44 + 2 * i].copy_from_slice(&d.to_le_bytes());
+    }
+    h[70..72].copy_from_slice(&datatype.to_le_bytes());
+    h[72..74].copy_from_slice(&bitpix.to_le_bytes());
+    h[108..112].copy_from_slice(&vox_offset.to_le_bytes());
+    h[344..348].copy_from_slice(b"n+1\0");
+    h
 }

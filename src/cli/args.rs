@@ -225,6 +225,14 @@ pub struct VolumeArgs {
     /// DICOM: slice spacing in mm for resampled series.
     #[arg(long, value_name = "MM")]
     pub slice_spacing: Option<f64>,
+    /// DICOM: open a series with a missing or unreadable slice, resampled across the hole
+    /// (refused without it).
+    #[arg(long)]
+    pub allow_gaps: bool,
+    /// Read a detached data file (NRRD `data file`, MetaImage `ElementDataFile`, NIfTI `.img`)
+    /// that lies outside its header's folder.
+    #[arg(long)]
+    pub allow_external_data: bool,
     /// Folder for imported volumes (default: $VOLASSO_CACHE_DIR, else ~/.cache/volasso).
     #[arg(long, value_name = "DIR")]
     pub cache_dir: Option<PathBuf>,
@@ -240,8 +248,11 @@ impl VolumeArgs {
                 series_uid: self.series.clone(),
                 resample: if self.no_resample { Resample::Refuse } else { Resample::Auto },
                 slice_spacing_mm: self.slice_spacing,
+                allow_gaps: self.allow_gaps,
             },
             cache_dir: self.cache_dir.clone(),
+            allow_external_data: self.allow_external_data,
+            ..OpenOptions::default()
         }
     }
 }

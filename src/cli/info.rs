@@ -24,6 +24,8 @@ pub struct VolumeInfo {
     /// (nearest for oblique axes), or `null` when the file does not say (`interfaces.md`).
     pub anatomical_axes: Option<[&'static str; 3]>,
     pub resident_memory: Option<memory::ResidentMemory>,
+    /// What the reader tolerated or changed (a DICOM series resampled, opened across a gap).
+    pub warnings: Vec<String>,
 }
 
 impl VolumeInfo {
@@ -41,6 +43,7 @@ impl VolumeInfo {
             top_slices: crate::slices::foreground_slice_entropies(volume).top_slices(),
             anatomical_axes: volume.orientation.map(|orientation| orientation.anatomical_letters()),
             resident_memory: memory::resident_memory(),
+            warnings: volume.warnings.clone(),
         }
     }
 }
@@ -78,6 +81,9 @@ pub fn run(args: &InfoArgs) -> Result<(), CliError> {
         info.top_slices[0], info.top_slices[1], info.top_slices[2]
     );
     println!("storage:     {}", if info.memory_mapped { "memory-mapped" } else { "in memory" });
+    for warning in &info.warnings {
+        println!("warning:     {warning}");
+    }
     if let Some(memory) = info.resident_memory {
         println!(
             "resident:    {:.1} MiB anonymous, {:.1} MiB of mapped files, peak {:.1} MiB",

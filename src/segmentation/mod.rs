@@ -137,6 +137,9 @@ pub enum Refinement {
 /// Everything that can go wrong while segmenting.
 #[derive(Debug, thiserror::Error)]
 pub enum SegmentationError {
+    /// The volume's mapped file shrank since it was opened (see `Volume::check_still_mapped`).
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
     #[error(transparent)]
     Strokes(#[from] StrokesError),
     #[error(transparent)]
@@ -220,6 +223,7 @@ pub fn train(
     training: &TrainingSet,
     options: &SegmentationOptions,
 ) -> Result<Segmenter, SegmentationError> {
+    volume.check_still_mapped()?;
     training.check_every_class_has_voxels()?;
     let capped = training.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();
@@ -316,5 +320,6 @@ pub fn label_volume(
     progress: &(dyn Fn(f32) + Sync),
     cancel: &AtomicBool,
 ) -> Result<LabelVolume, SegmentationError> {
+    volume.check_still_mapped()?;
     refine::label_volume(volume, segmenter, refinement, progress, cancel)
 }

@@ -25,6 +25,22 @@ pub enum VolumeError {
     UnknownFormat { hint: String, path: PathBuf },
     #[error("DICOM: {problem}, in {}", path.display())]
     Dicom { problem: String, path: PathBuf },
+    #[error("the volume needs {bytes} bytes in memory, above the ceiling of {ceiling} bytes for decoded data, in {}", path.display())]
+    TooLarge { bytes: u64, ceiling: u64, path: PathBuf },
+    #[error("cannot allocate {bytes} bytes for the voxel data (not enough memory), in {}", path.display())]
+    OutOfMemory { bytes: u64, path: PathBuf },
+    #[error("the header promises {expected} bytes of voxel data but {available} bytes of {encoding} data can hold at most {most} (a lying header), in {}", path.display())]
+    CannotHold { expected: u64, encoding: &'static str, available: u64, most: u64, path: PathBuf },
+    #[error("the data holds more than the {expected} bytes the header promises (its sizes or type are wrong), in {}", path.display())]
+    ExtraData { expected: u64, path: PathBuf },
+    #[error("the data file {} lies outside the header's folder {} (pass --allow-external-data to read it anyway), in {}", data_file.display(), folder.display(), path.display())]
+    ExternalData { data_file: PathBuf, folder: PathBuf, path: PathBuf },
+    #[error("not a regular file (devices, pipes and sockets are never read as volumes): {}", path.display())]
+    NotRegularFile { path: PathBuf },
+    #[error("DICOM series with a missing slice: {problem}; not opened, since the volume would have a hole (pass --allow-gaps to resample across it), in {}", path.display())]
+    SeriesGap { problem: String, path: PathBuf },
+    #[error("the file shrank to {found} bytes after it was mapped ({expected} are needed); open it again, in {}", path.display())]
+    Shrunk { expected: u64, found: u64, path: PathBuf },
 }
 
 impl VolumeError {

@@ -6,10 +6,13 @@
 //! `TransformMatrix` (or `AnatomicalOrientation`) and `Offset` become the volume's patient
 //! orientation ([`super::orientation`]).
 //!
+//! Sizes and offsets are checked before use and compressed data is decoded within
+//! [`super::limits`]; a detached `ElementDataFile` must lie beside its header.
+//!
 //! Never: reads multi-channel images (`ElementNumberOfChannels` > 1) or lists of slice files.
 
+use super::limits::{self, Beyond, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// A parsed MetaImage header.
@@ -186,31 +189,31 @@ pub struct MetaImageRead {
     pub decoded: bool,
 }
 
-/// Reads a `.mha` or `.mhd`.
+/// Reads a `.mha` or `.mhd` with the default [`ReadLimits`].
 pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
-    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
-    let mut head = Vec::new();
-    file.take(1 << 16).read_to_end(&mut head).map_err(|e| VolumeError::io(e, path))?;
+    read_with(path, &ReadLimits::default())
+}
+
+/// Reads a `.mha` or `.mhd`; a detached data file and compressed data obey `limits`.
+pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<MetaImageRead, VolumeError> {
+    let head = limits::read_head(path, 1 << 16)?;
     let header = parse_header(&head, path)?;
     let (data_path, base) = match &header.data_file {
-        Some(name) => (path.parent().unwrap_or(Path::new(".")).join(name), 0u64),
+        Some(name) => (limits::detached_data_file(path, name, limits)?, 0u64),
         None => (path.to_path_buf(), header.header_length as u64),
     };
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
+    let offset_error = |skip: u64| {
+        VolumeError::header("HeaderSize", format!("{skip} bytes after offset {base} pass any file's end"), path)
+    };
     if header.compressed {
-        let mut compressed = Vec::new();
-        let mut file = std::fs::File::open(&data_path).map_err(|e| VolumeError::io(e, &data_path))?;
-        std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(base + header.header_size.unwrap_or(0)))
-            .map_err(|e| VolumeError::io(e, &data_path))?;
-        file.read_to_end(&mut compressed).map_err(|e| VolumeError::io(e, &data_path))?;
-        let mut data = Vec::with_capacity(length);
-        flate2::read::ZlibDecoder::new(&compressed[..])
-            .take(length as u64)
-            .read_to_end(&mut data)
-            .map_err(|e| VolumeError::Decompress { source: e, path: data_path.clone() })?;
-        if data.len() < length {
-            return Err(VolumeError::DataSize { expected: length, found: data.len(), path: data_path });
-        }
+        let skip = header.header_size.unwrap_or(0);
+        let start = base.checked_add(skip).ok_or_else(|| offset_error(skip))?;
+        let (mut file, file_len) = limits::open_regular(&data_path)?;
+        limits::check_deflate_can_hold(0, length as u64, file_len.saturating_sub(start), &data_path)?;
+        std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(start)).map_err(|e| VolumeError::io(e, &data_path))?;
+        let decoder = flate2::read::ZlibDecoder::new(std::io::BufReader::with_capacity(1 << 16, file));
+        let data = limits::decode_exactly(decoder, 0, length, Beyond::Refuse, limits, &data_path)?;
         let mut volume = Volume::new(
             header.dims,
             header.spacing_mm,
@@ -224,9 +227,9 @@ pub fn read(path: &Path) -> Result<MetaImageRead, VolumeError> {
         return Ok(MetaImageRead { volume, decoded: true });
     }
     let offset = match header.header_size {
-        Some(skip) => base + skip,
+        Some(skip) => base.checked_add(skip).ok_or_else(|| offset_error(skip))?,
         None => {
-            let file_len = std::fs::metadata(&data_path).map_err(|e| VolumeError::io(e, &data_path))?.len();
+            let (_, file_len) = limits::open_regular(&data_path)?;
             file_len.checked_sub(length as u64).ok_or(VolumeError::DataSize {
                 expected: length,
                 found: file_len as usize,

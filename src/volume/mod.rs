@@ -18,6 +18,7 @@ pub mod dicom;
 pub mod error;
 mod foreground;
 pub mod histogram;
+pub mod limits;
 pub mod metaimage;
 pub mod nifti;
 pub mod nrrd;
@@ -144,6 +145,9 @@ pub struct Volume {
     /// Where the voxel axes point in the patient, when the file says ([`orientation`]);
     /// `None` for raw files and files without (or with unusable) orientation fields.
     pub orientation: Option<PatientOrientation>,
+    /// What the reader tolerated or changed (a DICOM series resampled across a missing slice
+    /// with `--allow-gaps`, skipped files), one sentence each, for the caller to show.
+    pub warnings: Vec<String>,
     bytes: VoxelBytes,
     range: ValueRange,
     /// [`Volume::otsu_threshold`], once asked for.
@@ -190,6 +194,7 @@ impl Volume {
             scale,
             source: source.to_path_buf(),
             orientation: None,
+            warnings: Vec::new(),
             bytes,
             range: ValueRange { min: 0.0, max: 0.0, non_finite_voxels: 0 },
             otsu: std::sync::OnceLock::new(),
@@ -243,6 +248,13 @@ impl Volume {
     /// True when the bytes are a memory map of a file (not a copy in RAM).
     pub fn is_memory_mapped(&self) -> bool {
         self.bytes.is_mapped()
+    }
+
+    /// An error when the file under a memory-mapped volume has shrunk since it was opened
+    /// (reading it would crash with SIGBUS); always `Ok` for volumes in memory. The pipeline's
+    /// entry points call it before each whole-volume pass (see [`storage`]).
+    pub fn check_still_mapped(&self) -> Result<(), VolumeError> {
+        self.bytes.check_still_mapped()
     }
 
     /// The stored bytes, as they are in the file.

@@ -6,10 +6,12 @@
 //! memory-mapped at `vox_offset`; gzip files are decompressed for the caller to cache.
 //!
 //! The sform or qform becomes the volume's patient orientation ([`super::orientation`]); the
-//! grid itself stays as stored.
+//! grid itself stays as stored. Sizes and offsets are checked before use and gzip data is
+//! decoded within [`super::limits`]; the `.img` of a pair must lie beside its `.hdr`.
 //!
 //! Never: resamples the grid to the qform/sform, or reads a 4-D series beyond its first volume.
 
+use super::limits::{self, Beyond, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -31,6 +33,8 @@ pub struct NiftiHeader {
     pub separate_image_file: bool,
     /// From the sform or qform (see [`super::orientation::from_nifti`]).
     pub orientation: Option<super::PatientOrientation>,
+    /// True when dims 4..7 hold more than the one volume read (its data may follow).
+    pub more_volumes: bool,
 }
 
 /// Parses a NIfTI-1 header from the first 348 bytes of `bytes`.
@@ -74,9 +78,11 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         }
         *dim = size as usize;
     }
+    let mut more_volumes = false;
     for higher in 3..rank as usize {
         let size = reader.i16(42 + 2 * higher);
         if size > 1 {
+            more_volumes = true;
             log::warn!("{} has {} volumes along dim[{}]; only the first is used", path.display(), size, higher + 1);
         }
     }
@@ -131,6 +137,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         data_offset: vox_offset as u64,
         separate_image_file,
         orientation,
+        more_volumes,
     })
 }
 
@@ -176,16 +183,19 @@ pub struct NiftiRead {
     pub decoded: bool,
 }
 
-/// Reads `.nii`, `.hdr` (with its `.img`) or `.nii.gz`.
+/// Reads `.nii`, `.hdr` (with its `.img`) or `.nii.gz` with the default [`ReadLimits`].
 pub fn read(path: &Path) -> Result<NiftiRead, VolumeError> {
+    read_with(path, &ReadLimits::default())
+}
+
+/// Reads `.nii`, `.hdr` (with its `.img`) or `.nii.gz`; the `.img` and gzip data obey `limits`.
+pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<NiftiRead, VolumeError> {
     if is_gzip(path)? {
-        return read_gzip(path);
+        return read_gzip(path, limits);
     }
-    let mut head = Vec::with_capacity(HEADER_BYTES);
-    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
-    file.take(HEADER_BYTES as u64).read_to_end(&mut head).map_err(|e| VolumeError::io(e, path))?;
+    let head = limits::read_head(path, HEADER_BYTES as u64)?;
     let header = parse_header(&head, path)?;
-    let data_path = if header.separate_image_file { image_file_for(path) } else { path.to_path_buf() };
+    let data_path = data_path(path, &header, limits)?;
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
     let bytes = VoxelBytes::map_region(&data_path, header.data_offset, length)?;
     let mut volume =
@@ -194,8 +204,18 @@ pub fn read(path: &Path) -> Result<NiftiRead, VolumeError> {
     Ok(NiftiRead { volume, decoded: false })
 }
 
-fn read_gzip(path: &Path) -> Result<NiftiRead, VolumeError> {
-    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
+/// The file the voxels are in: the `.nii` itself, or the checked `.img` beside a `.hdr`.
+pub fn data_path(path: &Path, header: &NiftiHeader, limits: &ReadLimits) -> Result<PathBuf, VolumeError> {
+    if !header.separate_image_file {
+        return Ok(path.to_path_buf());
+    }
+    let image = image_file_for(path);
+    let name = image.file_name().map(PathBuf::from).unwrap_or(image);
+    limits::detached_data_file(path, &name, limits)
+}
+
+fn read_gzip(path: &Path, limits: &ReadLimits) -> Result<NiftiRead, VolumeError> {
+    let (file, file_len) = limits::open_regular(path)?;
     let mut decoder = flate2::read::MultiGzDecoder::new(std::io::BufReader::new(file));
     let mut head = Vec::with_capacity(HEADER_BYTES);
     (&mut decoder)
@@ -207,17 +227,10 @@ fn read_gzip(path: &Path) -> Result<NiftiRead, VolumeError> {
         return Err(VolumeError::header("magic", "a gzip file must be a single-file NIfTI ('n+1')", path));
     }
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
-    let skip = header.data_offset - HEADER_BYTES as u64;
-    std::io::copy(&mut (&mut decoder).take(skip), &mut std::io::sink())
-        .map_err(|e| VolumeError::Decompress { source: e, path: path.to_path_buf() })?;
-    let mut data = Vec::with_capacity(length);
-    (&mut decoder)
-        .take(length as u64)
-        .read_to_end(&mut data)
-        .map_err(|e| VolumeError::Decompress { source: e, path: path.to_path_buf() })?;
-    if data.len() < length {
-        return Err(VolumeError::DataSize { expected: length, found: data.len(), path: path.to_path_buf() });
-    }
+    let skip = header.data_offset.saturating_sub(HEADER_BYTES as u64);
+    limits::check_deflate_can_hold(header.data_offset, length as u64, file_len, path)?;
+    let beyond = if header.more_volumes { Beyond::Ignore } else { Beyond::Refuse };
+    let data = limits::decode_exactly(decoder, skip, length, beyond, limits, path)?;
     let mut volume = Volume::new(
         header.dims,
         header.spacing_mm,
@@ -234,7 +247,7 @@ fn read_gzip(path: &Path) -> Result<NiftiRead, VolumeError> {
 /// True when the file starts with the gzip magic bytes.
 pub fn is_gzip(path: &Path) -> Result<bool, VolumeError> {
     let mut magic = [0u8; 2];
-    let mut file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
+    let (mut file, _) = limits::open_regular(path)?;
     let read = file.read(&mut magic).map_err(|e| VolumeError::io(e, path))?;
     Ok(read == 2 && magic == [0x1f, 0x8b])
 }

@@ -6,8 +6,13 @@
 //! ASCII data is parsed into memory. Header parsing ([`parse_header`]) is a pure function over
 //! bytes, so it is property-tested and fuzzed without touching files.
 //!
+//! Every size, offset and skip is checked before it is used (see [`super::limits`]): byte and
+//! line skips with checked arithmetic, gzip and ASCII data against what the file can hold and
+//! the decoding ceiling, a detached `data file` only beside its header.
+//!
 //! Never: resamples, or reads more than the header promises.
 
+use super::limits::{self, Beyond, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -318,14 +323,16 @@ pub struct NrrdRead {
     pub decoded: bool,
 }
 
-/// Reads a `.nrrd` or `.nhdr` file.
+/// Reads a `.nrrd` or `.nhdr` file with the default [`ReadLimits`].
 pub fn read(path: &Path) -> Result<NrrdRead, VolumeError> {
-    let head = read_head(path)?;
+    read_with(path, &ReadLimits::default())
+}
+
+/// Reads a `.nrrd` or `.nhdr` file; a detached data file and decoded data obey `limits`.
+pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<NrrdRead, VolumeError> {
+    let head = limits::read_head(path, 1 << 16)?;
     let header = parse_header(&head, path)?;
-    let data_path = match &header.data_file {
-        Some(file) => path.parent().unwrap_or(Path::new(".")).join(file),
-        None => path.to_path_buf(),
-    };
+    let data_path = data_path(path, &header, limits)?;
     let attached_offset = match (&header.data_file, header.header_length) {
         (Some(_), _) => 0,
         (None, Some(length)) => length as u64,
@@ -339,15 +346,21 @@ pub fn read(path: &Path) -> Result<NrrdRead, VolumeError> {
     };
     let voxel_count = checked_voxel_count(header.dims, header.voxel_type, path)?;
     let expected = voxel_count * header.voxel_type.size_bytes();
-    let file_len = std::fs::metadata(&data_path).map_err(|e| VolumeError::io(e, &data_path))?.len();
+    let (file, file_len) = limits::open_regular(&data_path)?;
     let mut offset = attached_offset;
     if header.line_skip > 0 {
-        offset = skip_lines(&data_path, offset, header.line_skip)?;
+        offset = skip_lines(&file, &data_path, offset, header.line_skip)?;
     }
     let (bytes, decoded) = match header.encoding {
         NrrdEncoding::Raw => {
             let offset = match header.byte_skip {
-                Some(skip) => offset + skip,
+                Some(skip) => offset.checked_add(skip).ok_or_else(|| {
+                    VolumeError::header(
+                        "byte skip",
+                        format!("{skip} bytes after offset {offset} pass any file's end"),
+                        path,
+                    )
+                })?,
                 None => file_len.checked_sub(expected as u64).ok_or(VolumeError::DataSize {
                     expected,
                     found: file_len as usize,
@@ -357,29 +370,21 @@ pub fn read(path: &Path) -> Result<NrrdRead, VolumeError> {
             (VoxelBytes::map_region(&data_path, offset, expected)?, false)
         }
         NrrdEncoding::Gzip => {
-            let compressed = read_from(&data_path, offset)?;
-            let mut decoder = flate2::read::MultiGzDecoder::new(&compressed[..]);
-            let skip = header.byte_skip.unwrap_or(0) as usize;
-            // Read one byte more than promised so that a lying header is caught.
-            let mut data = Vec::with_capacity(expected + skip);
-            (&mut decoder)
-                .take((expected + skip + 1) as u64)
-                .read_to_end(&mut data)
-                .map_err(|e| VolumeError::Decompress { source: e, path: data_path.clone() })?;
-            if data.len() < expected + skip {
-                return Err(VolumeError::DataSize {
-                    expected,
-                    found: data.len().saturating_sub(skip),
-                    path: data_path,
-                });
-            }
-            data.drain(..skip);
-            data.truncate(expected);
-            (VoxelBytes::Owned(data), true)
+            let skip = header.byte_skip.unwrap_or(0);
+            let compressed = file_len.saturating_sub(offset);
+            limits::check_deflate_can_hold(skip, expected as u64, compressed, &data_path)?;
+            let reader = positioned(file, &data_path, offset)?;
+            let decoder = flate2::read::MultiGzDecoder::new(reader);
+            (
+                VoxelBytes::Owned(limits::decode_exactly(decoder, skip, expected, Beyond::Refuse, limits, &data_path)?),
+                true,
+            )
         }
         NrrdEncoding::Ascii => {
-            let text = read_from(&data_path, offset)?;
-            (VoxelBytes::Owned(parse_ascii(&text, header.voxel_type, voxel_count, &data_path)?), false)
+            let available = file_len.saturating_sub(offset);
+            let reader = positioned(file, &data_path, offset)?;
+            let values = parse_ascii(reader, available, header.voxel_type, voxel_count, limits, &data_path)?;
+            (VoxelBytes::Owned(values), false)
         }
     };
     let order = if header.encoding == NrrdEncoding::Ascii { ByteOrder::Little } else { header.byte_order };
@@ -389,53 +394,118 @@ pub fn read(path: &Path) -> Result<NrrdRead, VolumeError> {
     Ok(NrrdRead { volume, decoded })
 }
 
-/// Reads the first 64 KiB (NRRD headers are small; a detached header is read whole).
-fn read_head(path: &Path) -> Result<Vec<u8>, VolumeError> {
-    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
-    let mut head = Vec::new();
-    file.take(1 << 16).read_to_end(&mut head).map_err(|e| VolumeError::io(e, path))?;
-    Ok(head)
+/// The file the voxel data is in: the header's own, or its checked `data file`.
+pub fn data_path(path: &Path, header: &NrrdHeader, limits: &ReadLimits) -> Result<PathBuf, VolumeError> {
+    match &header.data_file {
+        Some(file) => limits::detached_data_file(path, file, limits),
+        None => Ok(path.to_path_buf()),
+    }
 }
 
-fn read_from(path: &Path, offset: u64) -> Result<Vec<u8>, VolumeError> {
+/// A buffered reader over `file` from `offset` on.
+fn positioned(
+    mut file: std::fs::File,
+    path: &Path,
+    offset: u64,
+) -> Result<std::io::BufReader<std::fs::File>, VolumeError> {
     use std::io::{Seek, SeekFrom};
-    let mut file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
     file.seek(SeekFrom::Start(offset)).map_err(|e| VolumeError::io(e, path))?;
-    let mut bytes = Vec::new();
-    file.read_to_end(&mut bytes).map_err(|e| VolumeError::io(e, path))?;
-    Ok(bytes)
+    Ok(std::io::BufReader::with_capacity(1 << 16, file))
 }
 
-fn skip_lines(path: &Path, mut offset: u64, lines: u64) -> Result<u64, VolumeError> {
-    let head = read_from(path, offset)?;
-    let mut remaining = lines;
-    for &b in &head {
-        offset += 1;
-        if b == b'\n' {
+/// The offset after `lines` more newlines from `offset`, read a buffer at a time.
+fn skip_lines(file: &std::fs::File, path: &Path, offset: u64, lines: u64) -> Result<u64, VolumeError> {
+    use std::io::BufRead;
+    let clone = file.try_clone().map_err(|e| VolumeError::io(e, path))?;
+    let mut reader = positioned(clone, path, offset)?;
+    let (mut position, mut remaining) = (offset, lines);
+    loop {
+        let buffer = reader.fill_buf().map_err(|e| VolumeError::io(e, path))?;
+        if buffer.is_empty() {
+            return Err(VolumeError::header("line skip", format!("the data has fewer than {lines} lines"), path));
+        }
+        let mut consumed = buffer.len();
+        for (i, _) in buffer.iter().enumerate().filter(|(_, b)| **b == b'\n') {
             remaining -= 1;
             if remaining == 0 {
-                return Ok(offset);
+                consumed = i + 1;
+                break;
             }
         }
+        position += consumed as u64;
+        reader.consume(consumed);
+        if remaining == 0 {
+            return Ok(position);
+        }
     }
-    Err(VolumeError::header("line skip", format!("the data has fewer than {lines} lines"), path))
 }
 
-fn parse_ascii(text: &[u8], voxel_type: VoxelType, voxel_count: usize, path: &Path) -> Result<Vec<u8>, VolumeError> {
-    let text = std::str::from_utf8(text).map_err(|_| VolumeError::header("data", "ASCII data is not text", path))?;
-    let mut bytes = Vec::with_capacity(voxel_count * voxel_type.size_bytes());
-    let mut count = 0usize;
-    for token in text.split(|c: char| c.is_whitespace() || c == ',').filter(|t| !t.is_empty()).take(voxel_count) {
-        let value: f64 = token
-            .parse()
-            .map_err(|_| VolumeError::header("data", format!("'{}' is not a number", truncate(token)), path))?;
-        push_value(&mut bytes, voxel_type, value);
-        count += 1;
+/// The longest ASCII value read: more is not a number but a lying file.
+const LONGEST_ASCII_VALUE: usize = 64;
+
+/// Parses `voxel_count` whitespace- or comma-separated numbers from `text` (`available` bytes)
+/// into little-endian `voxel_type` bytes; fewer or more values are errors.
+fn parse_ascii(
+    text: impl Read,
+    available: u64,
+    voxel_type: VoxelType,
+    voxel_count: usize,
+    limits: &ReadLimits,
+    path: &Path,
+) -> Result<Vec<u8>, VolumeError> {
+    let size = voxel_type.size_bytes();
+    let expected = (voxel_count * size) as u64;
+    // Each value but the last needs a separator: at least two characters a value.
+    let most_values = available.div_ceil(2);
+    if voxel_count as u64 > most_values {
+        return Err(VolumeError::CannotHold {
+            expected,
+            encoding: "ASCII",
+            available,
+            most: most_values * size as u64,
+            path: path.to_path_buf(),
+        });
     }
+    limits::check_ceiling(expected, limits, path)?;
+    let mut bytes = limits::reserve(voxel_count * size, path)?;
+    let mut count = 0usize;
+    let mut token: Vec<u8> = Vec::with_capacity(LONGEST_ASCII_VALUE);
+    let mut finish = |token: &mut Vec<u8>, bytes: &mut Vec<u8>| -> Result<(), VolumeError> {
+        if token.is_empty() {
+            return Ok(());
+        }
+        let shown = || String::from_utf8_lossy(token).chars().take(60).collect::<String>();
+        if count == voxel_count {
+            return Err(VolumeError::ExtraData { expected, path: path.to_path_buf() });
+        }
+        let value: f64 = std::str::from_utf8(token)
+            .ok()
+            .and_then(|t| t.parse().ok())
+            .ok_or_else(|| VolumeError::header("data", format!("'{}' is not a number", shown()), path))?;
+        push_value(bytes, voxel_type, value);
+        count += 1;
+        token.clear();
+        Ok(())
+    };
+    for byte in std::io::BufReader::new(text).bytes() {
+        let byte = byte.map_err(|e| VolumeError::io(e, path))?;
+        if byte.is_ascii_whitespace() || byte == b',' {
+            finish(&mut token, &mut bytes)?;
+        } else if token.len() == LONGEST_ASCII_VALUE {
+            return Err(VolumeError::header(
+                "data",
+                format!("a value is longer than {LONGEST_ASCII_VALUE} characters"),
+                path,
+            ));
+        } else {
+            token.push(byte);
+        }
+    }
+    finish(&mut token, &mut bytes)?;
     if count < voxel_count {
         return Err(VolumeError::DataSize {
-            expected: voxel_count * voxel_type.size_bytes(),
-            found: count * voxel_type.size_bytes(),
+            expected: expected as usize,
+            found: count * size,
             path: path.to_path_buf(),
         });
     }

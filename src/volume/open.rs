@@ -4,10 +4,16 @@
 //! Entry point: [`open`]. Formats (`interfaces.md`): NRRD (`.nrrd`, `.nhdr`), MetaImage
 //! (`.mha`, `.mhd`), NIfTI-1 (`.nii`, `.hdr`, `.nii.gz`), DICOM (a folder, a DICOMDIR, a
 //! file), Open SciVis raw (`name_XxYxZ_type.raw`), any raw file with explicit dims and type.
+//!
+//! Every reader works within [`OpenOptions::limits`] ([`super::limits`]); a detached data file
+//! is checked before the cache is consulted, and the cache key covers exactly the files the
+//! reader reads (the header and its data file, or the DICOM listing).
+//!
+//! Never: opens anything but a regular file or a folder.
 
 use super::dicom::{self, DicomOptions};
+use super::limits::{self, ReadLimits};
 use super::{Volume, VolumeError, cache, metaimage, nifti, nrrd, raw};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// How to open a volume; the default opens any self-describing file.
@@ -21,6 +27,22 @@ pub struct OpenOptions {
     pub dicom: DicomOptions,
     /// Where imports are cached; `None` for [`cache::default_folder`].
     pub cache_dir: Option<PathBuf>,
+    /// The most bytes a compressed or text encoding (or a DICOM series) may decode into
+    /// memory; `None` for [`limits::default_max_decoded_bytes`] (the smallest of 16 GiB, the
+    /// machine's memory and the process's cgroup limit).
+    pub max_decoded_bytes: Option<u64>,
+    /// Read detached data files outside their header's folder (`--allow-external-data`).
+    pub allow_external_data: bool,
+}
+
+impl OpenOptions {
+    /// The limits readers work within.
+    pub fn limits(&self) -> ReadLimits {
+        ReadLimits {
+            max_decoded_bytes: self.max_decoded_bytes.unwrap_or_else(limits::default_max_decoded_bytes),
+            allow_external_data: self.allow_external_data,
+        }
+    }
 }
 
 /// The formats [`open`] tells apart.
@@ -38,6 +60,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
     let format = detect_format(path, options)?;
     log::debug!("{}: opening as {format:?}", path.display());
     let cache_dir = options.cache_dir.clone().unwrap_or_else(cache::default_folder);
+    let limits = options.limits();
     let mut volume = match format {
         Format::Raw => {
             let naming = match (options.dims, options.voxel_type) {
@@ -62,36 +85,43 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
             raw::read(path, naming, options.spacing_mm.unwrap_or([1.0; 3]))?
         }
         Format::Nrrd => {
-            if nrrd_is_compressed(path)? {
-                let key = cache::content_key(&[path.to_path_buf()], "nrrd")?;
-                cache::open_or_import(&cache_dir, &key, path, || nrrd::read(path).map(|r| (r.volume, Vec::new())))?
+            let header = nrrd::parse_header(&limits::read_head(path, 1 << 16)?, path)?;
+            // The data file is resolved (and checked) here, before any cache lookup.
+            let data = nrrd::data_path(path, &header, &limits)?;
+            if header.encoding == nrrd::NrrdEncoding::Gzip {
+                let files = source_files(path, &data);
+                cache::open_or_import(&cache_dir, &files, "nrrd", path, || {
+                    nrrd::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                })?
             } else {
-                nrrd::read(path)?.volume
+                nrrd::read_with(path, &limits)?.volume
             }
         }
         Format::MetaImage => {
-            let head = read_head(path, 1 << 16)?;
-            let header = metaimage::parse_header(&head, path)?;
+            let header = metaimage::parse_header(&limits::read_head(path, 1 << 16)?, path)?;
+            let data = match &header.data_file {
+                Some(name) => limits::detached_data_file(path, name, &limits)?,
+                None => path.to_path_buf(),
+            };
             if header.compressed {
-                let mut files = vec![path.to_path_buf()];
-                if let Some(data) = &header.data_file {
-                    files.push(path.parent().unwrap_or(Path::new(".")).join(data));
-                }
-                let key = cache::content_key(&files, "metaimage")?;
-                cache::open_or_import(&cache_dir, &key, path, || metaimage::read(path).map(|r| (r.volume, Vec::new())))?
+                let files = source_files(path, &data);
+                cache::open_or_import(&cache_dir, &files, "metaimage", path, || {
+                    metaimage::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                })?
             } else {
-                metaimage::read(path)?.volume
+                metaimage::read_with(path, &limits)?.volume
             }
         }
         Format::Nifti => {
             if nifti::is_gzip(path)? {
-                let key = cache::content_key(&[path.to_path_buf()], "nifti")?;
-                cache::open_or_import(&cache_dir, &key, path, || nifti::read(path).map(|r| (r.volume, Vec::new())))?
+                cache::open_or_import(&cache_dir, &[path.to_path_buf()], "nifti", path, || {
+                    nifti::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                })?
             } else {
-                nifti::read(path)?.volume
+                nifti::read_with(path, &limits)?.volume
             }
         }
-        Format::Dicom => open_dicom(path, &options.dicom, &cache_dir)?,
+        Format::Dicom => open_dicom(path, &options.dicom, &limits, &cache_dir)?,
     };
     if let Some(spacing) = options.spacing_mm {
         for (axis, &s) in spacing.iter().enumerate() {
@@ -104,43 +134,29 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
     Ok(volume)
 }
 
-/// A DICOM series, imported through the cache. The key covers every file the series could come
-/// from (the folder's files, or the one file) and the options, so a hit skips reading DICOM at all.
-fn open_dicom(path: &Path, options: &DicomOptions, cache_dir: &Path) -> Result<Volume, VolumeError> {
-    let is_dicomdir = path.is_file() && file_name(path).is_some_and(|n| n.eq_ignore_ascii_case("dicomdir"));
-    let files = if path.is_dir() || is_dicomdir {
-        let folder = if is_dicomdir { path.parent().unwrap_or(Path::new(".")) } else { path };
-        let mut files = Vec::new();
-        list_files(folder, &mut files, 0)?;
-        files.sort();
-        files
-    } else {
-        vec![path.to_path_buf()]
-    };
-    let settings = format!(
-        "dicom series={:?} resample={:?} spacing={:?}",
-        options.series_uid, options.resample, options.slice_spacing_mm
-    );
-    let key = cache::content_key(&files, &settings)?;
-    cache::open_or_import(cache_dir, &key, path, || {
-        let imported = dicom::read_series(path, options)?;
-        Ok((imported.volume, imported.warnings))
-    })
+/// The header and, when it is another file, the data file.
+fn source_files(header: &Path, data: &Path) -> Vec<PathBuf> {
+    if data == header { vec![header.to_path_buf()] } else { vec![header.to_path_buf(), data.to_path_buf()] }
 }
 
-/// Every regular file below `folder` (symbolic links are not followed, so a loop cannot hang).
-fn list_files(folder: &Path, files: &mut Vec<PathBuf>, depth: usize) -> Result<(), VolumeError> {
-    const MAX_DEPTH: usize = 8;
-    for entry in std::fs::read_dir(folder).map_err(|e| VolumeError::io(e, folder))? {
-        let entry = entry.map_err(|e| VolumeError::io(e, folder))?;
-        let file_type = entry.file_type().map_err(|e| VolumeError::io(e, entry.path()))?;
-        if file_type.is_file() {
-            files.push(entry.path());
-        } else if file_type.is_dir() && depth < MAX_DEPTH {
-            list_files(&entry.path(), files, depth + 1)?;
-        }
-    }
-    Ok(())
+/// A DICOM series, imported through the cache. The key covers exactly the files the reader
+/// reads (one listing, [`dicom::list_source`], serves both) and the options, so a hit skips
+/// reading DICOM at all and a changed, added or removed file is a miss.
+fn open_dicom(
+    path: &Path,
+    options: &DicomOptions,
+    limits: &ReadLimits,
+    cache_dir: &Path,
+) -> Result<Volume, VolumeError> {
+    let source = dicom::list_source(path, limits)?;
+    let settings = format!(
+        "dicom series={:?} resample={:?} spacing={:?} allow_gaps={} unlisted={:?}",
+        options.series_uid, options.resample, options.slice_spacing_mm, options.allow_gaps, source.unlisted
+    );
+    cache::open_or_import(cache_dir, &source.files, &settings, path, || {
+        let imported = dicom::read_source(path, &source, options, limits)?;
+        Ok((imported.volume, imported.warnings))
+    })
 }
 
 /// Decides the format from the options, the path and, failing those, the first bytes.
@@ -151,6 +167,9 @@ pub fn detect_format(path: &Path, options: &OpenOptions) -> Result<Format, Volum
     let metadata = std::fs::metadata(path).map_err(|e| VolumeError::io(e, path))?;
     if metadata.is_dir() {
         return Ok(Format::Dicom);
+    }
+    if !metadata.is_file() {
+        return Err(VolumeError::NotRegularFile { path: path.to_path_buf() });
     }
     let name = file_name(path).unwrap_or_default().to_ascii_lowercase();
     let by_extension = [
@@ -170,7 +189,7 @@ pub fn detect_format(path: &Path, options: &OpenOptions) -> Result<Format, Volum
     if name == "dicomdir" {
         return Ok(Format::Dicom);
     }
-    let head = read_head(path, 352)?;
+    let head = limits::read_head(path, 352)?;
     if head.starts_with(b"NRRD000") {
         Ok(Format::Nrrd)
     } else if head.len() >= 132 && &head[128..132] == b"DICM" {
@@ -185,18 +204,6 @@ pub fn detect_format(path: &Path, options: &OpenOptions) -> Result<Format, Volum
             path: path.to_path_buf(),
         })
     }
-}
-
-fn nrrd_is_compressed(path: &Path) -> Result<bool, VolumeError> {
-    let header = nrrd::parse_header(&read_head(path, 1 << 16)?, path)?;
-    Ok(header.encoding == nrrd::NrrdEncoding::Gzip)
-}
-
-fn read_head(path: &Path, limit: u64) -> Result<Vec<u8>, VolumeError> {
-    let file = std::fs::File::open(path).map_err(|e| VolumeError::io(e, path))?;
-    let mut head = Vec::new();
-    file.take(limit).read_to_end(&mut head).map_err(|e| VolumeError::io(e, path))?;
-    Ok(head)
 }
 
 fn file_name(path: &Path) -> Option<String> {

@@ -34,7 +34,7 @@ pub fn parse_name(file_name: &str) -> Option<RawNaming> {
 /// Maps a raw file with known dimensions, type and spacing.
 pub fn read(path: &Path, naming: RawNaming, spacing_mm: [f64; 3]) -> Result<Volume, VolumeError> {
     let length = checked_voxel_count(naming.dims, naming.voxel_type, path)? * naming.voxel_type.size_bytes();
-    let file_len = std::fs::metadata(path).map_err(|e| VolumeError::io(e, path))?.len();
+    let (_, file_len) = super::limits::open_regular(path)?;
     if file_len != length as u64 {
         return Err(VolumeError::DataSize { expected: length, found: file_len as usize, path: path.to_path_buf() });
     }

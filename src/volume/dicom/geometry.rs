@@ -23,6 +23,34 @@ const TILT_TOLERANCE_PIXELS: f64 = 0.1;
 const EVEN_GAP_TOLERANCE: f64 = 0.01;
 /// Slices closer than this fraction of a pixel along the normal share one position.
 const DUPLICATE_TOLERANCE_PIXELS: f64 = 0.01;
+/// A gap at least this many times the series' spacing leaves room for a slice that is not
+/// there (see [`StackGeometry::missing_slices`]).
+const MISSING_SLICE_RATIO: f64 = 1.9;
+/// Gaps on each side whose median is a gap's local spacing.
+const LOCAL_GAPS: usize = 3;
+
+/// A gap with room for a missing slice.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub(super) struct MissingSlice {
+    /// The gap lies between slice `after` and slice `after + 1` (in normal order).
+    pub after: usize,
+    pub gap_mm: f64,
+    /// The spacing the gap was compared with.
+    pub spacing_mm: f64,
+}
+
+impl MissingSlice {
+    pub fn describe(&self) -> String {
+        format!(
+            "the {:.2} mm gap between slices {} and {} is {:.1} times the series' {:.2} mm spacing",
+            self.gap_mm,
+            self.after + 1,
+            self.after + 2,
+            self.gap_mm / self.spacing_mm,
+            self.spacing_mm
+        )
+    }
+}
 
 /// The geometry of an ordered series (slice k is `first_pixel_mm[k]`).
 #[derive(Clone, Debug)]
@@ -106,6 +134,42 @@ impl StackGeometry {
             even_gaps: gap_max_mm - gap_min_mm <= EVEN_GAP_TOLERANCE * gap_median_mm,
             tilted: largest_shift_mm > TILT_TOLERANCE_PIXELS * pixel_mm,
         }
+    }
+
+    /// Gaps that leave room for a slice the series lacks. A gap counts as a missing slice when
+    /// it is at least [`MISSING_SLICE_RATIO`] (1.9) times the series' spacing there, taken as
+    /// the smaller of the median of all gaps and the median of up to [`LOCAL_GAPS`] gaps on
+    /// each side of it: one lost slice doubles a gap (2.0), two triple it, and 1.9 leaves 5 %
+    /// for rounding in the positions. The local median finds a lost slice in the wider part
+    /// of a series whose spacing changes; the series median one at the change. Uneven gaps
+    /// that leave no such room (the GE head's 7.00 mm gaps are 1.75 times its 4.00 mm median,
+    /// its 1.08 mm gap is an overlap) are uneven spacing, resampled as such.
+    pub fn missing_slices(&self) -> Vec<MissingSlice> {
+        let gaps = self.gaps_mm();
+        let series_spacing_mm = median(&gaps);
+        (0..gaps.len())
+            .filter_map(|index| {
+                let neighbours: Vec<f64> = (index.saturating_sub(LOCAL_GAPS)..(index + LOCAL_GAPS + 1).min(gaps.len()))
+                    .filter(|&other| other != index)
+                    .map(|other| gaps[other])
+                    .collect();
+                if neighbours.is_empty() {
+                    return None;
+                }
+                let spacing_mm = series_spacing_mm.min(median(&neighbours));
+                (spacing_mm > 0.0 && gaps[index] >= MISSING_SLICE_RATIO * spacing_mm).then_some(MissingSlice {
+                    after: index,
+                    gap_mm: gaps[index],
+                    spacing_mm,
+                })
+            })
+            .collect()
+    }
+
+    /// The geometry of the slices whose `keep` flag is set (in order).
+    pub fn keeping(&self, keep: &[bool]) -> StackGeometry {
+        let first_pixel_mm = self.first_pixel_mm.iter().zip(keep).filter(|(_, k)| **k).map(|(p, _)| *p).collect();
+        StackGeometry { first_pixel_mm, ..self.clone() }
     }
 
     /// The slice spacing of a resampled grid when the caller gives none: the smallest gap that
@@ -272,4 +336,42 @@ pub(super) fn dot(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 fn cross(a: [f64; 3], b: [f64; 3]) -> [f64; 3] {
     [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn stack_at(normal_positions_mm: &[f64]) -> StackGeometry {
+        StackGeometry {
+            rows: 2,
+            columns: 2,
+            pixel_spacing_mm: [1.0, 1.0],
+            first_pixel_mm: normal_positions_mm.iter().map(|w| [0.0, 0.0, *w]).collect(),
+            single_slice_spacing_mm: 1.0,
+        }
+    }
+
+    fn missing_after(normal_positions_mm: &[f64]) -> Vec<usize> {
+        stack_at(normal_positions_mm).missing_slices().iter().map(|m| m.after).collect()
+    }
+
+    #[test]
+    fn a_doubled_or_tripled_gap_is_a_missing_slice_and_uneven_spacing_is_not() {
+        assert_eq!(missing_after(&[0.0, 5.0, 10.0, 20.0, 25.0, 30.0]), [2]);
+        assert_eq!(missing_after(&[0.0, 5.0, 20.0, 25.0, 30.0]), [1]);
+        assert!(missing_after(&[0.0, 5.0, 10.0, 15.0]).is_empty());
+        assert!(missing_after(&[0.0, 5.0]).is_empty());
+        // The GE head: thirteen 4.00 mm gaps, one 1.08 mm, thirteen 7.00 mm.
+        let mut ge = vec![0.0];
+        for gap in std::iter::repeat_n(4.0, 13).chain([1.08]).chain(std::iter::repeat_n(7.0, 13)) {
+            ge.push(ge[ge.len() - 1] + gap);
+        }
+        assert!(missing_after(&ge).is_empty());
+        // A slice lost in its 7 mm part leaves 14 mm, found by the local spacing.
+        ge.remove(22);
+        assert_eq!(missing_after(&ge), [21]);
+        let described = stack_at(&[0.0, 5.0, 15.0, 20.0]).missing_slices()[0].describe();
+        assert_eq!(described, "the 10.00 mm gap between slices 2 and 3 is 2.0 times the series' 5.00 mm spacing");
+    }
 }

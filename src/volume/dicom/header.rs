@@ -1,4 +1,6 @@
 //! One DICOM file's header: the attributes that put an image into a series and into space.
+//! The file's element lengths are checked against its size before it is parsed
+//! ([`super::bounds`]).
 //!
 //! [`read_header`] parses a file up to (not including) its PixelData and returns a
 //! [`SliceHeader`], or [`FileKind::NotImage`] for DICOM files that hold no image (a DICOMDIR,
@@ -9,10 +11,12 @@
 //! Never: reads pixel data (that is [`super::pixels`]) or compares files with each other
 //! (that is [`super::geometry`]).
 
+use super::bounds::{self, Scope};
+use crate::volume::limits::ReadLimits;
 use crate::volume::{ValueScale, VolumeError};
 use dicom_core::Tag;
 use dicom_dictionary_std::tags;
-use dicom_object::{DefaultDicomObject, OpenFileOptions};
+use dicom_object::DefaultDicomObject;
 use std::path::{Path, PathBuf};
 
 /// Media Storage SOP Class UID of a DICOMDIR (Media Storage Directory Storage).
@@ -91,11 +95,10 @@ pub(super) enum FileKind {
     NotImage,
 }
 
-/// Opens `path` (which must carry the DICM preamble and a file meta group) and reads its header.
-pub(super) fn read_header(path: &Path) -> Result<FileKind, VolumeError> {
-    let object = OpenFileOptions::new().read_until(tags::PIXEL_DATA).open_file(path).map_err(|error| {
-        VolumeError::Dicom { problem: format!("unreadable DICOM file ({error})"), path: path.to_path_buf() }
-    })?;
+/// Opens `path` (which must carry the DICM preamble and a file meta group) and reads its header,
+/// its element lengths checked first ([`bounds`]).
+pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, VolumeError> {
+    let object = bounds::read_object(path, Scope::Header, limits)?;
     if object.meta().media_storage_sop_class_uid() == MEDIA_STORAGE_DIRECTORY_UID {
         return Ok(FileKind::NotImage);
     }

@@ -1,12 +1,13 @@
 //! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT): issue 2, item 3;
 //! `interfaces.md` (inputs: "a DICOM series (a folder, or a DICOMDIR)").
 //!
-//! Entry point: [`read_series`]. A *series* is the image files sharing one SeriesInstanceUID.
-//! The path may be
-//! * a folder: scanned recursively; files without the `DICM` preamble are skipped quietly
-//!   (counted in a debug log), DICOM files without an image (DICOMDIR, reports) are skipped,
-//!   and DICOM files that cannot be parsed are skipped with a warning (which series they
-//!   belonged to is unknowable);
+//! Entry points: [`read_series`], or [`list_source`] then [`read_source`] (the import cache
+//! keys the listing's files, so the two read the same). A *series* is the image files sharing
+//! one SeriesInstanceUID. The path may be
+//! * a folder: scanned recursively, symbolic links followed (`series.rs`); files without the
+//!   `DICM` preamble are skipped quietly (counted in a debug log), DICOM files without an
+//!   image (DICOMDIR, reports) are skipped, and a DICOM file that cannot be parsed is a
+//!   possible missing slice (which series it belonged to is unknowable; see below);
 //! * a DICOMDIR: its folder is scanned as above. The directory records are not followed: every
 //!   file they list lies under that folder, and scanning also finds files whose names differ
 //!   in case from the records, as happens on copied CDs;
@@ -25,11 +26,24 @@
 //! the first slice and the smallest in-plane position of any slice's first pixel. The volume's
 //! patient orientation records these axes and that origin in LPS ([`super::orientation`]).
 //!
+//! Missing slices: a series is refused with [`VolumeError::SeriesGap`] when a slice may be
+//! missing: a gap with room for a slice ([`geometry`]'s rule: at least 1.9 times the series'
+//! spacing), a slice whose pixels cannot be decoded, a DICOM file that cannot be read, or a
+//! folder that cannot be searched. With [`DicomOptions::allow_gaps`] it is opened anyway,
+//! resampled across the hole, and the warnings (which the volume carries) say why.
+//!
+//! Every file is read through [`bounds`]: its element lengths are checked against its size
+//! before dicom-object parses it, and a slice's PixelData must be exactly as long as its
+//! Rows, Columns and BitsAllocated need ([`pixels`]).
+//!
 //! Never: decompresses JPEG/RLE pixel data (refused with the transfer syntax named), reads
 //! colour or multi-frame images, or writes files (the import cache is the caller's).
 
+mod bounds;
 mod geometry;
 mod header;
+#[cfg(test)]
+mod missing_tests;
 mod pixels;
 #[cfg(test)]
 mod real_data_tests;
@@ -40,12 +54,14 @@ mod synthetic;
 #[cfg(test)]
 mod tests;
 
+use super::limits::{self, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, orientation};
 use geometry::StackGeometry;
 use header::{FileKind, SliceHeader};
 use pixels::DecodedSlice;
 use rayon::prelude::*;
-use series::{FoundImages, choose_series, read_folder_headers, scan_root};
+pub use series::{DicomSource, MOST_FOLDER_DEPTH, list_source};
+use series::{FoundImages, choose_series, read_folder_headers};
 use std::path::{Path, PathBuf};
 
 /// Whether an irregular series may be resampled onto a regular grid.
@@ -65,6 +81,9 @@ pub struct DicomOptions {
     pub resample: Resample,
     /// Slice spacing of a resampled grid; regular series keep their own spacing.
     pub slice_spacing_mm: Option<f64>,
+    /// Open a series with a missing or unreadable slice (resampled across the hole, with a
+    /// warning); without it such a series is refused (`--allow-gaps`).
+    pub allow_gaps: bool,
 }
 
 /// A series read into memory.
@@ -81,13 +100,29 @@ pub struct DicomImport {
     pub files: Vec<PathBuf>,
 }
 
-/// Reads one DICOM series (see the module doc for what `path` may be).
+/// Reads one DICOM series (see the module doc for what `path` may be) with the default limits.
 pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, VolumeError> {
+    let limits = ReadLimits::default();
+    read_source(path, &list_source(path, &limits)?, options, &limits)
+}
+
+/// Reads one DICOM series from the files `source` lists for `path` (see [`list_source`]).
+pub fn read_source(
+    path: &Path,
+    source: &DicomSource,
+    options: &DicomOptions,
+    limits: &ReadLimits,
+) -> Result<DicomImport, VolumeError> {
     let mut warnings = Vec::new();
-    let found = match scan_root(path)? {
-        Some(folder) => read_folder_headers(&folder, path, &mut warnings)?,
-        None => match header::read_header(path)? {
-            FileKind::Image(header) => FoundImages { readable: vec![*header], unsupported: Vec::new() },
+    // Why a slice may be missing: files or folders that could not be read, undecodable
+    // slices, gaps with room for a slice.
+    let mut holes: Vec<String> = source.unlisted.iter().map(|what| format!("{what} could not be searched")).collect();
+    let found = match (&source.folder, source.files.as_slice()) {
+        (Some(folder), files) => read_folder_headers(files, folder, path, limits)?,
+        (None, [file]) => match header::read_header(file, limits)? {
+            FileKind::Image(header) => {
+                FoundImages { readable: vec![*header], unsupported: Vec::new(), unreadable: Vec::new() }
+            }
             FileKind::Unsupported { error, .. } => return Err(error),
             FileKind::NotImage => {
                 return Err(VolumeError::Dicom {
@@ -96,10 +131,41 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
                 });
             }
         },
+        (None, _) => {
+            return Err(VolumeError::Dicom { problem: "no DICOM file to read".into(), path: path.to_path_buf() });
+        }
     };
-    let (series_uid, headers) = choose_series(found, options, path, &mut warnings)?;
+    holes.extend(found.unreadable.iter().map(|error| format!("a DICOM file cannot be read ({error})")));
+    let (series_uid, headers) =
+        choose_series(FoundImages { unreadable: Vec::new(), ..found }, options, path, &mut warnings)?;
     let description = headers[0].series_description.clone();
     let (headers, geometry) = geometry::order_slices(headers, &mut warnings)?;
+    let plane = (geometry.rows as u64) * (geometry.columns as u64);
+    bounds::check_decoded_voxels(plane.saturating_mul(2 * headers.len() as u64), VoxelType::F32, limits, path)?;
+    let decoded: Vec<Result<DecodedSlice, VolumeError>> =
+        headers.par_iter().map(|header| pixels::read_slice(header, limits)).collect();
+    let keep: Vec<bool> = decoded.iter().map(Result::is_ok).collect();
+    let mut slices = Vec::with_capacity(decoded.len());
+    for (header, result) in headers.iter().zip(decoded) {
+        match result {
+            Ok(slice) => slices.push(slice),
+            Err(error) if headers.len() == 1 => return Err(error),
+            Err(error) => holes.push(format!("slice {} cannot be decoded ({error})", header.path.display())),
+        }
+    }
+    if slices.is_empty() {
+        return Err(VolumeError::SeriesGap { problem: holes.join("; "), path: path.to_path_buf() });
+    }
+    let geometry = geometry.keeping(&keep);
+    let headers: Vec<SliceHeader> = headers.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(h, _)| h).collect();
+    holes.extend(geometry.missing_slices().iter().map(|missing| missing.describe()));
+    if !holes.is_empty() {
+        let summary = summarise(&holes);
+        if !options.allow_gaps {
+            return Err(VolumeError::SeriesGap { problem: summary, path: path.to_path_buf() });
+        }
+        warnings.push(format!("opened with a missing slice (--allow-gaps): {summary}"));
+    }
     let regularity = geometry.regularity();
     if !regularity.is_regular() && options.resample == Resample::Refuse {
         return Err(VolumeError::Dicom {
@@ -112,14 +178,13 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
             path: path.to_path_buf(),
         });
     }
-    let slices: Vec<DecodedSlice> = headers.par_iter().map(pixels::read_slice).collect::<Result<_, _>>()?;
     let files: Vec<PathBuf> = headers.iter().map(|h| h.path.clone()).collect();
     let volume = if regularity.is_regular() {
         let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
         volume.orientation = series_orientation(&headers[0], None, path);
         volume
     } else {
-        let (mut volume, grid) = resample_slices(&slices, &geometry, options, path)?;
+        let (mut volume, grid) = resample_slices(&slices, &geometry, options, limits, path)?;
         volume.orientation = series_orientation(&headers[0], Some(grid.origin_mm), path);
         warnings.push(format!(
             "{}: resampled onto {:.3} x {:.3} x {:.3} mm ({} x {} x {} voxels) along the image rows, columns and slice normal",
@@ -134,6 +199,15 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
         volume
     };
     Ok(DicomImport { volume, warnings, series_uid, description, files })
+}
+
+/// The first three reasons, and how many more.
+fn summarise(reasons: &[String]) -> String {
+    let mut summary = reasons.iter().take(3).cloned().collect::<Vec<_>>().join("; ");
+    if reasons.len() > 3 {
+        summary.push_str(&format!("; and {} more", reasons.len() - 3));
+    }
+    summary
 }
 
 /// True for a folder holding DICOM files (looked for in its first few hundred entries,
@@ -193,7 +267,7 @@ fn stack_slices(
     if integral_rescale && fits_i16 {
         // Integer samples times an integer slope plus an integer intercept: the f32 values
         // are exact integers, so the cast loses nothing.
-        let mut bytes = vec![0u8; dims[0] * dims[1] * count * 2];
+        let mut bytes = limits::zeroed(dims[0] * dims[1] * count * 2, source)?;
         bytes.par_chunks_mut(dims[0] * dims[1] * 2).zip(slices).for_each(|(out, slice)| {
             for (pair, value) in out.chunks_exact_mut(2).zip(&slice.values) {
                 pair.copy_from_slice(&(*value as i16).to_le_bytes());
@@ -221,7 +295,7 @@ fn float_volume(
     source: &Path,
 ) -> Result<Volume, VolumeError> {
     let plane_bytes = dims[0] * dims[1] * 4;
-    let mut bytes = vec![0u8; plane_bytes * planes.len()];
+    let mut bytes = limits::zeroed(plane_bytes * planes.len(), source)?;
     bytes.par_chunks_mut(plane_bytes).zip(planes).for_each(|(out, plane)| {
         for (quad, value) in out.chunks_exact_mut(4).zip(plane.iter()) {
             quad.copy_from_slice(&value.to_le_bytes());
@@ -243,6 +317,7 @@ fn resample_slices(
     slices: &[DecodedSlice],
     geometry: &StackGeometry,
     options: &DicomOptions,
+    limits: &ReadLimits,
     source: &Path,
 ) -> Result<(Volume, resample::ResampleGrid), VolumeError> {
     let (slice_spacing_mm, exact_span) = match options.slice_spacing_mm {
@@ -250,6 +325,8 @@ fn resample_slices(
         None => (geometry.automatic_slice_spacing_mm(), true),
     };
     let grid = resample::plan_grid(geometry, slice_spacing_mm, exact_span, source)?;
+    let voxels = grid.dims.iter().fold(1u64, |n, &d| n.saturating_mul(d as u64));
+    bounds::check_decoded_voxels(voxels, VoxelType::F32, limits, source)?;
     let pad = slices.iter().map(|s| s.min).fold(f32::INFINITY, f32::min);
     let bytes = resample::resample(slices, geometry, &grid, pad, source)?;
     let volume = Volume::new(

@@ -1,18 +1,20 @@
 //! PixelData of one slice, decoded to physical values (Hounsfield units for CT).
 //!
-//! [`read_slice`] opens the whole file, takes its native PixelData (8- or 16-bit words, as
-//! dicom-rs hands them over in machine order), masks each sample to BitsStored bits,
-//! sign-extends it when PixelRepresentation is signed, and applies RescaleSlope and
-//! RescaleIntercept.
+//! [`read_slice`] reads the whole file (its element lengths checked first, [`super::bounds`]),
+//! checks that the PixelData is exactly as long as the image matrix needs, takes the native
+//! samples (8- or 16-bit words, as dicom-rs hands them over in machine order), masks each to
+//! BitsStored bits, sign-extends it when PixelRepresentation is signed, and applies
+//! RescaleSlope and RescaleIntercept.
 //!
 //! Never: decompresses (encapsulated data is refused by [`super::header`] and again here), or
 //! looks at other slices.
 
+use super::bounds::{self, Scope};
 use super::header::{PixelFormat, SliceHeader};
 use crate::volume::VolumeError;
+use crate::volume::limits::ReadLimits;
 use dicom_core::value::{PrimitiveValue, Value};
 use dicom_dictionary_std::tags;
-use dicom_object::OpenFileOptions;
 
 /// One decoded slice: `rows * columns` physical values, row by row (x fastest).
 #[derive(Clone, Debug)]
@@ -22,49 +24,31 @@ pub(super) struct DecodedSlice {
     pub max: f32,
 }
 
-/// Reads and decodes the pixel data of the file `header` was read from.
-pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeError> {
+/// Reads and decodes the pixel data of the file `header` was read from. The PixelData must be
+/// exactly as long as Rows x Columns x SamplesPerPixel x BitsAllocated/8 x NumberOfFrames
+/// (plus one padding byte when that is odd): a header that lies about the matrix (Rows 256 on
+/// 512 x 512 data, BitsAllocated 8 on 16-bit data) is an error, never a sheared or garbled image.
+pub(super) fn read_slice(header: &SliceHeader, limits: &ReadLimits) -> Result<DecodedSlice, VolumeError> {
     let path = header.path.as_path();
-    let object = OpenFileOptions::new().open_file(path).map_err(|error| VolumeError::Dicom {
-        problem: format!("unreadable DICOM file ({error})"),
-        path: path.to_path_buf(),
-    })?;
+    let object = bounds::read_object(path, Scope::Whole, limits)?;
     let element = object
         .get(tags::PIXEL_DATA)
         .ok_or_else(|| VolumeError::MissingField { field: "PixelData", path: path.to_path_buf() })?;
-    let pixel_count = header.rows * header.columns;
     let format = header.pixel_format;
-    let bytes_per_sample = usize::from(format.bits_allocated / 8);
-    let size_error = |found_bytes: usize| VolumeError::DataSize {
-        expected: pixel_count * bytes_per_sample,
-        found: found_bytes,
+    let bits = usize::from(format.bits_allocated);
+    let expected = bounds::pixel_data_bytes(header.rows, header.columns, 1, bits, 1).unwrap_or(u64::MAX);
+    let matrix_error = |found: u64| VolumeError::Dicom {
+        problem: format!(
+            "PixelData holds {found} bytes but Rows {} x Columns {} x SamplesPerPixel 1 x BitsAllocated {bits} / 8 x NumberOfFrames 1 need {expected} (the header does not describe the pixels)",
+            header.rows, header.columns
+        ),
         path: path.to_path_buf(),
     };
-    let stored: Vec<u16> = match element.value() {
-        Value::Primitive(PrimitiveValue::U16(words)) if format.bits_allocated == 16 => {
-            let words = words.get(..pixel_count).ok_or(size_error(words.len() * 2))?;
-            words.to_vec()
-        }
-        Value::Primitive(PrimitiveValue::I16(words)) if format.bits_allocated == 16 => {
-            let words = words.get(..pixel_count).ok_or(size_error(words.len() * 2))?;
-            words.iter().map(|w| *w as u16).collect()
-        }
-        Value::Primitive(PrimitiveValue::U16(words)) => {
-            // 8-bit samples read as OW (implicit VR): each word holds two samples, low byte first.
-            let bytes: Vec<u8> = words.iter().flat_map(|w| w.to_le_bytes()).collect();
-            let bytes = bytes.get(..pixel_count).ok_or(size_error(bytes.len()))?;
-            bytes.iter().map(|b| u16::from(*b)).collect()
-        }
-        Value::Primitive(PrimitiveValue::U8(bytes)) => {
-            let bytes = bytes.get(..pixel_count * bytes_per_sample).ok_or(size_error(bytes.len()))?;
-            if bytes_per_sample == 1 {
-                bytes.iter().map(|b| u16::from(*b)).collect()
-            } else {
-                // 16-bit samples sent as OB (explicit VR) keep the file's little-endian order.
-                bytes.chunks_exact(2).map(|pair| u16::from_le_bytes([pair[0], pair[1]])).collect()
-            }
-        }
-        Value::Primitive(PrimitiveValue::Empty) => return Err(size_error(0)),
+    let found = match element.value() {
+        Value::Primitive(PrimitiveValue::U16(words)) => words.len() as u64 * 2,
+        Value::Primitive(PrimitiveValue::I16(words)) => words.len() as u64 * 2,
+        Value::Primitive(PrimitiveValue::U8(bytes)) => bytes.len() as u64,
+        Value::Primitive(PrimitiveValue::Empty) => 0,
         Value::PixelSequence(_) => {
             return Err(VolumeError::Unsupported {
                 what: "encapsulated (compressed) DICOM PixelData",
@@ -79,6 +63,28 @@ pub(super) fn read_slice(header: &SliceHeader) -> Result<DecodedSlice, VolumeErr
                 path,
             ));
         }
+    };
+    if !(found == expected || (expected % 2 == 1 && found == expected + 1)) {
+        return Err(matrix_error(found));
+    }
+    let pixel_count = header.rows * header.columns;
+    let stored: Vec<u16> = match element.value() {
+        Value::Primitive(PrimitiveValue::U16(words)) if format.bits_allocated == 16 => words[..pixel_count].to_vec(),
+        Value::Primitive(PrimitiveValue::I16(words)) if format.bits_allocated == 16 => {
+            words[..pixel_count].iter().map(|w| *w as u16).collect()
+        }
+        Value::Primitive(PrimitiveValue::U16(words)) => {
+            // 8-bit samples read as OW (implicit VR): each word holds two samples, low byte first.
+            words.iter().flat_map(|w| w.to_le_bytes()).take(pixel_count).map(u16::from).collect()
+        }
+        Value::Primitive(PrimitiveValue::U8(bytes)) if format.bits_allocated == 8 => {
+            bytes[..pixel_count].iter().map(|b| u16::from(*b)).collect()
+        }
+        Value::Primitive(PrimitiveValue::U8(bytes)) => {
+            // 16-bit samples sent as OB (explicit VR) keep the file's little-endian order.
+            bytes[..pixel_count * 2].chunks_exact(2).map(|pair| u16::from_le_bytes([pair[0], pair[1]])).collect()
+        }
+        _ => return Err(matrix_error(found)),
     };
     Ok(to_physical(&stored, format, header.rescale.slope, header.rescale.intercept))
 }

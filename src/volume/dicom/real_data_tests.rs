@@ -115,10 +115,11 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     let volume = &import.volume;
     let mut acquired = Vec::new();
     for path in &import.files {
-        let FileKind::Image(header) = header::read_header(path).unwrap() else {
+        let FileKind::Image(header) = header::read_header(path, &crate::volume::limits::ReadLimits::default()).unwrap()
+        else {
             panic!("{} is an image", path.display());
         };
-        let slice = pixels::read_slice(&header).unwrap();
+        let slice = pixels::read_slice(&header, &crate::volume::limits::ReadLimits::default()).unwrap();
         acquired.push((*header, slice));
     }
     let o = acquired[0].0.orientation.unwrap();

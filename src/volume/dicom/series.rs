@@ -1,23 +1,65 @@
 //! Finding the image files under a path and choosing the one series to read (see the
 //! parent module's doc for the rules).
 //!
+//! [`list_source`] is the one listing of the files a DICOM path stands for: the reader reads
+//! exactly these and the import cache keys exactly these. It follows symbolic links (to files
+//! and to folders, each resolved to its canonical path and listed once, a folder visited once,
+//! so a loop of links ends), goes [`MOST_FOLDER_DEPTH`] folders deep, and reports what it could
+//! not list (an unreadable folder, a link to nothing, a folder too deep), since a slice of the
+//! series may be there.
+//!
 //! Never: reads pixel data or compares slice geometry.
 
 use super::DicomOptions;
 use super::header::{self, FileKind, SliceHeader};
 use crate::volume::VolumeError;
+use crate::volume::limits::ReadLimits;
 use rayon::prelude::*;
-use std::collections::BTreeMap;
+use std::collections::{BTreeMap, BTreeSet, HashSet};
 use std::io::Read;
 use std::path::{Path, PathBuf};
 
+/// How many folders deep a DICOM folder is searched (a CD's DICOM/ST000/SE000/IM000 is 3).
+pub const MOST_FOLDER_DEPTH: usize = 32;
+
+/// The files a DICOM path stands for (see the module doc).
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct DicomSource {
+    /// The folder searched: the path itself, or the folder of a DICOMDIR under any name;
+    /// `None` when the path is one image file.
+    pub folder: Option<PathBuf>,
+    /// Every regular file found, as canonical paths, each once, sorted; or the one file.
+    pub files: Vec<PathBuf>,
+    /// What could not be searched, one description each.
+    pub unlisted: Vec<String>,
+}
+
+/// Lists the files `path` (a folder, a DICOMDIR, or one file) stands for.
+pub fn list_source(path: &Path, limits: &ReadLimits) -> Result<DicomSource, VolumeError> {
+    let Some(folder) = scan_root(path, limits)? else {
+        let (_, _) = crate::volume::limits::open_regular(path)?;
+        let file = std::fs::canonicalize(path).map_err(|error| VolumeError::io(error, path))?;
+        return Ok(DicomSource { folder: None, files: vec![file], unlisted: Vec::new() });
+    };
+    std::fs::read_dir(&folder).map_err(|error| VolumeError::io(error, &folder))?;
+    let mut files = BTreeSet::new();
+    let unlisted = walk_files(&folder, &mut |file| {
+        files.insert(file.to_path_buf());
+        true
+    });
+    Ok(DicomSource { folder: Some(folder), files: files.into_iter().collect(), unlisted })
+}
+
 /// The folder to scan, or `None` when `path` is a single image file.
-pub(super) fn scan_root(path: &Path) -> Result<Option<PathBuf>, VolumeError> {
+pub(super) fn scan_root(path: &Path, limits: &ReadLimits) -> Result<Option<PathBuf>, VolumeError> {
     let metadata = std::fs::metadata(path).map_err(|error| VolumeError::io(error, path))?;
     if metadata.is_dir() {
         return Ok(Some(path.to_path_buf()));
     }
-    if is_dicomdir_name(path) || is_dicomdir_file(path) {
+    if !metadata.is_file() {
+        return Err(VolumeError::NotRegularFile { path: path.to_path_buf() });
+    }
+    if is_dicomdir_name(path) || is_dicomdir_file(path, limits) {
         let folder = match path.parent() {
             Some(parent) if !parent.as_os_str().is_empty() => parent.to_path_buf(),
             _ => PathBuf::from("."),
@@ -27,35 +69,28 @@ pub(super) fn scan_root(path: &Path) -> Result<Option<PathBuf>, VolumeError> {
     Ok(None)
 }
 
-/// The image files found: readable headers, and images this reader cannot decode.
+/// The image files found: readable headers, images this reader cannot decode, and DICOM files
+/// that cannot be read at all (which series they belong to is unknowable).
 pub(super) struct FoundImages {
     pub readable: Vec<SliceHeader>,
     /// (SeriesInstanceUID, SeriesDescription, why), one per file.
     pub unsupported: Vec<(String, String, VolumeError)>,
+    pub unreadable: Vec<VolumeError>,
 }
 
-/// Headers of every image file under `folder`, read in parallel.
+/// Headers of every DICOM file among `files` (a folder's listing), read in parallel.
 pub(super) fn read_folder_headers(
+    files: &[PathBuf],
     folder: &Path,
     source: &Path,
-    warnings: &mut Vec<String>,
+    limits: &ReadLimits,
 ) -> Result<FoundImages, VolumeError> {
-    let mut candidates = Vec::new();
-    let mut other_files = 0usize;
-    walk_files(folder, &mut |file| {
-        if has_dicm_preamble(file) {
-            candidates.push(file.to_path_buf());
-        } else {
-            other_files += 1;
-        }
-        true
-    });
-    candidates.sort();
-    log::debug!("{}: {} DICOM files, {other_files} other files skipped", folder.display(), candidates.len());
+    let (candidates, others): (Vec<&PathBuf>, Vec<&PathBuf>) = files.iter().partition(|file| has_dicm_preamble(file));
+    log::debug!("{}: {} DICOM files, {} other files skipped", folder.display(), candidates.len(), others.len());
     let results: Vec<Result<FileKind, VolumeError>> =
-        candidates.par_iter().map(|file| header::read_header(file)).collect();
-    let mut found = FoundImages { readable: Vec::new(), unsupported: Vec::new() };
-    let (mut not_images, mut unreadable) = (0usize, 0usize);
+        candidates.par_iter().map(|file| header::read_header(file, limits)).collect();
+    let mut found = FoundImages { readable: Vec::new(), unsupported: Vec::new(), unreadable: Vec::new() };
+    let mut not_images = 0usize;
     for result in results {
         match result {
             Ok(FileKind::Image(header)) => found.readable.push(*header),
@@ -63,19 +98,18 @@ pub(super) fn read_folder_headers(
                 found.unsupported.push((series_uid, series_description, error))
             }
             Ok(FileKind::NotImage) => not_images += 1,
-            Err(error) => {
-                unreadable += 1;
-                warnings.push(format!("skipped: {error}"));
-            }
+            Err(error) => found.unreadable.push(error),
         }
     }
     log::debug!("{}: {not_images} DICOM files without an image", folder.display());
     if found.readable.is_empty() && found.unsupported.is_empty() {
         return Err(VolumeError::Dicom {
             problem: format!(
-                "no DICOM image series found ({} DICOM files: {not_images} without an image, {unreadable} unreadable{}; {other_files} other files)",
+                "no DICOM image series found ({} DICOM files: {not_images} without an image, {} unreadable{}; {} other files)",
                 candidates.len(),
-                warnings.first().map(|w| format!(", first {w}")).unwrap_or_default()
+                found.unreadable.len(),
+                found.unreadable.first().map(|error| format!(", first: {error}")).unwrap_or_default(),
+                others.len()
             ),
             path: source.to_path_buf(),
         });
@@ -158,35 +192,66 @@ pub(super) fn choose_series(
     }
 }
 
-/// Calls `visit` on every regular file under `folder` (following links to files, not to
-/// folders, so that a link loop cannot trap it), in no particular order, until it returns
-/// false. Unreadable folders are skipped.
-pub(super) fn walk_files(folder: &Path, visit: &mut dyn FnMut(&Path) -> bool) {
-    let mut pending = vec![folder.to_path_buf()];
-    while let Some(current) = pending.pop() {
-        let Ok(entries) = std::fs::read_dir(&current) else {
-            log::debug!("cannot list {}: skipped", current.display());
-            continue;
-        };
-        for entry in entries.flatten() {
-            let Ok(file_type) = entry.file_type() else {
+/// Calls `visit` with the canonical path of every regular file under `folder` (following
+/// links to files and folders; each folder visited once, so a loop of links ends), in no
+/// particular order, until it returns false. Returns what could not be searched.
+pub(super) fn walk_files(folder: &Path, visit: &mut dyn FnMut(&Path) -> bool) -> Vec<String> {
+    let mut unlisted = Vec::new();
+    let root = match std::fs::canonicalize(folder) {
+        Ok(root) => root,
+        Err(error) => {
+            unlisted.push(format!("{} ({error})", folder.display()));
+            return unlisted;
+        }
+    };
+    let mut visited = HashSet::from([root.clone()]);
+    let mut pending = vec![(root, 0usize)];
+    while let Some((current, depth)) = pending.pop() {
+        let entries = match std::fs::read_dir(&current) {
+            Ok(entries) => entries,
+            Err(error) => {
+                unlisted.push(format!("folder {} ({error})", current.display()));
                 continue;
+            }
+        };
+        for entry in entries {
+            let entry_path = match entry {
+                Ok(entry) => entry.path(),
+                Err(error) => {
+                    unlisted.push(format!("an entry of {} ({error})", current.display()));
+                    continue;
+                }
             };
-            let entry_path = entry.path();
-            if file_type.is_dir() {
-                pending.push(entry_path);
-            } else if (file_type.is_file() || (file_type.is_symlink() && entry_path.is_file())) && !visit(&entry_path) {
-                return;
+            let resolved = std::fs::metadata(&entry_path).and_then(|m| Ok((m, std::fs::canonicalize(&entry_path)?)));
+            let (metadata, canonical) = match resolved {
+                Ok(resolved) => resolved,
+                Err(error) => {
+                    unlisted.push(format!("{} ({error})", entry_path.display()));
+                    continue;
+                }
+            };
+            if metadata.is_dir() {
+                if !visited.insert(canonical.clone()) {
+                    continue;
+                }
+                if depth + 1 > MOST_FOLDER_DEPTH {
+                    unlisted.push(format!("folder {} (deeper than {MOST_FOLDER_DEPTH} folders)", entry_path.display()));
+                    continue;
+                }
+                pending.push((canonical, depth + 1));
+            } else if metadata.is_file() && !visit(&canonical) {
+                return unlisted;
             }
         }
     }
+    unlisted
 }
 
 /// The 128-byte preamble is followed by the magic `DICM` in every DICOM Part 10 file.
 pub(super) fn has_dicm_preamble(path: &Path) -> bool {
     let mut head = [0u8; 132];
-    match std::fs::File::open(path) {
-        Ok(mut file) => file.read_exact(&mut head).is_ok() && &head[128..] == b"DICM",
+    match crate::volume::limits::open_regular(path) {
+        Ok((mut file, _)) => file.read_exact(&mut head).is_ok() && &head[128..] == b"DICM",
         Err(_) => false,
     }
 }
@@ -196,10 +261,8 @@ pub(super) fn is_dicomdir_name(path: &Path) -> bool {
 }
 
 /// A DICOMDIR under another name (the Philips phantom's is called DIRFILE).
-fn is_dicomdir_file(path: &Path) -> bool {
+fn is_dicomdir_file(path: &Path, limits: &ReadLimits) -> bool {
     has_dicm_preamble(path)
-        && dicom_object::OpenFileOptions::new()
-            .read_until(dicom_dictionary_std::tags::PIXEL_DATA)
-            .open_file(path)
+        && super::bounds::read_object(path, super::bounds::Scope::Header, limits)
             .is_ok_and(|object| object.meta().media_storage_sop_class_uid() == header::MEDIA_STORAGE_DIRECTORY_UID)
 }

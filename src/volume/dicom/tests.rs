@@ -98,18 +98,29 @@ fn write_tilted_series(folder: &Path) -> Vec<[f64; 3]> {
     positions
 }
 
+/// Options that open a series across a missing slice.
+fn allowing_gaps() -> DicomOptions {
+    DicomOptions { allow_gaps: true, ..DicomOptions::default() }
+}
+
 #[test]
 fn tilted_uneven_series_is_resampled_reproducing_a_linear_field() {
     let folder = tempfile::tempdir().unwrap();
     let positions = write_tilted_series(folder.path());
-    let import = read_series(folder.path(), &DicomOptions::default()).unwrap();
+    // The 6 mm gap is three times the 2 mm spacing: room for two slices that are not there.
+    let message = error_text(read_series(folder.path(), &DicomOptions::default()));
+    for needle in ["missing slice", "6.00 mm gap between slices 3 and 4", "3.0 times", "--allow-gaps"] {
+        assert!(message.contains(needle), "'{needle}' missing from: {message}");
+    }
+    let import = read_series(folder.path(), &allowing_gaps()).unwrap();
     let volume = &import.volume;
     // y: 6 rows plus 6 mm / 2 mm = 3 rows of shift; z: 12 mm in steps of 2 mm.
     assert_eq!(volume.dims, [8, 9, 7]);
     assert_eq!(volume.spacing_mm, [1.0, 2.0, 2.0]);
     assert_eq!(volume.voxel_type, VoxelType::F32);
-    assert_eq!(import.warnings.len(), 1);
-    let warning = &import.warnings[0];
+    assert_eq!(import.warnings.len(), 2, "{:?}", import.warnings);
+    assert!(import.warnings[0].starts_with("opened with a missing slice (--allow-gaps): the 6.00 mm gap"));
+    let warning = &import.warnings[1];
     for needle in ["gantry tilt 26.6 deg", "uneven slice gaps 2.00..6.00 mm", "1.000 x 2.000 x 2.000 mm"] {
         assert!(warning.contains(needle), "'{needle}' missing from: {warning}");
     }
@@ -141,7 +152,7 @@ fn tilted_uneven_series_is_resampled_reproducing_a_linear_field() {
     }
     assert!(checked_inside > 250 && checked_pad > 30, "{checked_inside} {checked_pad}");
 
-    let refuse = DicomOptions { resample: Resample::Refuse, ..DicomOptions::default() };
+    let refuse = DicomOptions { resample: Resample::Refuse, ..allowing_gaps() };
     let message = error_text(read_series(folder.path(), &refuse));
     assert!(message.contains("gantry tilt 26.6 deg") && message.contains("2.00..6.00 mm"), "{message}");
 }
@@ -155,18 +166,21 @@ fn uneven_gaps_reproduce_a_ramp_along_the_normal_at_any_slice_spacing() {
         })
         .write(&folder.path().join(format!("{k}.dcm")));
     }
-    let import = read_series(folder.path(), &DicomOptions::default()).unwrap();
-    // Gaps 1, 2, 4: median 2, smallest gap >= 1 is 1 mm.
+    // Gaps 1, 2, 4: the 4 mm gap is twice the 2 mm median, room for a slice at 5 mm.
+    let message = error_text(read_series(folder.path(), &DicomOptions::default()));
+    assert!(message.contains("4.00 mm gap between slices 3 and 4"), "{message}");
+    let import = read_series(folder.path(), &allowing_gaps()).unwrap();
+    // Median 2, smallest gap >= 1 is 1 mm.
     assert_eq!(import.volume.dims, [3, 2, 8]);
     assert_eq!(import.volume.spacing_mm[2], 1.0);
-    assert!(import.warnings[0].contains("uneven slice gaps 1.00..4.00 mm"));
-    assert!(!import.warnings[0].contains("tilt"));
+    assert!(import.warnings[1].contains("uneven slice gaps 1.00..4.00 mm"));
+    assert!(!import.warnings[1].contains("tilt"));
     for z in 0..8 {
         for x in 0..3 {
             assert_eq!(import.volume.value_at(x, 1, z), 10.0 * z as f64 + x as f64);
         }
     }
-    let options = DicomOptions { slice_spacing_mm: Some(3.0), ..DicomOptions::default() };
+    let options = DicomOptions { slice_spacing_mm: Some(3.0), ..allowing_gaps() };
     let import = read_series(folder.path(), &options).unwrap();
     assert_eq!(import.volume.dims, [3, 2, 3]);
     let ramp: Vec<f64> = (0..3).map(|z| import.volume.value_at(0, 0, z)).collect();
