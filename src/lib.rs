@@ -10,7 +10,7 @@
 //!
 //! The command line (`cli`), the kiosk UI (`app`, `ui/*.slint`) and its platform and input
 //! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
-//! `accuracy` measures the pipeline against phantoms with known truth (issue 9).
+//! `accuracy` measures the pipeline against phantoms with known truth.
 
 pub mod accuracy;
 pub mod app;

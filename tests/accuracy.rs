@@ -1,4 +1,4 @@
-//! Regression test of issue 9: the accuracy harness (`volasso accuracy --quick`) on small
+//! Regression test of the accuracy harness (`volasso accuracy --quick`) on small
 //! phantoms with known truth and simulated lassos, at seeds never used for tuning.
 
 use std::sync::atomic::AtomicBool;

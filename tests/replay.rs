@@ -1,4 +1,4 @@
-//! The UI driven by touch alone (issues 6 and 7): `volasso replay` runs the real UI headless
+//! The UI driven by touch alone: `volasso replay` runs the real UI headless
 //! (Slint's software renderer, the 3-D view on lavapipe or a GPU) from the scripts in
 //! `tests/replay/`, and fails on any broken expectation. What each script proves is in its
 //! header comment.

@@ -1,4 +1,4 @@
-//! The accuracy harness (issue 9): how well each classification method recovers known
+//! The accuracy harness: how well each classification method recovers known
 //! materials from the lassos a simulated user draws.
 //!
 //! A [`Case`] is a procedural phantom with ground truth (8- and 16-bit, CT- and MRI-like: the

@@ -1,8 +1,9 @@
 //! The kiosk app: the Slint UI (`ui/*.slint`) wired to the pipeline. It holds what the user is
 //! doing (the open volume, the three slices shown, the session of classes and lassos, the
 //! camera) and runs everything slow elsewhere: volumes open on a loader thread, the
-//! classifier on a job thread, the 3-D view on a render thread. The UI thread only moves
-//! data between them and Slint, so it never blocks (issue 6).
+//! classifier on a job thread, the 3-D view on a render thread. The UI thread moves data
+//! between them and Slint and never waits for them; it writes the autosave and draws the
+//! slice pictures itself.
 //!
 //! Data flow: callbacks (callbacks.rs) change [`State`]; a 16 ms poll timer collects finished
 //! work (`loading.rs` applies what the loader reports); `refresh.rs` pushes state into the

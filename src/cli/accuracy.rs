@@ -1,5 +1,5 @@
 //! `volasso accuracy [--quick] [--cases ...] [--seeds ...] [--methods ...] [--json]`: the
-//! accuracy harness of issue 9 ([`crate::accuracy`]) on the command line. Prints a table row
+//! accuracy harness ([`crate::accuracy`]) on the command line. Prints a table row
 //! per case, seed and method as it goes (or one JSON object per line with `--json`), then the
 //! mean macro Dice per method over tuning and check cases.
 

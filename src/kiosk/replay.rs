@@ -1,4 +1,4 @@
-//! `volasso replay`: runs a touch script against the real UI, headless (issue 7). A script is
+//! `volasso replay`: runs a touch script against the real UI, headless. A script is
 //! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see src/touch/script) or an
 //! event recording (`volasso-events/1` or evemu-record text). Readable commands become
 //! type-B multitouch events of a virtual touchscreen, and every event, scripted or recorded,

@@ -92,12 +92,11 @@ impl SegmentationOptions {
 impl Default for SegmentationOptions {
     fn default() -> Self {
         // A random forest on the fine multi-scale features: measured with `volasso accuracy`
-        // (issue 9, benches/README.md) it scores best on the held-out cases (mean macro Dice
-        // 0.806, against 0.742 for the paper's SN-SVM and 0.726 for a forest on the 5-D
-        // features, and above the plain SVM on every held-out case), and since session 7 it
-        // fits issue 3's time budget on the three benchmark volumes (engine 87 ms, lobster
-        // 41 ms, head 203 ms against 107, 67 and 227 ms allowed; 14-19x below SVC on the
-        // lobster's voxels). The paper's method stays `SegmentationOptions::paper()`
+        // (benches/README.md) it scores best on the held-out cases (mean macro Dice 0.806,
+        // against 0.742 for the paper's SN-SVM and 0.726 for a forest on the 5-D features, and
+        // above the plain SVM on every held-out case), and it fits the time budget (a tenth of
+        // the paper's Table I times) on the three benchmark volumes, 13.6x below SVC on the
+        // lobster's voxels. The paper's method stays `SegmentationOptions::paper()`
         // (`--classifier snsvm`).
         SegmentationOptions {
             feature_set: FeatureSet::MultiscaleFine,

@@ -1,5 +1,5 @@
 //! Transfer functions from classes: harmonic hue templates and per-class colour and opacity
-//! (paper §3.5, eq. 4-9; `harmony.md`).
+//! (paper §3.5, eq. 4-9; `docs/colour.md`).
 //!
 //! The output of this stage is a small table, one [`ClassStyle`] per class, from which any
 //! voxel's RGBA follows given its class and gradient factor. The renderer evaluates the table

@@ -1,7 +1,7 @@
 //! The per-class table kept beside a label volume (`labels.nrrd` + `labels.classes.json`):
 //! template, clip box and one [`ClassStyle`] per class. It is what lets the renderer classify
 //! after interpolation and lets template, emphasis, visibility and clipping change colours
-//! without running the classifier again (the paper's §3.5 limitations; `harmony.md`).
+//! without running the classifier again (the paper's §3.5 limitations; `docs/colour.md`).
 //!
 //! Never: stores per-voxel data.
 

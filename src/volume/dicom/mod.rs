@@ -1,4 +1,4 @@
-//! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT): issue 2, item 3;
+//! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT);
 //! `interfaces.md` (inputs: "a DICOM series (a folder, or a DICOMDIR)").
 //!
 //! Entry points: [`read_series`], or [`list_source`] then [`read_source`] (the import cache

@@ -178,7 +178,7 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     assert_eq!(on_slice_planes, 18, "planes 0-13 (4 mm part), 15, 22, 29 and 36 (the last slice)");
 }
 
-/// The budget: the 28 x 512 x 512 series import in well under a second. A
+/// The import budget: the 28 x 512 x 512 series import in well under a second. A
 /// measurement, meaningful only in release on an idle machine:
 /// `cargo test --release --lib dicom::real_data_tests::import_time -- --ignored --nocapture`.
 #[test]
