@@ -123,22 +123,11 @@ fn round_for_display(value: f64) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
     use std::path::Path;
 
     fn volume_of(values: Vec<i16>) -> Volume {
-        let dims = [10, 10, values.len() / 100];
-        let bytes = values.iter().flat_map(|v| v.to_le_bytes()).collect();
-        Volume::new(
-            dims,
-            [1.0; 3],
-            VoxelType::I16,
-            ByteOrder::Little,
-            ValueScale::IDENTITY,
-            VoxelBytes::Owned(bytes),
-            Path::new("t"),
-        )
-        .unwrap()
+        let values: Vec<f32> = values.into_iter().map(f32::from).collect();
+        Volume::from_f32([10, 10, values.len() / 100], [1.0; 3], &values, Path::new("t")).unwrap()
     }
 
     #[test]
