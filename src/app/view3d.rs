@@ -6,6 +6,9 @@
 //! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
 //! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
 //!
+//! Before a volume is uploaded its memory map is checked (`Volume::check_still_mapped`): a file
+//! truncated while open gives a message, not a crash.
+//!
 //! Never: touches Slint; never renders on the UI thread.
 
 use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
@@ -178,6 +181,13 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
             let result = match request {
                 Request::Volume(volume) => {
                     scene.has_labels = false;
+                    // A volume file truncated since it was opened would crash the upload
+                    // (SIGBUS on the lost pages): say so instead.
+                    if let Err(error) = volume.check_still_mapped() {
+                        scene.has_volume = false;
+                        let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+                        continue;
+                    }
                     scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true)
                 }
                 Request::Labels(labels, styles) => scene
