@@ -11,6 +11,7 @@
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
 use super::windowing::WindowChoices;
+pub use crate::phantom::source::VolumeSource;
 use crate::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use crate::transfer::RgbImage;
 use crate::volume::{OpenOptions, Volume, open::detect_format};
@@ -23,42 +24,6 @@ pub const THUMBNAIL_SIDE: usize = 256;
 
 /// The most entries the chooser lists, so a folder of thousands of files stays usable.
 pub const MAX_ENTRIES: usize = 200;
-
-/// Where a volume comes from.
-#[derive(Clone, Debug, PartialEq, Eq)]
-pub enum VolumeSource {
-    /// The built-in CT foot phantom.
-    Demo,
-    Path(PathBuf),
-}
-
-impl VolumeSource {
-    /// What autosave writes: "demo" or the path.
-    pub fn key(&self) -> String {
-        match self {
-            VolumeSource::Demo => crate::cli::DEMO_VOLUME.to_string(),
-            VolumeSource::Path(path) => path.display().to_string(),
-        }
-    }
-
-    pub fn from_key(key: &str) -> VolumeSource {
-        if key == crate::cli::DEMO_VOLUME && !Path::new(key).exists() {
-            VolumeSource::Demo
-        } else {
-            VolumeSource::Path(PathBuf::from(key))
-        }
-    }
-
-    pub fn name(&self) -> String {
-        match self {
-            VolumeSource::Demo => "Demo: CT foot phantom".to_string(),
-            VolumeSource::Path(path) => path
-                .file_name()
-                .map(|name| name.to_string_lossy().into_owned())
-                .unwrap_or_else(|| path.display().to_string()),
-        }
-    }
-}
 
 /// The volumes to offer: the demo first, then the data folder's volumes by name.
 pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
@@ -152,13 +117,10 @@ pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {
 
 /// Opens `source` and ranks its slices (paper eq. 1).
 pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, String> {
-    let volume = match source {
-        VolumeSource::Demo => crate::phantom::demo_foot().volume,
-        VolumeSource::Path(path) => {
-            detect_format(path, options).map_err(|e| e.to_string())?;
-            crate::volume::open(path, options).map_err(|e| e.to_string())?
-        }
-    };
+    if let VolumeSource::Path(path) = source {
+        detect_format(path, options).map_err(|e| e.to_string())?;
+    }
+    let volume = source.open(options).map_err(|e| e.to_string())?;
     if volume.voxel_count() == 0 {
         return Err(format!("{} has no voxels", source.name()));
     }

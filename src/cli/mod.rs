@@ -85,13 +85,8 @@ fn init_logging(verbose: u8) {
         .try_init();
 }
 
-/// The volume name that means the built-in demo phantom (unless a file of that name exists).
-pub const DEMO_VOLUME: &str = "demo";
-
-/// Opens the volume a subcommand names: a file or folder, or [`DEMO_VOLUME`].
+/// Opens the volume a subcommand names: a file or folder, or the demo phantom
+/// ([`crate::phantom::source::DEMO_VOLUME`]).
 pub fn open_volume(path: &std::path::Path, args: &VolumeArgs) -> Result<crate::volume::Volume, CliError> {
-    if path.as_os_str() == DEMO_VOLUME && !path.exists() {
-        return Ok(crate::phantom::demo_foot().volume);
-    }
-    Ok(crate::volume::open(path, &args.open_options())?)
+    Ok(crate::phantom::source::VolumeSource::from_path(path).open(&args.open_options())?)
 }

@@ -2,8 +2,8 @@
 //! fullscreen on a DRM display (the appliance). Headless runs go through `volasso replay`.
 
 use super::CliError;
-use crate::app::library::VolumeSource;
 use crate::app::{App, AppConfig};
+use crate::phantom::source::VolumeSource;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -78,7 +78,7 @@ impl UiArgs {
             data_dir: self.data_dir.clone(),
             session_dir: self.session_dir.clone(),
             idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
-            initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_key(&path.to_string_lossy())),
+            initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
             ..AppConfig::default()
         }
     }

@@ -37,11 +37,15 @@
 //! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
 //! MRI brain, 8-bit MRI shells).
 //!
-//! Never: reads files, or pretends to be real anatomy beyond a test's needs.
+//! [`source`] names where a volume comes from (a path, or this demo as "demo") and opens it.
+//!
+//! Never: reads files (but for [`source`], through `volume::open`), or pretends to be real
+//! anatomy beyond a test's needs.
 
 pub mod anatomy;
 pub(crate) mod lassos;
 pub mod procedural;
+pub mod source;
 #[cfg(test)]
 mod tests;
 
