@@ -69,6 +69,7 @@ pub fn stage(path: &Path, fill: impl FnOnce(&mut BufWriter<File>) -> std::io::Re
     let mut writer = BufWriter::new(file);
     fill(&mut writer)?;
     let file = writer.into_inner().map_err(|e| e.into_error())?;
+    count_sync();
     file.sync_all()?;
     Ok(staged)
 }
@@ -155,12 +156,27 @@ fn folder_of(path: &Path) -> PathBuf {
 /// Makes a rename in `folder` durable across a power cut; best effort (some file systems
 /// cannot sync a folder, and the rename is atomic either way).
 fn sync_folder(folder: &Path) {
+    count_sync();
     #[cfg(unix)]
     if let Ok(handle) = File::open(folder) {
         let _ = handle.sync_all();
     }
     #[cfg(not(unix))]
     let _ = folder;
+}
+
+thread_local! {
+    static SYNCS: std::cell::Cell<u64> = const { std::cell::Cell::new(0) };
+}
+
+fn count_sync() {
+    SYNCS.with(|syncs| syncs.set(syncs.get() + 1));
+}
+
+/// How many times this thread has flushed a file or folder to disk here: the app checks that
+/// its UI thread never does (`volasso replay` reports it as `ui_thread_syncs`).
+pub fn syncs_on_this_thread() -> u64 {
+    SYNCS.with(std::cell::Cell::get)
 }
 
 #[cfg(test)]

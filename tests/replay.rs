@@ -39,6 +39,8 @@ fn the_whole_workflow_on_the_demo_volume_by_touch() {
     );
     assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
     assert!(shots.join("two-classes.png").exists());
+    // Every change was autosaved on the writer thread: the UI thread never waited for the disk.
+    assert_eq!(report["ui_thread_syncs"].as_u64(), Some(0), "{report}");
     // The idle timeout at the end cleared the autosaved session.
     assert!(!session.join("session.json").exists());
 }

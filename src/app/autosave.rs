@@ -25,6 +25,24 @@ use std::path::{Path, PathBuf};
 
 pub const SESSION_FORMAT: &str = "volasso-session/1";
 
+/// Why a session cannot be saved or read back; the messages of reading name no path (the
+/// banner already says which session).
+#[derive(Debug, thiserror::Error)]
+pub enum AutosaveError {
+    #[error("{0}")]
+    Read(#[source] std::io::Error),
+    #[error("{0}")]
+    Json(#[from] serde_json::Error),
+    #[error("format '{found}' is not {SESSION_FORMAT}")]
+    Format { found: String },
+    #[error("{0}")]
+    Strokes(#[from] crate::strokes::StrokesError),
+    #[error("cannot create the session folder: {source}, in {}", path.display())]
+    CreateFolder { source: std::io::Error, path: PathBuf },
+    #[error("cannot save the session: {source}, in {}", path.display())]
+    Write { source: std::io::Error, path: PathBuf },
+}
+
 /// The saved session file in a session folder.
 pub fn session_path(session_dir: &Path) -> PathBuf {
     session_dir.join("session.json")
@@ -182,9 +200,9 @@ struct SessionFile {
 }
 
 /// Writes `session` into `session_dir` (created if missing), whole or not at all.
-pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), String> {
-    let strokes_json = session.strokes.to_json().map_err(|e| e.to_string())?;
-    let strokes: serde_json::Value = serde_json::from_str(&strokes_json).map_err(|e| e.to_string())?;
+pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveError> {
+    let strokes_json = session.strokes.to_json()?;
+    let strokes: serde_json::Value = serde_json::from_str(&strokes_json)?;
     let file = SessionFile {
         format: SESSION_FORMAT.to_string(),
         volume: session.volume.clone(),
@@ -192,11 +210,12 @@ pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), String> {
         rotation_degrees: session.rotation_degrees,
         strokes,
     };
-    let text = serde_json::to_string_pretty(&file).map_err(|e| e.to_string())?;
-    std::fs::create_dir_all(session_dir).map_err(|e| format!("cannot create {}: {e}", session_dir.display()))?;
+    let text = serde_json::to_string_pretty(&file)?;
+    std::fs::create_dir_all(session_dir)
+        .map_err(|source| AutosaveError::CreateFolder { source, path: session_dir.to_path_buf() })?;
     let path = session_path(session_dir);
     write_atomically(&path, |writer| writer.write_all(text.as_bytes()))
-        .map_err(|e| format!("cannot save the session to {}: {e}", path.display()))
+        .map_err(|source| AutosaveError::Write { source, path })
 }
 
 /// The saved session, if there is a readable one.
@@ -211,25 +230,24 @@ pub fn load(session_dir: &Path) -> Option<SavedSession> {
 }
 
 /// The saved session; `Ok(None)` when there is none, `Err` when it cannot be read.
-fn read(session_dir: &Path) -> Result<Option<SavedSession>, String> {
+fn read(session_dir: &Path) -> Result<Option<SavedSession>, AutosaveError> {
     let path = session_path(session_dir);
     let text = match std::fs::read_to_string(&path) {
         Ok(text) => text,
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
-        Err(error) => return Err(error.to_string()),
+        Err(error) => return Err(AutosaveError::Read(error)),
     };
-    serde_json::from_str::<SessionFile>(&text).map_err(|e| e.to_string()).and_then(|file| {
-        if file.format != SESSION_FORMAT {
-            return Err(format!("format '{}' is not {SESSION_FORMAT}", file.format));
-        }
-        let strokes = StrokesFile::parse(&file.strokes.to_string()).map_err(|e| e.to_string())?;
-        Ok(Some(SavedSession {
-            volume: file.volume,
-            template: file.template,
-            rotation_degrees: file.rotation_degrees,
-            strokes,
-        }))
-    })
+    let file = serde_json::from_str::<SessionFile>(&text)?;
+    if file.format != SESSION_FORMAT {
+        return Err(AutosaveError::Format { found: file.format });
+    }
+    let strokes = StrokesFile::parse(&file.strokes.to_string())?;
+    Ok(Some(SavedSession {
+        volume: file.volume,
+        template: file.template,
+        rotation_degrees: file.rotation_degrees,
+        strokes,
+    }))
 }
 
 /// Forgets the saved session.

@@ -5,7 +5,7 @@
 use super::refresh;
 use super::slice_actions::{choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice};
 use super::ui::{AppWindow, Session};
-use super::{Screen, State, autosave};
+use super::{Screen, State};
 use crate::render::Camera;
 use crate::transfer::{HueTemplate, TemplateType};
 use slint::ComponentHandle;
@@ -65,11 +65,9 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         scrub_slice(&w, s, panel, slice)
     }));
     session.on_define_class(handler!(window, state, idle, |w, s| {
-        edit_session(&w, s, |session| session.define_class().map(|_| ()).map_err(|e| e.to_string()))
+        edit_session(&w, s, |session| session.define_class().map(|_| ()))
     }));
-    session.on_undo(handler!(window, state, idle, |w, s| {
-        edit_session(&w, s, |session| session.undo().map_err(|e| e.to_string()))
-    }));
+    session.on_undo(handler!(window, state, idle, |w, s| { edit_session(&w, s, |session| session.undo()) }));
     session.on_clear(handler!(window, state, idle, |w, s| {
         edit_session(&w, s, |session| {
             session.clear();
@@ -77,7 +75,7 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         })
     }));
     session.on_delete_class(handler!(window, state, idle, |w, s, index: i32| {
-        edit_session(&w, s, |session| session.delete_class(index.max(0) as usize).map_err(|e| e.to_string()))
+        edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
     }));
     session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
     session.on_choose_template(handler!(window, state, idle, |w, s, name: slint::SharedString| {
@@ -128,19 +126,14 @@ pub(super) fn restart_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<s
 fn reset_to_start(window: &AppWindow, state: &Shared) {
     {
         let mut state = state.borrow_mut();
-        state.jobs.cancel();
-        state.work = None;
+        state.ctl.forget();
+        state.panel_pictures.clear();
         state.restore = None;
         state.restore_unconfirmed = false;
-        state.chosen_template = None;
         state.camera = Camera::default();
         state.home_camera = Camera::default();
         state.banner.clear();
         state.status.clear();
-        if let Some(dir) = &state.config.session_dir {
-            autosave::remove(dir);
-            autosave::restored(dir);
-        }
     }
     log::info!("idle timeout: back to the start screen, session cleared");
     window.global::<Session>().set_view_picture(slint::Image::default());
@@ -168,7 +161,7 @@ fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
         if state.opening.is_some() {
             return;
         }
-        state.jobs.cancel();
+        state.ctl.jobs.cancel();
         state.status = format!("Opening {}...", source.name());
         state.opening = Some(index as usize);
         state.loader.open(index as usize, source);
@@ -180,41 +173,20 @@ fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
 pub(super) fn edit_session(
     window: &AppWindow,
     state: &Shared,
-    edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), String>,
+    edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), super::session::SessionError>,
 ) {
-    let result = {
-        let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
-        edit(&mut work.session)
-    };
-    match result {
-        Ok(()) => {
-            state.borrow_mut().status.clear();
-            refresh::session_changed(window, state);
-        }
-        Err(message) => {
-            state.borrow_mut().status = message;
-            refresh::push_status(window, state);
-        }
-    }
+    let changed = state.borrow_mut().ctl.edit(edit);
+    refresh::apply(window, state, changed);
 }
 
 fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {
-    let toggled = {
-        let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
-        work.session.toggle_visible(index.max(0) as usize).is_ok()
-    };
-    if toggled {
-        refresh::styles_changed(window, state);
-        refresh::save(state);
-    }
+    let changed = state.borrow_mut().ctl.toggle_class(index.max(0) as usize);
+    refresh::apply(window, state, changed);
 }
 
 fn set_template(window: &AppWindow, state: &Shared, template: HueTemplate) {
-    state.borrow_mut().chosen_template = Some(template);
-    refresh::styles_changed(window, state);
-    refresh::save(state);
+    let changed = state.borrow_mut().ctl.choose_template(template);
+    refresh::apply(window, state, changed);
 }
 
 fn orbit(state: &Shared, to: [f32; 2]) {
@@ -230,7 +202,7 @@ fn orbit(state: &Shared, to: [f32; 2]) {
 
 pub(super) fn view_gesture(state: &Shared, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
     let mut state = state.borrow_mut();
-    let extent_mm = state.work.as_ref().map(|work| {
+    let extent_mm = state.ctl.work.as_ref().map(|work| {
         let volume = &work.loaded.volume;
         std::array::from_fn::<f32, 3, _>(|a| (volume.dims[a] as f64 * volume.spacing_mm[a]) as f32)
     });

@@ -19,6 +19,25 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, Sender, channel};
 
+/// Why a volume cannot be offered or opened; a card or banner shows it
+/// ([`reason_for_display`]).
+#[derive(Debug, thiserror::Error)]
+pub enum OpenError {
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    #[error("{name} has no voxels")]
+    NoVoxels { name: String },
+    /// The reader panicked inside ([`guarded`]).
+    #[error("the reader failed on this file ({message})")]
+    ReaderPanicked { message: String },
+    #[error(transparent)]
+    Slice(#[from] crate::slices::SliceError),
+    #[error("slice {slice} along {axis}: the picture does not hold its pixels")]
+    Arrangement { slice: usize, axis: crate::slices::Axis },
+    #[error("cannot start a thread to open it")]
+    NoThread,
+}
+
 /// The largest side of a thumbnail, in pixels.
 pub const THUMBNAIL_SIDE: usize = 256;
 
@@ -85,7 +104,7 @@ pub struct LoadedVolume {
 
 /// Runs `work`, turning a panic inside it into an error: the worker survives, and the file
 /// that made a reader panic gets a card that says it cannot be opened.
-pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, String>) -> Result<T, String> {
+pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, OpenError>) -> Result<T, OpenError> {
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(work)) {
         Ok(result) => result,
         Err(payload) => {
@@ -95,7 +114,7 @@ pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, String
                 .or_else(|| payload.downcast_ref::<String>().cloned())
                 .unwrap_or_else(|| "no message".to_string());
             log::error!("the reader failed inside on {}: {message}", source.key());
-            Err(format!("the reader failed on this file ({message})"))
+            Err(OpenError::ReaderPanicked { message })
         }
     }
 }
@@ -116,13 +135,13 @@ pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {
 }
 
 /// Opens `source` and ranks its slices (paper eq. 1).
-pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, String> {
+pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, OpenError> {
     if let VolumeSource::Path(path) = source {
-        detect_format(path, options).map_err(|e| e.to_string())?;
+        detect_format(path, options)?;
     }
-    let volume = source.open(options).map_err(|e| e.to_string())?;
+    let volume = source.open(options)?;
     if volume.voxel_count() == 0 {
-        return Err(format!("{} has no voxels", source.name()));
+        return Err(OpenError::NoVoxels { name: source.name() });
     }
     let entropies = foreground_slice_entropies(&volume);
     // Here, off the interactive path: every training on the volume needs it.
@@ -133,15 +152,15 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
 
 /// The thumbnail and a one-line description of a loaded volume: its top axial slice (the
 /// stored z slice when the orientation is unknown), shown as the work screen shows it.
-pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), String> {
+pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), OpenError> {
     let volume = &loaded.volume;
     let orientation = volume.orientation.as_ref();
     let layout = SliceLayout::new(orientation, plane_axes(orientation)[0]);
     let slice = loaded.entropies.axis(layout.axis).top();
-    let grey = slice_image(volume, layout.axis, slice, loaded.windows.initial().window).map_err(|e| e.to_string())?;
+    let grey = slice_image(volume, layout.axis, slice, loaded.windows.initial().window)?;
     let (shown, shown_width, shown_height) = layout
         .arrange_pixels(&grey.pixels, 1, grey.width, grey.height)
-        .ok_or_else(|| format!("slice {slice} along {}: the picture does not hold its pixels", layout.axis))?;
+        .ok_or(OpenError::Arrangement { slice, axis: layout.axis })?;
     let step = (shown_width.max(shown_height)).div_ceil(THUMBNAIL_SIDE).max(1);
     let (width, height) = (shown_width.div_ceil(step), shown_height.div_ceil(step));
     let mut pixels = Vec::with_capacity(width * height * 3);
@@ -157,8 +176,8 @@ pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), String> {
 
 /// What the loader thread reports.
 pub enum LoaderEvent {
-    Thumbnail { index: usize, result: Result<(RgbImage, String), String> },
-    Opened { index: usize, result: Result<Box<LoadedVolume>, String> },
+    Thumbnail { index: usize, result: Result<(RgbImage, String), OpenError> },
+    Opened { index: usize, result: Result<Box<LoadedVolume>, OpenError> },
 }
 
 /// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
@@ -195,7 +214,7 @@ impl Loader {
             let result = guarded(&source, || load(&source, &options)).map(Box::new);
             let _ = sender.send(LoaderEvent::Opened { index, result });
         }) {
-            let _ = failed.send(LoaderEvent::Opened { index, result: Err("cannot start a thread to open it".into()) });
+            let _ = failed.send(LoaderEvent::Opened { index, result: Err(OpenError::NoThread) });
         }
     }
 
@@ -251,7 +270,8 @@ mod tests {
         let path = folder.path().join("broken.nrrd");
         std::fs::write(&path, b"NRRD0004\ntype: short\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n").unwrap();
         let error = load(&VolumeSource::Path(path), &OpenOptions::default()).err().unwrap();
-        assert!(!error.is_empty());
+        assert!(matches!(error, OpenError::Volume(_)), "{error}");
+        assert!(!error.to_string().is_empty());
     }
 
     #[test]
@@ -271,11 +291,11 @@ mod tests {
     #[test]
     fn a_panicking_reader_is_an_error_and_the_thumbnail_worker_goes_on() {
         let source = VolumeSource::Path("hostile.nrrd".into());
-        let error = guarded(&source, || -> Result<(), String> { panic!("byte skip overflows") }).unwrap_err();
-        assert_eq!(error, "the reader failed on this file (byte skip overflows)");
-        let error = guarded(&source, || -> Result<(), String> { panic!("{} voxels", 7) }).unwrap_err();
-        assert!(error.contains("7 voxels"), "{error}");
-        assert_eq!(guarded(&source, || Ok(3)), Ok(3));
+        let error = guarded(&source, || -> Result<(), OpenError> { panic!("byte skip overflows") }).unwrap_err();
+        assert_eq!(error.to_string(), "the reader failed on this file (byte skip overflows)");
+        let error = guarded(&source, || -> Result<(), OpenError> { panic!("{} voxels", 7) }).unwrap_err();
+        assert!(error.to_string().contains("7 voxels"), "{error}");
+        assert_eq!(guarded(&source, || Ok(3)).ok(), Some(3));
 
         // Files that fail, then the demo: every thumbnail is reported, in order.
         let folder = tempfile::tempdir().unwrap();

@@ -9,12 +9,11 @@
 //! Never: opens files itself (library.rs does, on worker threads).
 
 use super::library::{LoadedVolume, LoaderEvent, VolumeSource};
-use super::refresh::{session_changed, show_screen, to_slint_image};
-use super::session::WorkSession;
+use super::refresh::{apply, show_screen, to_slint_image};
 use super::ui::{AppWindow, Session, VolumeCard};
-use super::{Panel, Screen, State, Work, autosave};
+use super::{Screen, State, Work, autosave};
 use crate::render::Camera;
-use crate::slices::{HomeView, SliceLayout, plane_axes};
+use crate::slices::HomeView;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -25,7 +24,7 @@ type Shared = Rc<RefCell<State>>;
 /// did not stop the app: the restore marker goes (autosave.rs).
 pub(super) fn confirm_restore(state: &Shared) {
     let mut state = state.borrow_mut();
-    if !state.restore_unconfirmed || state.work.is_none() || state.jobs.busy() {
+    if !state.restore_unconfirmed || state.ctl.work.is_none() || state.ctl.jobs.busy() {
         return;
     }
     state.restore_unconfirmed = false;
@@ -79,7 +78,8 @@ pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
                     card.thumbnail = to_slint_image(&image);
                     card.detail = detail.into();
                 }
-                Err(message) => {
+                Err(error) => {
+                    let message = error.to_string();
                     let source = state.borrow().sources.get(index).cloned();
                     log::warn!("cannot open {}: {message}", source.as_ref().map_or(String::new(), |s| s.key()));
                     mark_failed(&mut card, &reason(&message, source.as_ref()));
@@ -99,7 +99,8 @@ pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
                     drop(state_ref);
                     open_work(window, state, *loaded);
                 }
-                Err(message) => {
+                Err(error) => {
+                    let message = error.to_string();
                     let source = state_ref.sources.get(index).cloned();
                     let name = source.as_ref().map(|source| source.name()).unwrap_or_default();
                     log::warn!("cannot open {name}: {message}");
@@ -141,25 +142,10 @@ fn reason(message: &str, source: Option<&VolumeSource>) -> String {
 /// for this volume.
 fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
     let caption;
+    let changed;
     {
         let mut state = state.borrow_mut();
-        let orientation = loaded.volume.orientation.as_ref();
-        let panels = plane_axes(orientation).map(|axis| Panel {
-            axis,
-            rank: 0,
-            slice: loaded.entropies.axis(axis).top(),
-            layout: SliceLayout::new(orientation, axis),
-        });
-        let mut session = WorkSession::default();
-        if let Some(saved) = state.restore.take()
-            && saved.volume == loaded.source.key()
-        {
-            session = WorkSession::from_strokes(&saved.strokes);
-            if let Some(template) = crate::transfer::TemplateType::from_name(&saved.template) {
-                state.chosen_template = Some(crate::transfer::HueTemplate::new(template, saved.rotation_degrees));
-            }
-        }
-        let home = orientation.map(HomeView::of);
+        let home = loaded.volume.orientation.as_ref().map(HomeView::of);
         caption = home_caption(home.as_ref());
         state.home_camera = match home {
             Some(home) => Camera {
@@ -176,28 +162,16 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
             }
             state.banner = format!("{}: {}", loaded.source.name(), loaded.volume.warnings.join("; "));
         }
-        state.renderer.set_volume(loaded.volume.clone());
-        let initial = loaded.windows.initial();
-        state.work = Some(Work {
-            loaded,
-            session,
-            panels,
-            drawing: None,
-            classified: None,
-            requested: None,
-            window: initial.window,
-            window_name: initial.name.to_string(),
-            enlarged: None,
-            zoom: 1.0,
-            pan: [0.0; 2],
-            feedback: None,
-        });
+        // Pictures of the last volume are never kept for this one (refresh::push_slice).
+        state.panel_pictures.clear();
+        let saved = state.restore.take();
+        changed = state.ctl.open(Work::new(loaded), saved);
     }
     let session = window.global::<Session>();
     session.set_view_picture(slint::Image::default());
     session.set_view_caption(caption.into());
     show_screen(window, Screen::Work);
-    session_changed(window, state);
+    apply(window, state, changed);
 }
 
 /// What the 3-D view says about its home position: nothing when it shows the patient from the

@@ -1,13 +1,16 @@
 //! The kiosk app: the Slint UI (`ui/*.slint`) wired to the pipeline. It holds what the user is
 //! doing (the open volume, the three slices shown, the session of classes and lassos, the
 //! camera) and runs everything slow elsewhere: volumes open on a loader thread, the
-//! classifier on a job thread, the 3-D view on a render thread. The UI thread moves data
-//! between them and Slint and never waits for them; it writes the autosave and draws the
-//! slice pictures itself.
+//! classifier on a job thread, the 3-D view on a render thread, the autosave on a writer
+//! thread (saver.rs), the slice pictures on a painter thread (painter.rs). The UI thread moves
+//! data between them and Slint and never waits for them, nor for the disk.
 //!
 //! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
-//! [`State`]; a 16 ms poll timer collects finished work (`loading.rs` applies what the loader
-//! reports); `refresh.rs` pushes state into the `Session` global.
+//! [`State`]; what the user does to the classes goes to the Slint-free [`Controller`]
+//! (controller.rs: the work, the template and the classification, autosave and 3-D view
+//! workers), which says what changed; a 16 ms poll timer collects finished work (`loading.rs`
+//! applies what the loader reports); `refresh.rs` alone pushes state into the `Session`
+//! global.
 //!
 //! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
 //! sagittal panels with the patient's directions at their edges; the stored order and
@@ -26,12 +29,15 @@
 
 pub mod autosave;
 mod callbacks;
+mod controller;
 pub mod drawing;
 pub mod jobs;
 pub mod library;
 mod loading;
+mod painter;
 pub mod pictures;
 mod refresh;
+mod saver;
 pub mod session;
 mod slice_actions;
 pub mod ui;
@@ -43,8 +49,9 @@ use crate::slices::{Axis, DisplayWindow, SliceLayout};
 use crate::strokes::StrokesFile;
 use crate::transfer::HueTemplate;
 use crate::volume::OpenOptions;
+use controller::Controller;
 use drawing::FingerPath;
-use jobs::{ClassificationJobs, Classified};
+use jobs::Classified;
 use library::{LoadedVolume, Loader, VolumeSource};
 use session::WorkSession;
 use slint::{ComponentHandle, Model};
@@ -53,7 +60,6 @@ use std::path::PathBuf;
 use std::rc::Rc;
 use std::time::Duration;
 use ui::AppWindow;
-use view3d::ViewRenderer;
 
 /// How the app is set up (`volasso ui` options).
 #[derive(Clone, Debug)]
@@ -137,6 +143,35 @@ struct Work {
     feedback: Option<(usize, String)>,
 }
 
+impl Work {
+    /// Work on a newly opened volume: no classes yet, each panel on its highest-ranked slice,
+    /// the volume's first display window.
+    fn new(loaded: LoadedVolume) -> Work {
+        let orientation = loaded.volume.orientation.as_ref();
+        let panels = crate::slices::plane_axes(orientation).map(|axis| Panel {
+            axis,
+            rank: 0,
+            slice: loaded.entropies.axis(axis).top(),
+            layout: SliceLayout::new(orientation, axis),
+        });
+        let initial = loaded.windows.initial();
+        Work {
+            session: WorkSession::default(),
+            panels,
+            drawing: None,
+            classified: None,
+            requested: None,
+            window: initial.window,
+            window_name: initial.name.to_string(),
+            enlarged: None,
+            zoom: 1.0,
+            pan: [0.0; 2],
+            feedback: None,
+            loaded,
+        }
+    }
+}
+
 /// Everything the callbacks and the poll timer share (on the UI thread only).
 struct State {
     config: AppConfig,
@@ -148,16 +183,17 @@ struct State {
     /// Thumbnails asked for and not yet made.
     thumbnails_pending: usize,
     opening: Option<usize>,
-    work: Option<Work>,
-    jobs: ClassificationJobs,
-    renderer: ViewRenderer,
+    /// The work on the open volume and its workers (classification, autosave, 3-D view).
+    ctl: Controller,
+    /// Draws the slice pictures off the UI thread.
+    painter: painter::SlicePainter,
+    /// Per panel, the volume (its address) and axis of the picture it shows, so a new picture
+    /// keeps the old one in place only while both are the same.
+    panel_pictures: Vec<(usize, Axis)>,
     camera: Camera,
     /// Where "Reset view" and a double tap take the camera: the volume's anterior view with
     /// the head up when its orientation is known (`slices::HomeView`).
     home_camera: Camera,
-    /// The template the user picked; until then each class count gets its default
-    /// ([`HueTemplate::default_for`]).
-    chosen_template: Option<HueTemplate>,
     /// The last finger position of a one-finger orbit.
     orbit_from: Option<[f32; 2]>,
     /// A new 3-D frame is wanted (camera, classes or size changed).
@@ -180,12 +216,12 @@ impl State {
     /// The classes the classifier is trained on: the defined ones, and the pending lassos as
     /// a provisional next class.
     fn training_class_count(&self) -> usize {
-        self.work.as_ref().map_or(0, |work| work.session.classes.len() + usize::from(!work.session.pending.is_empty()))
+        self.ctl.training_class_count()
     }
 
     /// The template in use for the current number of classes.
     fn template(&self) -> HueTemplate {
-        self.chosen_template.unwrap_or_else(|| HueTemplate::default_for(self.training_class_count()))
+        self.ctl.template()
     }
 }
 
@@ -202,7 +238,8 @@ impl Drop for App {
     /// share `State`, and the process must not exit with the thread inside the GPU driver.
     fn drop(&mut self) {
         if let Ok(mut state) = self.state.try_borrow_mut() {
-            state.renderer.shut_down();
+            state.ctl.renderer.shut_down();
+            state.ctl.flush();
         }
     }
 }
@@ -229,12 +266,11 @@ impl App {
             thumbnails_requested: false,
             thumbnails_pending: 0,
             opening: None,
-            work: None,
-            jobs: ClassificationJobs::default(),
-            renderer: ViewRenderer::new(),
+            ctl: Controller::new(config.session_dir.clone()),
+            painter: painter::SlicePainter::new(),
+            panel_pictures: Vec::new(),
             camera: Camera::default(),
             home_camera: Camera::default(),
-            chosen_template: None,
             orbit_from: None,
             view_dirty: false,
             view_size: [0, 0],
@@ -317,8 +353,9 @@ impl App {
         let state = self.state.borrow();
         state.opening.is_none()
             && state.thumbnails_pending == 0
-            && !state.jobs.busy()
-            && !state.renderer.busy()
+            && !state.ctl.jobs.busy()
+            && !state.ctl.renderer.busy()
+            && !state.painter.busy()
             && !state.view_dirty
     }
 
@@ -342,19 +379,20 @@ impl App {
     /// `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown), `letters-z` /
     /// `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown), `window`
     /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
-    /// on a panel) and `camera` (azimuth and elevation in degrees).
+    /// on a panel), `camera` (azimuth and elevation in degrees) and `label-uploads` (label
+    /// volumes sent to the 3-D view: a restyle sends none).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
-        let work = state.work.as_ref();
+        let work = state.ctl.work.as_ref();
         let value = match key {
             "screen" => ["start", "chooser", "work"].get(screen as usize).unwrap_or(&"?").to_string(),
             "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
             "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
             "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
             "banner" => state.banner.clone(),
-            "busy" => (state.jobs.busy() || state.opening.is_some()).to_string(),
-            "classifying" => state.jobs.busy().to_string(),
+            "busy" => (state.ctl.jobs.busy() || state.opening.is_some()).to_string(),
+            "classifying" => state.ctl.jobs.busy().to_string(),
             "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
             "cards" => state.volumes_model.row_count().to_string(),
             "cannot-open" => state.volumes_model.iter().filter(|card| card.failed).count().to_string(),
@@ -370,6 +408,7 @@ impl App {
             "zoom" => format!("{:.1}", work.map_or(1.0, |w| w.zoom)),
             "feedback" => work.and_then(|w| w.feedback.as_ref()).map_or(String::new(), |(_, m)| m.clone()),
             "camera" => format!("{:.1} {:.1}", state.camera.azimuth_degrees, state.camera.elevation_degrees),
+            "label-uploads" => state.ctl.renderer.label_uploads().to_string(),
             _ => {
                 let (kind, axis) = key.rsplit_once('-')?;
                 let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;

@@ -16,6 +16,22 @@ use crate::volume::Volume;
 /// was just drawn stands out from what the classifier decided.
 pub const LASSO_ALPHA: f32 = 0.6;
 
+/// Why a slice picture cannot be drawn.
+#[derive(Debug, thiserror::Error)]
+pub enum PictureError {
+    /// The volume's file shrank under its memory map.
+    #[error(transparent)]
+    Volume(#[from] crate::volume::VolumeError),
+    #[error(transparent)]
+    Slice(#[from] crate::slices::SliceError),
+    #[error(transparent)]
+    Overlay(#[from] crate::transfer::TransferError),
+    #[error("slice {slice} along {axis} is outside the volume")]
+    OutsideVolume { slice: usize, axis: crate::slices::Axis },
+    #[error("slice {slice} along {axis}: the picture does not hold its pixels")]
+    Arrangement { slice: usize, axis: crate::slices::Axis },
+}
+
 /// Lassos to highlight on a slice, each with its colour.
 pub struct Highlight<'a> {
     pub lassos: &'a [Lasso],
@@ -33,20 +49,19 @@ pub fn slice_picture(
     window: DisplayWindow,
     classification: Option<(&[u8], &[ClassStyle])>,
     highlights: &[Highlight],
-) -> Result<RgbImage, String> {
-    volume.check_still_mapped().map_err(|e| e.to_string())?;
+) -> Result<RgbImage, PictureError> {
+    volume.check_still_mapped()?;
     let axis = layout.axis;
     let mut picture = match classification {
-        Some((labels, styles)) => slice_overlay(volume, labels, styles, axis, slice, window, DEFAULT_OVERLAY_ALPHA)
-            .map_err(|e| e.to_string())?,
+        Some((labels, styles)) => slice_overlay(volume, labels, styles, axis, slice, window, DEFAULT_OVERLAY_ALPHA)?,
         None => {
-            let grey = slice_image(volume, axis, slice, window).map_err(|e| e.to_string())?;
+            let grey = slice_image(volume, axis, slice, window)?;
             let pixels = grey.pixels.iter().flat_map(|&level| [level; 3]).collect();
             RgbImage { width: grey.width, height: grey.height, pixels }
         }
     };
     let Some(geometry) = SliceGeometry::new(volume.dims, axis, slice) else {
-        return Err(format!("slice {slice} along {axis} is outside the volume"));
+        return Err(PictureError::OutsideVolume { slice, axis });
     };
     for highlight in highlights {
         for lasso in highlight.lassos.iter().filter(|lasso| lasso.axis == axis && lasso.slice == slice) {
@@ -62,7 +77,7 @@ pub fn slice_picture(
     }
     let (pixels, width, height) = layout
         .arrange_pixels(&picture.pixels, 3, picture.width, picture.height)
-        .ok_or_else(|| format!("slice {slice} along {axis}: the picture does not hold its pixels"))?;
+        .ok_or(PictureError::Arrangement { slice, axis })?;
     Ok(RgbImage { width, height, pixels })
 }
 
@@ -182,7 +197,7 @@ mod tests {
         let window = DisplayWindow::from_range(0.0, 255.0);
         assert!(slice_picture(&volume, &layout, 15, window, None, &[]).is_ok());
         std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(100).unwrap();
-        let error = slice_picture(&volume, &layout, 15, window, None, &[]).unwrap_err();
+        let error = slice_picture(&volume, &layout, 15, window, None, &[]).unwrap_err().to_string();
         assert!(error.contains(&path.display().to_string()), "{error}");
     }
 

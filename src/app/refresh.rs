@@ -1,17 +1,18 @@
-//! Moving state into the UI, and collecting finished work from the loader, classifier and
-//! renderer threads (the poll timer). Each `push_*` sets only the `Session` properties it names.
+//! Moving state into the UI, and collecting finished work from the loader, classifier,
+//! painter and renderer threads (the poll timer). Each `push_*` sets only the `Session` properties it names.
 
-use super::jobs::JobOutcome;
+use super::controller::Changed;
 use super::loading;
-use super::pictures::{Highlight, class_colour, slice_picture};
+use super::painter::PictureRequest;
+use super::pictures::class_colour;
 use super::ui::{AppWindow, ClassEntry, Session, SliceView, VolumeCard};
 use super::view3d::RenderReply;
-use super::{PANEL_COUNT, Screen, State, autosave};
-use crate::strokes::{ClassStrokes, StrokesFile};
-use crate::transfer::{ClassStyle, RgbImage, apply_template};
+use super::{PANEL_COUNT, Screen, State};
+use crate::transfer::RgbImage;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
+use std::sync::Arc;
 
 type Shared = Rc<RefCell<State>>;
 
@@ -23,24 +24,13 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         let Some(event) = event else { break };
         loading::loader_event(window, state, event);
     }
-    let outcome = state.borrow_mut().jobs.poll();
-    match outcome {
-        Some(JobOutcome::Done(classified)) => {
-            {
-                let mut state = state.borrow_mut();
-                let seconds = classified.seconds;
-                if let Some(work) = state.work.as_mut() {
-                    work.classified = Some(classified);
-                }
-                state.status = format!("Classified in {seconds:.2} s");
-            }
-            styles_changed(window, state);
-        }
-        Some(JobOutcome::Failed(message)) => state.borrow_mut().status = message,
-        None => {}
+    let changed = state.borrow_mut().ctl.poll();
+    if changed != Changed::default() {
+        apply(window, state, changed);
     }
     loading::confirm_restore(state);
-    let reply = state.borrow_mut().renderer.poll();
+    picture_done(state);
+    let reply = state.borrow_mut().ctl.renderer.poll();
     match reply {
         Some(RenderReply::Picture(picture)) => {
             let image = &picture.image;
@@ -51,7 +41,8 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
             );
             window.global::<Session>().set_view_picture(slint::Image::from_rgba8(buffer));
         }
-        Some(RenderReply::Failed(message)) => {
+        Some(RenderReply::Failed(error)) => {
+            let message = error.to_string();
             log::warn!("{message}");
             state.borrow_mut().banner = message;
         }
@@ -66,89 +57,25 @@ pub(super) fn show_screen(window: &AppWindow, screen: Screen) {
     window.global::<Session>().set_screen(screen as i32);
 }
 
-/// After the classes or lassos changed: autosave, classify again, show.
-pub(super) fn session_changed(window: &AppWindow, state: &Shared) {
-    save(state);
-    {
-        let mut state_ref = state.borrow_mut();
-        let template = state_ref.template();
-        let training = training_strokes(&state_ref);
-        let State { work, jobs, .. } = &mut *state_ref;
-        if let Some(work) = work.as_mut() {
-            match training {
-                Some(strokes) if work.requested.as_ref() != Some(&strokes) => {
-                    jobs.start(work.loaded.volume.clone(), strokes.clone(), template);
-                    work.requested = Some(strokes);
-                }
-                Some(_) => {}
-                None => {
-                    jobs.cancel();
-                    work.requested = None;
-                    work.classified = None;
-                }
-            }
-        }
-    }
-    if state.borrow().work.as_ref().is_some_and(|work| work.classified.is_none()) {
-        window.global::<Session>().set_view_picture(slint::Image::default());
-    }
-    push_work(window, state);
-}
-
-/// The defined classes plus the pending lassos as the provisional next class; `None` when
-/// there are fewer than two.
-fn training_strokes(state: &State) -> Option<StrokesFile> {
-    let work = state.work.as_ref()?;
-    let mut strokes = work.session.strokes();
-    if !work.session.pending.is_empty() {
-        strokes
-            .classes
-            .push(ClassStrokes { name: work.session.next_class_name(), strokes: work.session.pending.clone() });
-    }
-    // One class has nothing to be told apart from: its lassos are shown, nothing is trained.
-    (strokes.classes.len() >= 2).then_some(strokes)
-}
-
-/// After colours or visibility changed (or a result came): 3-D view, overlays, class bar.
-pub(super) fn styles_changed(window: &AppWindow, state: &Shared) {
+/// Shows what the controller says changed: the status line, a new 3-D frame wanted or the 3-D
+/// view emptied, and the work screen when classes, lassos or colours changed.
+pub(super) fn apply(window: &AppWindow, state: &Shared, changed: Changed) {
     {
         let mut state = state.borrow_mut();
-        let styles = display_styles(&state);
-        let labels = state.work.as_ref().and_then(|w| w.classified.as_ref()).map(|c| c.labels.clone());
-        if let (Some(styles), Some(labels)) = (styles, labels) {
-            state.renderer.set_labels(labels, styles);
+        if let Some(status) = &changed.status {
+            state.status = status.clone();
+        }
+        if changed.view {
             state.view_dirty = true;
         }
     }
-    push_work(window, state);
-}
-
-/// The classification's styles with the current template and the user's visibility.
-fn display_styles(state: &State) -> Option<Vec<ClassStyle>> {
-    let work = state.work.as_ref()?;
-    let classified = work.classified.as_ref()?;
-    let mut styles = classified.table.styles.clone();
-    apply_template(&mut styles, &state.template());
-    for (index, style) in styles.iter_mut().enumerate() {
-        let shown = work.session.classes.get(index).is_none_or(|class| class.visible);
-        style.visible = style.visible && shown;
+    if changed.view_cleared {
+        window.global::<Session>().set_view_picture(slint::Image::default());
     }
-    Some(styles)
-}
-
-/// Writes the session for restore, when autosave is on and a volume is open.
-pub(super) fn save(state: &Shared) {
-    let state = state.borrow();
-    let (Some(dir), Some(work)) = (&state.config.session_dir, &state.work) else { return };
-    let template = state.chosen_template;
-    let saved = autosave::SavedSession {
-        volume: work.loaded.source.key(),
-        template: template.map_or(String::new(), |t| t.template.name().to_string()),
-        rotation_degrees: template.map_or(0.0, |t| t.rotation_degrees),
-        strokes: work.session.strokes(),
-    };
-    if let Err(message) = autosave::save(dir, &saved) {
-        log::warn!("{message}");
+    if changed.classes {
+        push_work(window, state);
+    } else if changed.status.is_some() {
+        push_status(window, state);
     }
 }
 
@@ -166,7 +93,7 @@ pub(super) fn push_work(window: &AppWindow, state: &Shared) {
 pub(super) fn push_slice_layout(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
     let session = window.global::<Session>();
-    let Some(work) = state.work.as_ref() else {
+    let Some(work) = state.ctl.work.as_ref() else {
         session.set_enlarged(-1);
         return;
     };
@@ -182,13 +109,13 @@ pub(super) fn push_slice_layout(window: &AppWindow, state: &Shared) {
 pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
     let session = window.global::<Session>();
-    let Some(work) = state.work.as_ref() else {
+    let Some(work) = state.ctl.work.as_ref() else {
         state.classes_model.set_vec(Vec::new());
         session.set_volume_name("".into());
         return;
     };
     let template = state.template();
-    let styles = display_styles(&state);
+    let styles = state.ctl.display_styles();
     let counts = work.classified.as_ref().map(|c| &c.table.voxel_counts);
     let total = state.training_class_count();
     let entries: Vec<ClassEntry> = work
@@ -220,12 +147,12 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
 pub(super) fn push_status(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
     let session = window.global::<Session>();
-    let busy = state.jobs.busy() || state.opening.is_some();
-    let status = match state.jobs.progress() {
+    let busy = state.ctl.jobs.busy() || state.opening.is_some();
+    let status = match state.ctl.jobs.progress() {
         Some(progress) => format!("Classifying... {:.0} %", progress * 100.0),
         None => state.status.clone(),
     };
-    let hint = match state.work.as_ref() {
+    let hint = match state.ctl.work.as_ref() {
         Some(work) if work.classified.is_some() => "",
         Some(work) if work.session.classes.is_empty() && work.session.pending.is_empty() => {
             "Draw a loop around a structure on any slice, then tap Define class. Each class gets its colour here in 3-D."
@@ -238,7 +165,7 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
     };
     session.set_view_hint(hint.into());
     session.set_busy(busy);
-    session.set_progress(state.jobs.progress().unwrap_or(0.0));
+    session.set_progress(state.ctl.jobs.progress().unwrap_or(0.0));
     session.set_status(status.into());
     session.set_banner(state.banner.clone().into());
 }
@@ -260,38 +187,49 @@ pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
     let _ = window;
 }
 
-/// The slice picture of one panel (grey, classes, lassos, arranged for the screen) and its
-/// numbers, title, edge letters and feedback.
+/// The numbers, title, edge letters and feedback of one panel, and its picture (grey, classes,
+/// lassos, arranged for the screen) asked of the painter thread; until it comes
+/// ([`picture_done`]) the panel keeps its picture when it still shows the same volume along the
+/// same axis, and none otherwise (never another scan's slice).
 pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
     let mut state_ref = state.borrow_mut();
     let model = state_ref.slices_model.clone();
-    let Some(work) = state_ref.work.as_ref() else {
+    let Some(work) = state_ref.ctl.work.as_ref() else {
         model.set_vec(Vec::new());
         return;
     };
     let Some(shown) = work.panels.get(panel) else { return };
     let volume = &work.loaded.volume;
-    let styles = display_styles(&state_ref);
-    let classification = work.classified.as_ref().zip(styles.as_deref()).map(|(c, s)| (c.labels.as_slice(), s));
+    let styles = state_ref.ctl.display_styles();
+    let classification = work.classified.as_ref().zip(styles).map(|(c, s)| (c.labels.clone(), s));
     let template = state_ref.template();
     let total = state_ref.training_class_count();
     let next = work.session.classes.len();
-    let mut highlights: Vec<Highlight> = Vec::new();
+    let mut highlights = Vec::new();
     if classification.is_none() {
         for (index, class) in work.session.classes.iter().enumerate() {
-            highlights.push(Highlight { lassos: &class.lassos, colour: class_colour(None, &template, index, total) });
+            highlights.push((class.lassos.clone(), class_colour(None, &template, index, total)));
         }
     }
-    highlights.push(Highlight { lassos: &work.session.pending, colour: class_colour(None, &template, next, next + 1) });
+    highlights.push((work.session.pending.clone(), class_colour(None, &template, next, next + 1)));
     let layout = &shown.layout;
-    let (picture, failure) = match slice_picture(volume, layout, shown.slice, work.window, classification, &highlights)
-    {
-        Ok(picture) => (to_slint_image(&picture), None),
-        Err(message) => (slint::Image::default(), Some(message)),
+    let request = PictureRequest {
+        panel,
+        volume: volume.clone(),
+        layout: *layout,
+        slice: shown.slice,
+        window: work.window,
+        classification,
+        highlights,
     };
     let [across_mm, down_mm] = layout.screen_extent_mm(volume.dims, volume.spacing_mm);
     let letters = layout.edge_letters;
     let letter = |pick: fn(&crate::slices::EdgeLetters) -> &'static str| letters.as_ref().map_or("", pick).into();
+    let same_picture = (Arc::as_ptr(volume) as usize, shown.axis);
+    let previous = (panel < model.row_count()).then(|| model.row_data(panel)).flatten();
+    let picture = previous
+        .filter(|_| state_ref.panel_pictures.get(panel) == Some(&same_picture))
+        .map_or_else(slint::Image::default, |view| view.picture);
     let view = SliceView {
         axis: shown.axis.name().into(),
         title: layout.plane.map_or_else(|| format!("Slice {}", shown.axis), |plane| plane.name().to_string()).into(),
@@ -318,14 +256,11 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
             .map_or(String::new(), |(_, m)| m.clone())
             .into(),
     };
-    if let Some(message) = failure {
-        // The file under the volume changed (truncated) or the slice is gone: say so once.
-        log::warn!("slice picture: {message}");
-        let banner = format!("Cannot show the slice: {message}");
-        if state_ref.banner != banner {
-            state_ref.banner = banner;
-        }
+    if state_ref.panel_pictures.len() <= panel {
+        state_ref.panel_pictures.resize(panel + 1, same_picture);
     }
+    state_ref.panel_pictures[panel] = same_picture;
+    state_ref.painter.request(request);
     drop(state_ref);
     if panel < model.row_count() {
         model.set_row_data(panel, view);
@@ -335,10 +270,37 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
     let _ = window;
 }
 
+/// Shows the slice pictures the painter thread finished.
+fn picture_done(state: &Shared) {
+    loop {
+        let finished = state.borrow_mut().painter.poll();
+        let Some((panel, result)) = finished else { return };
+        let mut state = state.borrow_mut();
+        match result {
+            Ok(picture) => {
+                let model = state.slices_model.clone();
+                if let Some(mut view) = (panel < model.row_count()).then(|| model.row_data(panel)).flatten() {
+                    view.picture = to_slint_image(&picture);
+                    model.set_row_data(panel, view);
+                }
+            }
+            Err(error) => {
+                // The file under the volume changed (truncated) or the slice is gone: say so once.
+                let message = error.to_string();
+                log::warn!("slice picture: {message}");
+                let banner = format!("Cannot show the slice: {message}");
+                if state.banner != banner {
+                    state.banner = banner;
+                }
+            }
+        }
+    }
+}
+
 /// Only the lasso path of the panel being drawn on (cheap: no new picture).
 pub(super) fn push_lasso(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
-    let Some(work) = state.work.as_ref() else { return };
+    let Some(work) = state.ctl.work.as_ref() else { return };
     for panel in 0..state.slices_model.row_count() {
         let Some(mut view) = state.slices_model.row_data(panel) else { continue };
         let lasso =
@@ -362,8 +324,8 @@ fn request_frame_if_needed(window: &AppWindow, state: &Shared) {
         state.view_size = size;
         state.view_dirty = true;
     }
-    let classified = state.work.as_ref().is_some_and(|work| work.classified.is_some());
-    if !state.view_dirty || state.renderer.busy() || !classified || size[0] == 0 || size[1] == 0 {
+    let classified = state.ctl.work.as_ref().is_some_and(|work| work.classified.is_some());
+    if !state.view_dirty || state.ctl.renderer.busy() || !classified || size[0] == 0 || size[1] == 0 {
         if !classified {
             state.view_dirty = false;
         }
@@ -372,7 +334,7 @@ fn request_frame_if_needed(window: &AppWindow, state: &Shared) {
     state.view_dirty = false;
     let size = if state.orbit_from.is_some() { size.map(|side| (side / 2).max(1)) } else { size };
     let camera = state.camera;
-    state.renderer.request_frame(camera, size);
+    state.ctl.renderer.request_frame(camera, size);
 }
 
 pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {

@@ -28,7 +28,7 @@ pub(super) fn lasso_down(
     ms: f64,
 ) {
     let mut state_ref = state.borrow_mut();
-    let Some(work) = state_ref.work.as_mut() else { return };
+    let Some(work) = state_ref.ctl.work.as_mut() else { return };
     let had_feedback = work.feedback.take().map(|(on, _)| on);
     work.drawing = Some((panel.max(0) as usize, FingerPath::new(picture_px, point, ms)));
     drop(state_ref);
@@ -40,7 +40,7 @@ pub(super) fn lasso_down(
 
 pub(super) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
     let mut state_ref = state.borrow_mut();
-    let Some((drawn_on, path)) = state_ref.work.as_mut().and_then(|work| work.drawing.as_mut()) else { return };
+    let Some((drawn_on, path)) = state_ref.ctl.work.as_mut().and_then(|work| work.drawing.as_mut()) else { return };
     if *drawn_on != panel.max(0) as usize {
         return;
     }
@@ -54,7 +54,7 @@ pub(super) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: 
 pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
     let meaning = {
         let mut state_ref = state.borrow_mut();
-        let Some(work) = state_ref.work.as_mut() else { return };
+        let Some(work) = state_ref.ctl.work.as_mut() else { return };
         let Some((drawn_on, mut path)) = work.drawing.take() else { return };
         if drawn_on != panel.max(0) as usize || point[0] < 0.0 {
             None
@@ -75,7 +75,7 @@ pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f
             {
                 let mut state = state.borrow_mut();
                 state.status = unclear.message().into();
-                if let Some(work) = state.work.as_mut() {
+                if let Some(work) = state.ctl.work.as_mut() {
                     work.feedback = Some((panel, unclear.message().into()));
                 }
             }
@@ -108,7 +108,7 @@ fn move_slice(window: &AppWindow, state: &Shared, panel: i32, choose: impl FnOnc
     let panel = panel.max(0) as usize;
     {
         let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
+        let Some(work) = state.ctl.work.as_mut() else { return };
         work.feedback = None;
         let ranking = &work.loaded.entropies;
         let Some(shown) = work.panels.get_mut(panel) else { return };
@@ -121,7 +121,7 @@ fn move_slice(window: &AppWindow, state: &Shared, panel: i32, choose: impl FnOnc
 pub(super) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
     {
         let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
+        let Some(work) = state.ctl.work.as_mut() else { return };
         let panel = panel.max(0) as usize;
         if panel >= work.panels.len() {
             return;
@@ -136,7 +136,7 @@ pub(super) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
 
 /// Back to the three slices.
 pub(super) fn shrink(window: &AppWindow, state: &Shared) {
-    if let Some(work) = state.borrow_mut().work.as_mut() {
+    if let Some(work) = state.borrow_mut().ctl.work.as_mut() {
         work.enlarged = None;
         work.drawing = None;
     }
@@ -146,7 +146,7 @@ pub(super) fn shrink(window: &AppWindow, state: &Shared) {
 pub(super) fn choose_window(window: &AppWindow, state: &Shared, name: &str) {
     {
         let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
+        let Some(work) = state.ctl.work.as_mut() else { return };
         let Some(preset) = work.loaded.windows.find(name) else { return };
         work.window = preset.window;
         work.window_name = preset.name.to_string();
@@ -164,7 +164,7 @@ pub(super) fn slice_gesture(window: &AppWindow, state: &Shared, axis: Axis, zoom
     }
     let window_changed = {
         let mut state_ref = state.borrow_mut();
-        let Some(work) = state_ref.work.as_mut() else { return };
+        let Some(work) = state_ref.ctl.work.as_mut() else { return };
         let Some(panel) = work.panels.iter().position(|p| p.axis == axis) else { return };
         if work.enlarged == Some(panel) {
             let zoomed = (work.zoom * zoom).clamp(ZOOM_RANGE.0, ZOOM_RANGE.1);

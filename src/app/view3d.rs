@@ -43,7 +43,21 @@ pub struct Picture {
 pub enum RenderReply {
     Picture(Picture),
     /// The GPU could not be opened or a frame failed; the rest of the UI goes on.
-    Failed(String),
+    Failed(ViewError),
+}
+
+/// Why the 3-D view shows nothing new; the rest of the UI goes on.
+#[derive(Debug, thiserror::Error)]
+pub enum ViewError {
+    #[error("3-D view unavailable: {0}")]
+    Unavailable(#[source] crate::render::RenderError),
+    #[error("3-D view: {0}")]
+    Render(#[source] crate::render::RenderError),
+    /// The volume's file shrank under its memory map since it was opened.
+    #[error("3-D view: {0}")]
+    VolumeGone(#[source] crate::volume::VolumeError),
+    #[error("3-D view: no render target")]
+    NoTarget,
 }
 
 /// The UI thread's handle on the render thread.
@@ -53,6 +67,8 @@ pub struct ViewRenderer {
     next_id: u64,
     /// The newest frame asked for and not yet received.
     awaited: Option<u64>,
+    /// How many label volumes were sent (a restyle sends none).
+    label_uploads: usize,
     /// Joined when the renderer is dropped: a process that exits while this thread is inside
     /// the GPU driver can hang there (lavapipe registering LLVM passes while the exit handlers
     /// destroy LLVM's registry spun forever in a replay test).
@@ -74,7 +90,7 @@ impl ViewRenderer {
             .name("render".into())
             .spawn(move || render_thread(request_receiver, reply_sender));
         let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
-        ViewRenderer { requests, replies, next_id: 0, awaited: None, thread }
+        ViewRenderer { requests, replies, next_id: 0, awaited: None, label_uploads: 0, thread }
     }
 
     /// Ends the render thread and waits for it (at most the frame it is drawing). Later
@@ -94,10 +110,18 @@ impl ViewRenderer {
         let _ = self.requests.send(Request::Volume(volume));
     }
 
-    pub fn set_labels(&self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
+    /// A new classification: its label volume (uploaded and its bricks rebuilt) and styles.
+    pub fn set_labels(&mut self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
+        self.label_uploads += 1;
         let _ = self.requests.send(Request::Labels(labels, styles));
     }
 
+    /// How many label volumes were sent so far.
+    pub fn label_uploads(&self) -> usize {
+        self.label_uploads
+    }
+
+    /// New colours or visibility for the labels already sent: the class table alone.
     pub fn set_styles(&self, styles: Vec<ClassStyle>) {
         let _ = self.requests.send(Request::Styles(styles));
     }
@@ -168,9 +192,9 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
         if scene.is_none() {
             match open_scene() {
                 Ok(opened) => scene = Some(opened),
-                Err(message) => {
+                Err(error) => {
                     failed = true;
-                    let _ = replies.send(RenderReply::Failed(message));
+                    let _ = replies.send(RenderReply::Failed(error));
                     continue;
                 }
             }
@@ -185,7 +209,7 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                     // (SIGBUS on the lost pages): say so instead.
                     if let Err(error) = volume.check_still_mapped() {
                         scene.has_volume = false;
-                        let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+                        let _ = replies.send(RenderReply::Failed(ViewError::VolumeGone(error)));
                         continue;
                     }
                     scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true)
@@ -202,7 +226,7 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                 }
             };
             if let Err(error) = result {
-                let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+                let _ = replies.send(RenderReply::Failed(ViewError::Render(error)));
             }
         }
         if let Some((id, camera, size)) = frame {
@@ -213,38 +237,36 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                 Ok(picture) => {
                     let _ = replies.send(RenderReply::Picture(Picture { id, ..picture }));
                 }
-                Err(message) => {
-                    let _ = replies.send(RenderReply::Failed(message));
+                Err(error) => {
+                    let _ = replies.send(RenderReply::Failed(error));
                 }
             }
         }
     }
 }
 
-fn open_scene() -> Result<GpuScene, String> {
-    let gpu = gpu::acquire().map_err(|error| format!("3-D view unavailable: {error}"))?;
+fn open_scene() -> Result<GpuScene, ViewError> {
+    let gpu = gpu::acquire().map_err(ViewError::Unavailable)?;
     log::info!("3-D view renders on {}", gpu.adapter_name());
-    let ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT)
-        .map_err(|error| format!("3-D view unavailable: {error}"))?;
+    let ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT).map_err(ViewError::Unavailable)?;
     Ok(GpuScene { gpu, ray_caster, target: None, has_volume: false, has_labels: false })
 }
 
-fn draw(scene: &mut GpuScene, camera: &Camera, size: [u32; 2]) -> Result<Picture, String> {
+fn draw(scene: &mut GpuScene, camera: &Camera, size: [u32; 2]) -> Result<Picture, ViewError> {
     let started = Instant::now();
     if scene.target.as_ref().is_none_or(|(_, target_size)| *target_size != size) {
         let target = OffscreenTarget::new(&scene.gpu.device, &scene.gpu.queue, size[0], size[1], OFFSCREEN_FORMAT)
-            .map_err(|error| format!("3-D view: {error}"))?;
+            .map_err(ViewError::Render)?;
         scene.target = Some((target, size));
     }
     let Some((target, _)) = scene.target.as_ref() else {
-        return Err("3-D view: no render target".into());
+        return Err(ViewError::NoTarget);
     };
     let settings = RenderSettings {
         mode: RenderMode::Postclassified,
         background: [0.0, 0.0, 0.0, 1.0],
         ..RenderSettings::default()
     };
-    let image =
-        target.capture(&mut scene.ray_caster, camera, &settings).map_err(|error| format!("3-D view: {error}"))?;
+    let image = target.capture(&mut scene.ray_caster, camera, &settings).map_err(ViewError::Render)?;
     Ok(Picture { id: 0, image, seconds: started.elapsed().as_secs_f64() })
 }

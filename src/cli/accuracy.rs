@@ -63,8 +63,7 @@ pub fn run(args: &AccuracyArgs) -> Result<(), CliError> {
         } else {
             println!("{}", report::row(outcome));
         }
-    })
-    .map_err(|e| CliError::Usage(e.to_string()))?;
+    })?;
     if !args.json {
         println!();
         print!("{}", report::summary(&outcomes, &methods));

@@ -39,6 +39,25 @@ pub enum CliError {
     Touch(#[from] crate::touch::TouchError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
+    #[error(transparent)]
+    Accuracy(#[from] crate::accuracy::AccuracyError),
+    /// The kiosk (DRM display, platform, replay harness) failed.
+    #[error(transparent)]
+    Kiosk(#[from] crate::kiosk::KioskError),
+    /// DRM failed where a display server runs, in a build without a desktop window.
+    #[error(
+        "{source} (a display server is running, but this build has no desktop window: build with `--features window`)"
+    )]
+    DrmBesideDisplayServer { source: crate::kiosk::KioskError },
+    #[error("cannot open the UI window: {0}")]
+    Window(#[source] slint::PlatformError),
+    #[error("this build has no desktop window support (cargo feature `window`)")]
+    NoWindowSupport,
+    #[error("recording touch input needs Linux evdev")]
+    NoEvdev,
+    /// A replay ran, and this many of its expectations did not hold (each printed before).
+    #[error("{failed} expectation(s) failed")]
+    ExpectationsFailed { failed: usize },
 }
 
 /// Runs the command line with the process's arguments.

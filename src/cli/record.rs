@@ -60,7 +60,7 @@ pub fn run(args: &RecordArgs) -> Result<(), CliError> {
 
 #[cfg(not(target_os = "linux"))]
 pub fn run(_args: &RecordArgs) -> Result<(), CliError> {
-    Err(CliError::Usage("recording touch input needs Linux evdev".into()))
+    Err(CliError::NoEvdev)
 }
 
 #[cfg(all(test, target_os = "linux"))]

@@ -53,7 +53,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         size: args.size,
         config: ui.config(),
     };
-    let report = replay::run(&options).map_err(CliError::Usage)?;
+    let report = replay::run(&options)?;
     let frames = |times: &crate::kiosk::harness::FrameTimes| {
         serde_json::json!({
             "count": times.count(),
@@ -74,6 +74,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         "wall_seconds": report.wall_seconds,
         "events_per_second": report.events as f64 / report.wall_seconds.max(1e-9),
         "final_screen": report.final_screen,
+        "ui_thread_syncs": report.ui_thread_syncs,
         "peak_resident_mb": super::memory::resident_memory().map(|m| m.peak_bytes as f64 / 1e6),
     });
     println!("{line}");
@@ -83,6 +84,6 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
     if report.failures.is_empty() {
         Ok(())
     } else {
-        Err(CliError::Usage(format!("{} expectation(s) failed", report.failures.len())))
+        Err(CliError::ExpectationsFailed { failed: report.failures.len() })
     }
 }

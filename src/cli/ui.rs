@@ -92,11 +92,9 @@ pub fn run(args: &UiArgs) -> Result<(), CliError> {
         DisplayChoice::Auto if has_display_server && cfg!(feature = "window") => run_window(args),
         // A display server usually holds the DRM card, so a developer who left out the feature
         // is told how to get a window rather than only why DRM failed.
-        DisplayChoice::Auto if has_display_server => run_drm(args).map_err(|error| {
-            CliError::Usage(format!(
-                "{error} (a display server is running, but this build has no desktop window: \
-                 build with `--features window`)"
-            ))
+        DisplayChoice::Auto if has_display_server => run_drm(args).map_err(|error| match error {
+            CliError::Kiosk(source) => CliError::DrmBesideDisplayServer { source },
+            other => other,
         }),
         DisplayChoice::Auto => run_drm(args),
     }
@@ -104,15 +102,14 @@ pub fn run(args: &UiArgs) -> Result<(), CliError> {
 
 fn run_window(args: &UiArgs) -> Result<(), CliError> {
     if !cfg!(feature = "window") {
-        return Err(CliError::Usage("this build has no desktop window support (cargo feature `window`)".into()));
+        return Err(CliError::NoWindowSupport);
     }
-    let ui_error = |error: slint::PlatformError| CliError::Usage(format!("cannot open the UI window: {error}"));
-    let app = App::new(args.config()).map_err(ui_error)?;
+    let app = App::new(args.config()).map_err(CliError::Window)?;
     if !args.windowed {
         use slint::ComponentHandle;
         app.window().window().set_fullscreen(true);
     }
-    app.run().map_err(ui_error)
+    app.run().map_err(CliError::Window)
 }
 
 fn run_drm(args: &UiArgs) -> Result<(), CliError> {
@@ -123,5 +120,5 @@ fn run_drm(args: &UiArgs) -> Result<(), CliError> {
         flip_x: args.touch_flip_x,
         flip_y: args.touch_flip_y,
     };
-    crate::kiosk::drm_loop::run(args.config(), args.card.clone(), touch).map_err(CliError::Usage)
+    Ok(crate::kiosk::drm_loop::run(args.config(), args.card.clone(), touch)?)
 }

@@ -8,6 +8,7 @@
 //!
 //! Never: exits on its own; systemd's `Restart=always` brings it back if it dies.
 
+use super::KioskError;
 use super::platform::{Clock, KioskWindow, Xrgb8888};
 use super::router::{Routed, TouchRouter};
 use crate::app::{App, AppConfig};
@@ -34,13 +35,13 @@ pub struct TouchOptions {
 }
 
 /// Runs the UI fullscreen on the DRM display `card` (the first connected one when `None`).
-pub fn run(config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Result<(), String> {
-    let mut display = DrmDisplay::open(card.as_deref()).map_err(|error| error.to_string())?;
+pub fn run(config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Result<(), KioskError> {
+    let mut display = DrmDisplay::open(card.as_deref())?;
     let size = display.size();
     let window = KioskWindow::install(size, Clock::Real(Instant::now()))?;
-    let app = App::new(config).map_err(|error| format!("cannot start the UI: {error}"))?;
+    let app = App::new(config).map_err(KioskError::StartUi)?;
     use slint::ComponentHandle;
-    app.window().show().map_err(|error| format!("cannot show the UI: {error}"))?;
+    app.window().show().map_err(KioskError::ShowUi)?;
     let fingers = start_touch(&touch, size);
     let mut router = TouchRouter::default();
     let mut routed = Vec::new();
@@ -65,9 +66,7 @@ pub fn run(config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Res
         }
         window.update_timers();
         if window.draw_if_needed(&mut pixels, size[0] as usize) {
-            display
-                .present(|target, stride| copy_rows(&pixels, size, target, stride))
-                .map_err(|error| error.to_string())?;
+            display.present(|target, stride| copy_rows(&pixels, size, target, stride))?;
             if !ready {
                 ready = true;
                 println!("volasso: ready {}x{}", size[0], size[1]);

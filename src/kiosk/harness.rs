@@ -6,6 +6,7 @@
 //! (the idle timeout, double taps) behave the same on a fast and a slow machine; background
 //! work (loading, classifying, rendering) runs in real time, and `wait_idle` waits for it.
 
+use super::KioskError;
 use super::platform::{Clock, KioskWindow};
 use super::router::{Routed, TouchRouter};
 use crate::app::{App, AppConfig};
@@ -85,12 +86,12 @@ pub struct Harness {
 
 impl Harness {
     /// Installs the kiosk platform (once per process) and starts the app at `size` pixels.
-    pub fn new(config: AppConfig, size: [u32; 2]) -> Result<Harness, String> {
+    pub fn new(config: AppConfig, size: [u32; 2]) -> Result<Harness, KioskError> {
         let now = Rc::new(Cell::new(Duration::ZERO));
         let window = KioskWindow::install(size, Clock::Manual(now.clone()))?;
-        let app = App::new(config).map_err(|error| format!("cannot start the UI: {error}"))?;
+        let app = App::new(config).map_err(KioskError::StartUi)?;
         use slint::ComponentHandle;
-        app.window().show().map_err(|error| format!("cannot show the UI: {error}"))?;
+        app.window().show().map_err(KioskError::ShowUi)?;
         let pixels = vec![Rgb8Pixel::default(); size[0] as usize * size[1] as usize];
         let mut harness = Harness {
             app,
@@ -166,12 +167,12 @@ impl Harness {
 
     /// Runs frames until nothing is loading, classifying or rendering (background work runs
     /// in real time, so this also sleeps); fails after `timeout` of real time.
-    pub fn wait_idle(&mut self, timeout: Duration) -> Result<(), String> {
+    pub fn wait_idle(&mut self, timeout: Duration) -> Result<(), KioskError> {
         let started = Instant::now();
         let mut idle_frames = 0;
         while idle_frames < 3 {
             if started.elapsed() > timeout {
-                return Err(format!("the UI was still busy after {} s", timeout.as_secs()));
+                return Err(KioskError::StillBusy { seconds: timeout.as_secs() });
             }
             std::thread::sleep(Duration::from_millis(2));
             self.now.set(self.now.get() + FRAME);

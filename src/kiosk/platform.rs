@@ -9,6 +9,7 @@
 //!
 //! Never: reads input itself; callers dispatch events into [`KioskWindow::dispatch`].
 
+use super::KioskError;
 use slint::platform::software_renderer::{MinimalSoftwareWindow, RepaintBufferType, TargetPixel};
 use slint::platform::{Platform, WindowAdapter, WindowEvent};
 use slint::{PhysicalSize, PlatformError};
@@ -58,15 +59,15 @@ pub struct KioskWindow {
 impl KioskWindow {
     /// Installs the kiosk platform for this process (once: Slint allows one platform) with a
     /// window of `size` physical pixels.
-    pub fn install(size: [u32; 2], clock: Clock) -> Result<KioskWindow, String> {
+    pub fn install(size: [u32; 2], clock: Clock) -> Result<KioskWindow, KioskError> {
         if size[0] == 0 || size[1] == 0 {
-            return Err(format!("a window of {}x{} pixels cannot be drawn", size[0], size[1]));
+            return Err(KioskError::WindowSize { width: size[0], height: size[1] });
         }
         // Every frame repaints the whole buffer: screenshots and DRM buffers never hold stale
         // regions, and a full repaint of a 1920x1080 UI takes milliseconds.
         let window = MinimalSoftwareWindow::new(RepaintBufferType::NewBuffer);
         slint::platform::set_platform(Box::new(KioskPlatform { window: window.clone(), clock: clock.clone() }))
-            .map_err(|error| format!("cannot install the kiosk platform: {error}"))?;
+            .map_err(|error| KioskError::Platform { reason: error.to_string() })?;
         window.set_size(PhysicalSize::new(size[0], size[1]));
         Ok(KioskWindow { window, clock, size })
     }

@@ -12,6 +12,7 @@
 //! `expect letters "slice z" A,L,P,R`: each letter is read from the screen's accessibility tree
 //! and must lie at its edge of the part of the slice on screen).
 
+use super::KioskError;
 use super::harness::{FrameTimes, Harness};
 use crate::app::AppConfig;
 use crate::touch::contacts::ContactTracker;
@@ -52,6 +53,10 @@ pub struct ReplayReport {
     pub wall_seconds: f64,
     /// `screen` at the end (the UI still answers queries).
     pub final_screen: String,
+    /// Files or folders the app flushed to disk on the UI thread from its start to the end of
+    /// the scripts (the autosave writes on its own thread; a restore's marker is the one write
+    /// at start-up); the harness's own screenshots are not counted.
+    pub ui_thread_syncs: u64,
 }
 
 struct Locator<'a>(&'a Harness);
@@ -67,21 +72,25 @@ impl ElementLocator for Locator<'_> {
 }
 
 /// Runs the scripts; `Err` when one cannot run at all, failed expectations in the report.
-pub fn run(options: &ReplayOptions) -> Result<ReplayReport, String> {
+pub fn run(options: &ReplayOptions) -> Result<ReplayReport, KioskError> {
     let started = Instant::now();
+    // Counted from before the app starts: a restore's marker is written at start-up.
+    let syncs_before = crate::atomic_file::syncs_on_this_thread();
     let mut harness = Harness::new(options.config.clone(), options.size)?;
     let mut run = Run {
         report: ReplayReport::default(),
         compiled: EventsText::new(&DeviceInfo::virtual_touchscreen()),
         taken: HashMap::new(),
+        screenshot_syncs: 0,
     };
     for script in &options.scripts {
         run.script(&mut harness, script, options.screenshots.as_deref())?;
     }
+    let ui_thread_syncs = crate::atomic_file::syncs_on_this_thread() - syncs_before - run.screenshot_syncs;
     if let Some(path) = &options.events_out {
         let text = run.compiled.finish();
         crate::atomic_file::write_atomically(path, |writer| std::io::Write::write_all(writer, text.as_bytes()))
-            .map_err(|e| format!("cannot write {}: {e}", path.display()))?;
+            .map_err(|source| KioskError::Write { source, path: path.clone() })?;
     }
     let mut report = run.report;
     report.frames = harness.frame_times.clone();
@@ -89,6 +98,7 @@ pub fn run(options: &ReplayOptions) -> Result<ReplayReport, String> {
     report.script_seconds = harness.now().as_secs_f64();
     report.wall_seconds = started.elapsed().as_secs_f64();
     report.final_screen = harness.app().query("screen").unwrap_or_default();
+    report.ui_thread_syncs = ui_thread_syncs;
     Ok(report)
 }
 
@@ -97,14 +107,17 @@ struct Run {
     report: ReplayReport,
     compiled: EventsText,
     taken: HashMap<String, RgbImage>,
+    /// Disk flushes of the screenshots the harness wrote (on the UI thread, but not the app's).
+    screenshot_syncs: u64,
 }
 
 impl Run {
-    fn script(&mut self, harness: &mut Harness, path: &Path, screenshots: Option<&Path>) -> Result<(), String> {
+    fn script(&mut self, harness: &mut Harness, path: &Path, screenshots: Option<&Path>) -> Result<(), KioskError> {
         let text = read_script(path)?;
         let device = DeviceInfo::virtual_touchscreen();
         if is_recording(&text) {
-            let recording = crate::touch::read_recording(path).map_err(|e| format!("{}: {e}", path.display()))?;
+            let recording = crate::touch::read_recording(path)
+                .map_err(|source| KioskError::Recording { source, path: path.to_path_buf() })?;
             let first = recording.events.first().map_or(0, |e| e.time_us);
             let start = harness.now().as_micros() as u64 + 1_000;
             let events: Vec<RawEvent> = recording
@@ -115,7 +128,7 @@ impl Run {
             self.feed(harness, &recording.device, &events);
             return harness.wait_idle(IDLE_TIMEOUT);
         }
-        let steps = script::parse(&text).map_err(|e| format!("{}: {e}", path.display()))?;
+        let steps = script::parse(&text).map_err(|source| KioskError::Script { source, path: path.to_path_buf() })?;
         for step in &steps {
             self.report.steps += 1;
             self.compiled.comment(&step.source);
@@ -130,16 +143,19 @@ impl Run {
                 }
                 ScriptAction::Wait { duration_ms } => harness.wait(Duration::from_millis(*duration_ms)),
                 ScriptAction::WaitIdle => {
-                    if let Err(message) = harness.wait_idle(IDLE_TIMEOUT) {
-                        self.report.failures.push(at(message));
+                    if let Err(error) = harness.wait_idle(IDLE_TIMEOUT) {
+                        self.report.failures.push(at(error.to_string()));
                     }
                 }
                 ScriptAction::Screenshot { name } => {
                     let image = harness.screenshot();
                     if let Some(dir) = screenshots {
                         let file = dir.join(format!("{name}.png"));
-                        std::fs::create_dir_all(dir).map_err(|e| format!("cannot create {}: {e}", dir.display()))?;
-                        crate::transfer::write_png(&file, &image).map_err(|e| e.to_string())?;
+                        std::fs::create_dir_all(dir)
+                            .map_err(|source| KioskError::Write { source, path: dir.to_path_buf() })?;
+                        let before = crate::atomic_file::syncs_on_this_thread();
+                        crate::transfer::write_png(&file, &image)?;
+                        self.screenshot_syncs += crate::atomic_file::syncs_on_this_thread() - before;
                         self.report.screenshots.push(file);
                     }
                     self.taken.insert(name.clone(), image);
@@ -178,9 +194,9 @@ impl Run {
     }
 }
 
-fn read_script(path: &std::path::Path) -> Result<String, String> {
-    let bytes = std::fs::read(path).map_err(|e| format!("cannot read the script {}: {e}", path.display()))?;
-    String::from_utf8(bytes).map_err(|_| format!("the script {} is not UTF-8 text", path.display()))
+fn read_script(path: &std::path::Path) -> Result<String, KioskError> {
+    let bytes = std::fs::read(path).map_err(|source| KioskError::ReadScript { source, path: path.to_path_buf() })?;
+    String::from_utf8(bytes).map_err(|_| KioskError::ScriptNotText { path: path.to_path_buf() })
 }
 
 /// Event recordings start with their format line or carry evemu's `E:` event lines.

@@ -1,0 +1,233 @@
+//! The work behind the work screen, without Slint: the open volume with its classes and
+//! lassos ([`Work`]), the colour template, and the workers that act on them (classification
+//! jobs, the autosave writer, the 3-D view's renderer). It takes what the user did (a lasso
+//! drawn, a class defined, undo, a class hidden, a template chosen, a volume opened with or
+//! without a saved session) and says what changed ([`Changed`]); the UI layer (callbacks.rs,
+//! refresh.rs) turns that into Slint properties.
+//!
+//! Every edit of the classes is autosaved and, when at least two classes can be told apart
+//! (the defined ones plus the pending lassos as a provisional next class), classified again
+//! (paper §3.2-3.5, beyond the paper in classifying before a class is defined). A change of
+//! colours or visibility sends the class table alone to the 3-D view, never the labels.
+//!
+//! Never: calls Slint, waits for a worker, or touches the disk itself (the autosave writer
+//! does).
+
+use super::autosave::SavedSession;
+use super::jobs::{ClassificationJobs, JobOutcome};
+use super::saver::AutosaveWriter;
+use super::session::{SessionError, WorkSession};
+use super::view3d::ViewRenderer;
+use super::{Work, autosave};
+use crate::strokes::{ClassStrokes, StrokesFile};
+use crate::transfer::{ClassStyle, HueTemplate, TemplateType, apply_template};
+use std::path::PathBuf;
+
+/// What an intent or a finished job changed, for the UI to show.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct Changed {
+    /// Classes, lassos, colours or visibility: the class bar and the slice pictures.
+    pub classes: bool,
+    /// The 3-D view needs a new frame.
+    pub view: bool,
+    /// No classification stands any more: the 3-D view is emptied.
+    pub view_cleared: bool,
+    /// A line for the status bar.
+    pub status: Option<String>,
+}
+
+/// The user's work and its workers.
+pub struct Controller {
+    pub(super) work: Option<Work>,
+    pub(super) jobs: ClassificationJobs,
+    pub(super) renderer: ViewRenderer,
+    saver: AutosaveWriter,
+    /// The template the user picked; until then each class count gets its default
+    /// ([`HueTemplate::default_for`]).
+    pub(super) chosen_template: Option<HueTemplate>,
+    /// Where the session is autosaved; `None`: no autosave.
+    session_dir: Option<PathBuf>,
+}
+
+impl Controller {
+    pub fn new(session_dir: Option<PathBuf>) -> Controller {
+        Controller {
+            work: None,
+            jobs: ClassificationJobs::default(),
+            renderer: ViewRenderer::new(),
+            saver: AutosaveWriter::new(),
+            chosen_template: None,
+            session_dir,
+        }
+    }
+
+    /// The classes the classifier is trained on: the defined ones, and the pending lassos as
+    /// a provisional next class.
+    pub fn training_class_count(&self) -> usize {
+        self.work.as_ref().map_or(0, |work| work.session.classes.len() + usize::from(!work.session.pending.is_empty()))
+    }
+
+    /// The template in use for the current number of classes.
+    pub fn template(&self) -> HueTemplate {
+        self.chosen_template.unwrap_or_else(|| HueTemplate::default_for(self.training_class_count()))
+    }
+
+    /// A volume was opened: work on it starts, with the classes and template of `saved` when
+    /// that session was saved for this volume.
+    pub fn open(&mut self, mut work: Work, saved: Option<SavedSession>) -> Changed {
+        if let Some(saved) = saved
+            && saved.volume == work.loaded.source.key()
+        {
+            work.session = WorkSession::from_strokes(&saved.strokes);
+            if let Some(template) = TemplateType::from_name(&saved.template) {
+                self.chosen_template = Some(HueTemplate::new(template, saved.rotation_degrees));
+            }
+        }
+        self.jobs.cancel();
+        self.renderer.set_volume(work.loaded.volume.clone());
+        self.work = Some(work);
+        self.session_changed()
+    }
+
+    /// A lasso drawn, a class defined or deleted, undo, clear: `edit` on the classes and
+    /// lassos; on success autosaved and classified again.
+    pub fn edit(&mut self, edit: impl FnOnce(&mut WorkSession) -> Result<(), SessionError>) -> Changed {
+        let Some(work) = self.work.as_mut() else { return Changed::default() };
+        match edit(&mut work.session) {
+            Ok(()) => Changed { status: Some(String::new()), ..self.session_changed() },
+            Err(error) => Changed { status: Some(error.to_string()), ..Changed::default() },
+        }
+    }
+
+    /// Hides a shown class or shows a hidden one.
+    pub fn toggle_class(&mut self, index: usize) -> Changed {
+        let Some(work) = self.work.as_mut() else { return Changed::default() };
+        if work.session.toggle_visible(index).is_err() {
+            return Changed::default();
+        }
+        self.save();
+        self.restyle()
+    }
+
+    /// A template (or its rotation) chosen.
+    pub fn choose_template(&mut self, template: HueTemplate) -> Changed {
+        self.chosen_template = Some(template);
+        self.save();
+        self.restyle()
+    }
+
+    /// Collects a finished classification; never blocks.
+    pub fn poll(&mut self) -> Changed {
+        match self.jobs.poll() {
+            Some(JobOutcome::Done(classified)) => {
+                let status = Some(format!("Classified in {:.2} s", classified.seconds));
+                let Some(work) = self.work.as_mut() else { return Changed::default() };
+                work.classified = Some(classified);
+                let labels = work.classified.as_ref().map(|c| c.labels.clone());
+                let view = match (self.display_styles(), labels) {
+                    (Some(styles), Some(labels)) => {
+                        self.renderer.set_labels(labels, styles);
+                        true
+                    }
+                    _ => false,
+                };
+                Changed { classes: true, view, view_cleared: false, status }
+            }
+            Some(JobOutcome::Failed(message)) => Changed { status: Some(message), ..Changed::default() },
+            None => Changed::default(),
+        }
+    }
+
+    /// The idle timeout: the work and its saved session are forgotten (on disk before this
+    /// returns).
+    pub fn forget(&mut self) {
+        self.jobs.cancel();
+        self.work = None;
+        self.chosen_template = None;
+        if let Some(dir) = self.session_dir.clone() {
+            self.saver.forget(dir);
+            self.saver.flush();
+        }
+    }
+
+    /// Waits until every autosave handed over is on disk (the app's end).
+    pub fn flush(&self) {
+        self.saver.flush();
+    }
+
+    /// The classification's styles with the current template and the user's visibility.
+    pub fn display_styles(&self) -> Option<Vec<ClassStyle>> {
+        let work = self.work.as_ref()?;
+        let classified = work.classified.as_ref()?;
+        let mut styles = classified.table.styles.clone();
+        apply_template(&mut styles, &self.template());
+        for (index, style) in styles.iter_mut().enumerate() {
+            let shown = work.session.classes.get(index).is_none_or(|class| class.visible);
+            style.visible = style.visible && shown;
+        }
+        Some(styles)
+    }
+
+    /// New colours or visibility: the class table alone to the 3-D view.
+    fn restyle(&mut self) -> Changed {
+        let styles = self.display_styles();
+        let view = styles.is_some();
+        if let Some(styles) = styles {
+            self.renderer.set_styles(styles);
+        }
+        Changed { classes: true, view, ..Changed::default() }
+    }
+
+    /// After the classes or lassos changed: autosave, classify again when the training set
+    /// changed, forget the classification when fewer than two classes remain.
+    fn session_changed(&mut self) -> Changed {
+        self.save();
+        let template = self.template();
+        let training = self.training_strokes();
+        let Some(work) = self.work.as_mut() else { return Changed::default() };
+        match training {
+            Some(strokes) if work.requested.as_ref() != Some(&strokes) => {
+                self.jobs.start(work.loaded.volume.clone(), strokes.clone(), template);
+                work.requested = Some(strokes);
+            }
+            Some(_) => {}
+            None => {
+                self.jobs.cancel();
+                work.requested = None;
+                work.classified = None;
+            }
+        }
+        Changed { classes: true, view: false, view_cleared: work.classified.is_none(), status: None }
+    }
+
+    /// The defined classes plus the pending lassos as the provisional next class; `None` when
+    /// there are fewer than two.
+    fn training_strokes(&self) -> Option<StrokesFile> {
+        let work = self.work.as_ref()?;
+        let mut strokes = work.session.strokes();
+        if !work.session.pending.is_empty() {
+            strokes
+                .classes
+                .push(ClassStrokes { name: work.session.next_class_name(), strokes: work.session.pending.clone() });
+        }
+        // One class has nothing to be told apart from: its lassos are shown, nothing is trained.
+        (strokes.classes.len() >= 2).then_some(strokes)
+    }
+
+    /// Hands the session to the autosave writer, when autosave is on and a volume is open.
+    fn save(&self) {
+        let (Some(dir), Some(work)) = (&self.session_dir, &self.work) else { return };
+        let template = self.chosen_template;
+        let saved = autosave::SavedSession {
+            volume: work.loaded.source.key(),
+            template: template.map_or(String::new(), |t| t.template.name().to_string()),
+            rotation_degrees: template.map_or(0.0, |t| t.rotation_degrees),
+            strokes: work.session.strokes(),
+        };
+        self.saver.save(dir.clone(), saved);
+    }
+}
+
+#[cfg(test)]
+#[path = "controller_tests.rs"]
+mod tests;

@@ -1,0 +1,195 @@
+//! The controller without a window: lassos become classes and classification requests, undo
+//! takes them back, hiding a class restyles without sending the labels again, and a saved
+//! session comes back on its volume.
+
+use super::*;
+use crate::app::library::{LoadedVolume, VolumeSource};
+use crate::app::windowing::WindowChoices;
+use crate::phantom::{demo_foot_with, lassos_inside};
+use crate::slices::foreground_slice_entropies;
+use crate::strokes::Lasso;
+use crate::transfer::TemplateType;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// A small demo phantom opened as the chooser opens the demo, and lassos inside its soft
+/// tissue and its bone.
+fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
+    let phantom = demo_foot_with([96, 64, 48], 7).unwrap();
+    let mut strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
+    let bone = strokes.classes.pop().unwrap().strokes;
+    let soft = strokes.classes.pop().unwrap().strokes;
+    let volume = phantom.volume;
+    let entropies = foreground_slice_entropies(&volume);
+    let windows = WindowChoices::for_volume(&volume);
+    let loaded = LoadedVolume { source: VolumeSource::Demo, volume: Arc::new(volume), entropies, windows };
+    (loaded, soft, bone)
+}
+
+fn draw(controller: &mut Controller, lassos: &[Lasso]) -> Changed {
+    let mut changed = Changed::default();
+    for lasso in lassos {
+        changed = controller.edit(|session| {
+            session.add_lasso(lasso.clone());
+            Ok(())
+        });
+    }
+    changed
+}
+
+fn define(controller: &mut Controller) -> Changed {
+    controller.edit(|session| session.define_class().map(|_| ()))
+}
+
+/// Polls until the classification comes back.
+fn classified(controller: &mut Controller) -> Changed {
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(120) {
+        let changed = controller.poll();
+        if changed != Changed::default() {
+            return changed;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    panic!("no classification in two minutes");
+}
+
+fn requested_names(controller: &Controller) -> Vec<String> {
+    let requested = controller.work.as_ref().and_then(|work| work.requested.as_ref());
+    requested.map_or(Vec::new(), |strokes| strokes.classes.iter().map(|class| class.name.clone()).collect())
+}
+
+#[test]
+fn lassos_become_classes_and_two_classes_are_classified() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = Controller::new(None);
+    let opened = controller.open(Work::new(loaded), None);
+    assert!(opened.classes && opened.view_cleared);
+    assert!(!controller.jobs.busy());
+
+    // One class has nothing to be told apart from: nothing is trained.
+    let changed = draw(&mut controller, &soft);
+    assert!(changed.classes);
+    assert!(!controller.jobs.busy());
+    define(&mut controller);
+    assert_eq!(controller.work.as_ref().unwrap().session.classes.len(), 1);
+    assert!(!controller.jobs.busy());
+
+    // A lasso around something else: the pending lassos are the provisional second class.
+    draw(&mut controller, &bone);
+    assert!(controller.jobs.busy(), "two classes can be told apart: a classification is requested");
+    assert_eq!(requested_names(&controller), ["Class 1", "Class 2"]);
+    // Defining that class trains on the same lassos: the running job stands.
+    define(&mut controller);
+    assert!(controller.jobs.busy());
+
+    let changed = classified(&mut controller);
+    assert!(changed.classes && changed.view, "{changed:?}");
+    assert!(changed.status.as_deref().is_some_and(|status| status.starts_with("Classified in")));
+    assert_eq!(controller.display_styles().map(|styles| styles.len()), Some(2));
+    assert_eq!(controller.renderer.label_uploads(), 1);
+}
+
+#[test]
+fn undo_takes_back_lassos_and_the_classification_they_asked_for() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = Controller::new(None);
+    controller.open(Work::new(loaded), None);
+    draw(&mut controller, &soft);
+    define(&mut controller);
+    draw(&mut controller, &bone[..1]);
+    assert!(controller.jobs.busy());
+
+    let changed = controller.edit(|session| session.undo());
+    assert!(changed.classes && changed.view_cleared);
+    assert_eq!(changed.status.as_deref(), Some(""));
+    let work = controller.work.as_ref().unwrap();
+    assert!(work.session.pending.is_empty());
+    assert!(work.requested.is_none() && !controller.jobs.busy(), "one class left: nothing to classify");
+
+    // Undo of the definition gives the lassos back as pending.
+    controller.edit(|session| session.undo());
+    let work = controller.work.as_ref().unwrap();
+    assert_eq!((work.session.classes.len(), work.session.pending.len()), (0, soft.len()));
+
+    // With nothing left to undo the controller says why and changes nothing.
+    while controller.work.as_ref().unwrap().session.can_undo() {
+        controller.edit(|session| session.undo());
+    }
+    let changed = controller.edit(|session| session.undo());
+    assert!(!changed.classes);
+    assert!(changed.status.is_some_and(|status| !status.is_empty()));
+}
+
+#[test]
+fn hiding_and_showing_a_class_restyles_without_sending_the_labels_again() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = Controller::new(None);
+    controller.open(Work::new(loaded), None);
+    draw(&mut controller, &soft);
+    define(&mut controller);
+    draw(&mut controller, &bone);
+    define(&mut controller);
+    classified(&mut controller);
+    assert_eq!(controller.renderer.label_uploads(), 1);
+
+    let hidden = controller.toggle_class(0);
+    assert!(hidden.classes && hidden.view && !hidden.view_cleared);
+    let styles = controller.display_styles().unwrap();
+    assert!(!styles[0].visible && styles[1].visible);
+    let shown = controller.toggle_class(0);
+    assert!(shown.view);
+    assert!(controller.display_styles().unwrap()[0].visible);
+    let turned = controller.choose_template(HueTemplate::new(TemplateType::T, 40.0));
+    assert!(turned.view);
+    assert_eq!(controller.template().rotation_degrees, 40.0);
+    assert_eq!(controller.renderer.label_uploads(), 1, "a restyle sends the class table alone");
+    assert!(!controller.jobs.busy(), "a restyle never reclassifies");
+
+    // A class that does not exist changes nothing.
+    assert_eq!(controller.toggle_class(7), Changed::default());
+}
+
+#[test]
+fn a_saved_session_comes_back_on_its_volume_only() {
+    let folder = tempfile::tempdir().unwrap();
+    let dir = folder.path().join("session");
+    let (loaded, soft, bone) = demo();
+    {
+        let mut controller = Controller::new(Some(dir.clone()));
+        controller.open(Work::new(loaded), None);
+        draw(&mut controller, &soft);
+        define(&mut controller);
+        draw(&mut controller, &bone);
+        define(&mut controller);
+        controller.choose_template(HueTemplate::new(TemplateType::L, 30.0));
+        controller.toggle_class(1);
+        controller.flush();
+    }
+    let saved = autosave::load(&dir).expect("the session was saved");
+    assert_eq!(saved.volume, "demo");
+    assert_eq!(saved.strokes.classes.len(), 2);
+
+    // Restored on the same volume: classes, template, and a classification on its way.
+    let (loaded, _, _) = demo();
+    let mut restored = Controller::new(Some(dir.clone()));
+    restored.open(Work::new(loaded), Some(saved.clone()));
+    let work = restored.work.as_ref().unwrap();
+    let names: Vec<&str> = work.session.classes.iter().map(|class| class.name.as_str()).collect();
+    assert_eq!(names, ["Class 1", "Class 2"]);
+    assert_eq!(restored.template(), HueTemplate::new(TemplateType::L, 30.0));
+    assert!(restored.jobs.busy(), "the restored classes are classified again");
+
+    // A session saved for another volume is not applied to this one.
+    let (loaded, _, _) = demo();
+    let other = SavedSession { volume: "/data/other.nrrd".into(), ..saved };
+    let mut fresh = Controller::new(None);
+    fresh.open(Work::new(loaded), Some(other));
+    assert!(fresh.work.as_ref().unwrap().session.classes.is_empty());
+    assert!(fresh.chosen_template.is_none());
+
+    // The idle timeout forgets it, on disk too.
+    restored.forget();
+    assert!(restored.work.is_none());
+    assert!(autosave::load(&dir).is_none());
+}
