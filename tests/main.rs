@@ -15,12 +15,15 @@
 //!   writes).
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
+//! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
+//!   multi-frame DICOM read to the voxels of the uncompressed series; the series listing.
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
 mod classification;
 mod cli;
 mod deploy;
+mod dicom_codecs;
 mod formats;
 mod hostile;
 mod malformed;
