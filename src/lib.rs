@@ -22,6 +22,7 @@ pub mod display;
 pub mod features;
 pub mod kiosk;
 pub mod phantom;
+pub mod receive;
 pub mod render;
 pub mod rng;
 pub mod segmentation;

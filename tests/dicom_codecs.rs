@@ -50,7 +50,10 @@ fn assert_same_volume(folder: &Path, what: &str) {
         Err(error) => panic!("{what}: {error}"),
     };
     assert_eq!(copy.dims, [512, 512, 28], "{what}");
-    assert_eq!((copy.dims, copy.spacing_mm, copy.voxel_type), (original.dims, original.spacing_mm, original.voxel_type));
+    assert_eq!(
+        (copy.dims, copy.spacing_mm, copy.voxel_type),
+        (original.dims, original.spacing_mm, original.voxel_type)
+    );
     assert_eq!(copy.orientation, original.orientation, "{what}");
     let differing = copy.raw_bytes().iter().zip(original.raw_bytes()).filter(|(a, b)| a != b).count();
     assert_eq!(differing, 0, "{what}: {differing} bytes differ from the uncompressed series");
@@ -96,12 +99,18 @@ fn write_enhanced_ct(path: &Path) {
     let shared = InMemDicomObject::from_element_iter([
         sequence(
             tags::PIXEL_MEASURES_SEQUENCE,
-            vec![InMemDicomObject::from_element_iter([copy(first, tags::PIXEL_SPACING), copy(first, tags::SLICE_THICKNESS)])],
+            vec![InMemDicomObject::from_element_iter([
+                copy(first, tags::PIXEL_SPACING),
+                copy(first, tags::SLICE_THICKNESS),
+            ])],
         ),
         sequence(tags::PLANE_ORIENTATION_SEQUENCE, vec![item(copy(first, tags::IMAGE_ORIENTATION_PATIENT))]),
         sequence(
             tags::PIXEL_VALUE_TRANSFORMATION_SEQUENCE,
-            vec![InMemDicomObject::from_element_iter([copy(first, tags::RESCALE_INTERCEPT), copy(first, tags::RESCALE_SLOPE)])],
+            vec![InMemDicomObject::from_element_iter([
+                copy(first, tags::RESCALE_INTERCEPT),
+                copy(first, tags::RESCALE_SLOPE),
+            ])],
         ),
     ]);
     let per_frame: Vec<InMemDicomObject> = slices

@@ -17,6 +17,8 @@
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
 //!   multi-frame DICOM read to the voxels of the uncompressed series; the series listing.
+//! * `dicom_receive`: `volasso receive` against dcmtk's storescu and echoscu (store, replace,
+//!   several series, a killed association, refusals).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
@@ -24,6 +26,7 @@ mod classification;
 mod cli;
 mod deploy;
 mod dicom_codecs;
+mod dicom_receive;
 mod formats;
 mod hostile;
 mod malformed;
