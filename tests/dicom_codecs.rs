@@ -194,3 +194,21 @@ fn a_folder_of_two_series_lists_both_for_a_picker_without_patient_data() {
         assert_eq!((import.series_uid.as_str(), import.files.len()), (summary.series_uid.as_str(), summary.images));
     }
 }
+
+#[test]
+fn a_compressed_frame_that_declares_another_size_is_refused_before_decoding() {
+    if !dcmtk_available() {
+        return;
+    }
+    let root = tempfile::tempdir().unwrap();
+    let compressed = root.path().join("jpeg-ls.dcm");
+    dcmtk("dcmcjpls", &[], &data("dicom/philips_phantom_5mm/I10"), &compressed);
+    let mut bytes = std::fs::read(&compressed).unwrap();
+    // The JPEG-LS frame header (SOF55, FF F7): length, precision, then height and width.
+    let sof = bytes.windows(2).position(|pair| pair == [0xFF, 0xF7]).expect("a JPEG-LS frame header");
+    bytes[sof + 5..sof + 9].copy_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF]);
+    let lying = root.path().join("lying.dcm");
+    std::fs::write(&lying, bytes).unwrap();
+    let output = crate::support::volasso(&["info", lying.to_str().unwrap()], &root.path().join("cache"));
+    crate::support::assert_clean_error(&output, "compressed as 65535 x 65535 pixels", "a lying JPEG-LS header");
+}

@@ -21,10 +21,10 @@ pub struct ReceiveArgs {
     #[arg(long, default_value = "0.0.0.0", value_name = "ADDRESS")]
     pub listen: std::net::IpAddr,
     /// This receiver's AE title; associations calling another title are refused.
-    #[arg(long, default_value = "VOLASSO", value_name = "TITLE")]
+    #[arg(long, env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE")]
     pub ae_title: String,
     /// Calling AE titles allowed to store, comma-separated (default: any).
-    #[arg(long, value_delimiter = ',', value_name = "A,B")]
+    #[arg(long, env = "VOLASSO_ALLOW_AE", value_delimiter = ',', value_name = "A,B")]
     pub allow_ae: Vec<String>,
     /// Refuse images (status A700, out of resources) when the data partition is fuller than this.
     #[arg(long, default_value_t = 90.0, value_name = "PERCENT", value_parser = parse_percent)]

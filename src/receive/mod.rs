@@ -60,9 +60,11 @@ pub enum ReceiveError {
 }
 
 /// The transfer syntaxes offered to senders, preferred first: the uncompressed ones, then
-/// every compressed one whose pixel data this build decodes.
+/// every compressed one whose pixel data this build decodes. JPEG Extended (4.51) is left out:
+/// CT and MR use its 12-bit form, which jpeg-decoder does not decode, and a sender that is
+/// refused it sends another syntax instead.
 pub fn accepted_transfer_syntaxes() -> Vec<&'static str> {
-    const CANDIDATES: [&str; 14] = [
+    const CANDIDATES: [&str; 12] = [
         "1.2.840.10008.1.2.1",    // Explicit VR Little Endian
         "1.2.840.10008.1.2",      // Implicit VR Little Endian
         "1.2.840.10008.1.2.2",    // Explicit VR Big Endian
@@ -75,8 +77,6 @@ pub fn accepted_transfer_syntaxes() -> Vec<&'static str> {
         "1.2.840.10008.1.2.4.91", // JPEG 2000
         "1.2.840.10008.1.2.5",    // RLE Lossless
         "1.2.840.10008.1.2.4.50", // JPEG Baseline
-        "1.2.840.10008.1.2.4.51", // JPEG Extended
-        "1.2.840.10008.1.2.4.52", // JPEG Extended (retired)
     ];
     CANDIDATES.into_iter().filter(|uid| crate::volume::dicom::readable_transfer_syntax(uid)).collect()
 }
@@ -163,5 +163,24 @@ impl Drop for Slot {
         let mut count = count.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
         *count = count.saturating_sub(1);
         freed.notify_one();
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_offered_syntax_is_decoded_by_this_build() {
+        // A codec feature lost from Cargo.toml would drop its syntaxes here.
+        assert_eq!(accepted_transfer_syntaxes().len(), 12, "{:?}", accepted_transfer_syntaxes());
+    }
+
+    #[test]
+    fn ae_titles_are_checked() {
+        assert!(check_ae_title("VOLASSO").is_ok());
+        for bad in ["", "   ", "SEVENTEEN_CHARS_X", "A\\B", "Ä"] {
+            assert!(check_ae_title(bad).is_err(), "{bad:?}");
+        }
     }
 }

@@ -47,6 +47,7 @@
 //! files (the import cache is the caller's).
 
 mod bounds;
+mod codestream;
 mod deflated;
 mod frames;
 mod geometry;

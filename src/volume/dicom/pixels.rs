@@ -16,9 +16,13 @@
 //! requires attributes that do not change a voxel (HighBit, matching WindowCenter and
 //! WindowWidth counts), so files this reader opens would fail there.
 //!
+//! A compressed frame whose own header declares another image size than the DICOM header is
+//! refused before its decoder runs ([`codestream`]): decoders allocate what that header says.
+//!
 //! Never: looks at other files, or lets a decoder's panic escape (it becomes an error).
 
 use super::bounds::{self, Scope};
+use super::codestream;
 use super::header::{PixelFormat, SliceHeader};
 use crate::volume::VolumeError;
 use crate::volume::limits::ReadLimits;
@@ -75,7 +79,7 @@ pub(super) fn read_frames(headers: &[&SliceHeader], limits: &ReadLimits) -> Resu
     if let Value::PixelSequence(_) = element.value() {
         let mut slices = Vec::with_capacity(headers.len());
         for header in headers {
-            let bytes = decode_frame(&object, header.frame, path)?;
+            let bytes = decode_frame(&object, header.frame, header, path)?;
             if bytes.len() as u64 != frame_bytes {
                 return Err(matrix_error(bytes.len() as u64, "a decoded frame"));
             }
@@ -137,7 +141,12 @@ pub(super) fn read_frames(headers: &[&SliceHeader], limits: &ReadLimits) -> Resu
 
 /// One frame of encapsulated PixelData, decoded by the registry's decoder for the file's
 /// transfer syntax; a decoder that panics on a hostile stream gives an error.
-fn decode_frame(object: &DefaultDicomObject, frame: u32, path: &Path) -> Result<Vec<u8>, VolumeError> {
+fn decode_frame(
+    object: &DefaultDicomObject,
+    frame: u32,
+    header: &SliceHeader,
+    path: &Path,
+) -> Result<Vec<u8>, VolumeError> {
     let uid = object.meta().transfer_syntax();
     let unsupported = || VolumeError::Unsupported {
         what: "encapsulated DICOM PixelData without a decoder in this build",
@@ -148,6 +157,7 @@ fn decode_frame(object: &DefaultDicomObject, frame: u32, path: &Path) -> Result<
     let Codec::EncapsulatedPixelData(Some(decoder), _) = syntax.codec() else {
         return Err(unsupported());
     };
+    check_declared_size(object, frame, header, path)?;
     let mut bytes = Vec::new();
     let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
         decoder.decode_frame(object, frame, &mut bytes).map_err(|error| error.to_string())
@@ -163,6 +173,47 @@ fn decode_frame(object: &DefaultDicomObject, frame: u32, path: &Path) -> Result<
             path: path.to_path_buf(),
         }),
     }
+}
+
+/// Refuses a compressed frame whose own header declares another size than Rows x Columns x 1
+/// sample, before its decoder allocates what that header says ([`codestream`]).
+fn check_declared_size(
+    object: &DefaultDicomObject,
+    frame: u32,
+    header: &SliceHeader,
+    path: &Path,
+) -> Result<(), VolumeError> {
+    let Some(Value::PixelSequence(sequence)) = object.get(tags::PIXEL_DATA).map(|element| element.value()) else {
+        return Ok(());
+    };
+    let fragments = sequence.fragments();
+    // The frame's first fragment: one fragment per frame, or a single frame in any number.
+    let first = if fragments.len() == header.frames_in_file as usize {
+        fragments.get(frame as usize)
+    } else if header.frames_in_file == 1 {
+        fragments.first()
+    } else {
+        None
+    };
+    let Some(declared) = first.and_then(|bytes| codestream::declared_size(object.meta().transfer_syntax(), bytes))
+    else {
+        return Ok(());
+    };
+    if (declared.width as usize, declared.height as usize, declared.components) != (header.columns, header.rows, 1) {
+        return Err(VolumeError::Dicom {
+            problem: format!(
+                "frame {} is compressed as {} x {} pixels with {} components, but Columns {} x Rows {} x SamplesPerPixel 1 say otherwise",
+                frame + 1,
+                declared.width,
+                declared.height,
+                declared.components,
+                header.columns,
+                header.rows
+            ),
+            path: path.to_path_buf(),
+        });
+    }
+    Ok(())
 }
 
 /// Masks, sign-extends and rescales stored samples.
