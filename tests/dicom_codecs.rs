@@ -31,7 +31,7 @@ fn dcmtk(program: &str, args: &[&str], input: &Path, output: &Path) {
     assert!(result.status.success(), "{program} {input:?}: {}", String::from_utf8_lossy(&result.stderr));
 }
 
-fn philips_files() -> Vec<PathBuf> {
+pub fn philips_files() -> Vec<PathBuf> {
     let mut files: Vec<PathBuf> = std::fs::read_dir(data("dicom/philips_phantom_5mm"))
         .unwrap()
         .map(|entry| entry.unwrap().path())
@@ -43,7 +43,7 @@ fn philips_files() -> Vec<PathBuf> {
 
 /// Asserts that the series in `folder` reads to exactly the voxels, geometry and orientation of
 /// the uncompressed Philips series.
-fn assert_same_volume(folder: &Path, what: &str) {
+pub fn assert_same_volume(folder: &Path, what: &str) {
     let original = read_series(&data("dicom/philips_phantom_5mm"), &DicomOptions::default()).unwrap().volume;
     let copy = match read_series(folder, &DicomOptions::default()) {
         Ok(import) => import.volume,
