@@ -167,12 +167,27 @@ fn an_enhanced_ct_file_reads_as_its_single_frame_series() {
     if !dcmtk_available() {
         return;
     }
-    for (name, program) in [("jpeg-ls", "dcmcjpls"), ("rle", "dcmcrle")] {
+    // `+fs 16`: frames split into fragments of at most 16 KB, found by the basic offset table.
+    let cases: [(&str, &str, &[&str]); 3] =
+        [("jpeg-ls", "dcmcjpls", &[]), ("jpeg-ls-fragments", "dcmcjpls", &["+fs", "16"]), ("rle", "dcmcrle", &[])];
+    for (name, program, args) in cases {
         let folder = root.path().join(name);
         std::fs::create_dir(&folder).unwrap();
-        dcmtk(program, &[], &native.join("enhanced.dcm"), &folder.join("enhanced.dcm"));
+        dcmtk(program, args, &native.join("enhanced.dcm"), &folder.join("enhanced.dcm"));
         assert_same_volume(&folder, &format!("enhanced CT, {name}"));
     }
+    // A frame header found through the offset table is checked like any other: the 28th
+    // frame's (the last SOF55) claims 65535 x 65535 pixels.
+    let mut bytes = std::fs::read(root.path().join("jpeg-ls-fragments/enhanced.dcm")).unwrap();
+    let sof = bytes.windows(2).rposition(|pair| pair == [0xFF, 0xF7]).expect("a JPEG-LS frame header");
+    bytes[sof + 5..sof + 9].copy_from_slice(&[0xFF, 0xFF, 0xFF, 0xFF]);
+    let lying = root.path().join("lying.dcm");
+    std::fs::write(&lying, bytes).unwrap();
+    let output = crate::support::volasso(&["info", lying.to_str().unwrap()], &root.path().join("cache"));
+    crate::support::assert_clean_error(&output, "compressed as 65535 x 65535 pixels", "a lying fragmented frame");
+    // One error for the file, not one per frame.
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert_eq!(stderr.matches("compressed as").count(), 1, "{stderr}");
 }
 
 #[test]

@@ -200,15 +200,29 @@ fn assemble(
     let decoded = decode_slices(&headers, limits, keep_values);
     let keep: Vec<bool> = decoded.iter().map(Result::is_ok).collect();
     let mut slices = Vec::with_capacity(decoded.len());
+    // A file that cannot be decoded is one hole however many frames it holds (its frames share
+    // one error); the first error of each such file.
+    let mut failed: Vec<(PathBuf, VolumeError)> = Vec::new();
     for (header, result) in headers.iter().zip(decoded) {
         match result {
             Ok(slice) => slices.push(slice),
             Err(error) if headers.len() == 1 => return Err(error),
-            Err(error) => holes.push(format!("slice {} cannot be decoded ({error})", header.path.display())),
+            Err(error) => {
+                if !failed.iter().any(|(file, _)| *file == header.path) {
+                    holes.push(format!("slice {} cannot be decoded ({error})", header.path.display()));
+                    failed.push((header.path.clone(), error));
+                }
+            }
         }
     }
     if slices.is_empty() {
-        return Err(VolumeError::SeriesGap { problem: holes.join("; "), path: path.to_path_buf() });
+        // One file (a multi-frame one) and nothing else wrong: its own error.
+        if let ([(_, _)], 1) = (failed.as_slice(), holes.len())
+            && let Some((_, error)) = failed.pop()
+        {
+            return Err(error);
+        }
+        return Err(VolumeError::SeriesGap { problem: summarise(&holes), path: path.to_path_buf() });
     }
     let geometry = geometry.keeping(&keep);
     let headers: Vec<SliceHeader> = headers.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(h, _)| h).collect();

@@ -187,13 +187,14 @@ fn check_declared_size(
         return Ok(());
     };
     let fragments = sequence.fragments();
-    // The frame's first fragment: one fragment per frame, or a single frame in any number.
+    // The frame's first fragment: one fragment per frame, a single frame in any number, or
+    // where the basic offset table says.
     let first = if fragments.len() == header.frames_in_file as usize {
-        fragments.get(frame as usize)
+        fragments.get(frame as usize).map(Vec::as_slice)
     } else if header.frames_in_file == 1 {
-        fragments.first()
+        fragments.first().map(Vec::as_slice)
     } else {
-        None
+        first_fragment_by_offset(sequence.offset_table(), fragments, frame)
     };
     let Some(declared) = first.and_then(|bytes| codestream::declared_size(object.meta().transfer_syntax(), bytes))
     else {
@@ -214,6 +215,21 @@ fn check_declared_size(
         });
     }
     Ok(())
+}
+
+/// The fragment that starts `frame` by the basic offset table: the byte offset of the frame's
+/// first item, counted from the first item, each item being an 8-byte tag and length then its
+/// bytes (PS3.5 A.4). `None` without a table or when no item starts there.
+fn first_fragment_by_offset<'a>(offsets: &[u32], fragments: &'a [Vec<u8>], frame: u32) -> Option<&'a [u8]> {
+    let wanted = u64::from(*offsets.get(frame as usize)?);
+    let mut position = 0u64;
+    for fragment in fragments {
+        if position == wanted {
+            return Some(fragment);
+        }
+        position += 8 + fragment.len() as u64;
+    }
+    None
 }
 
 /// Masks, sign-extends and rescales stored samples.
