@@ -26,6 +26,7 @@ pub mod features;
 #[doc(hidden)]
 pub mod kiosk;
 pub mod phantom;
+pub mod receive;
 pub mod render;
 pub mod rng;
 pub mod segmentation;
