@@ -13,6 +13,7 @@
 //!   `volasso classify`'s contract and errors (issue 3).
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
+//! * `rendering`: what `volasso render` draws with the default class table (every class seen).
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
@@ -25,5 +26,6 @@ mod formats;
 mod hostile;
 mod malformed;
 mod mutations;
+mod rendering;
 mod replay;
 mod support;
