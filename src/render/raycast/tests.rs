@@ -286,6 +286,35 @@ fn shading_darkens_the_rim_and_can_be_switched_off() {
     assert!((brightness(&flat_image, centre) - brightness(&flat_image, rim)).abs() < 0.03);
 }
 
+#[test]
+fn label_cells_never_change_the_image() {
+    // Three classes touching along curved borders, seen at an angle: cells of every kind.
+    let phantom = Phantom::new([48; 3], [1.0, 1.0, 1.5], VoxelType::U8, |p| {
+        let distance = |c: [f32; 3]| (0..3).map(|a| (p[a] - c[a]).powi(2)).sum::<f32>().sqrt();
+        if distance([-6.0, 0.0, -4.0]) < 13.0 {
+            1
+        } else if distance([8.0, 2.0, 6.0]) < 12.0 {
+            3
+        } else if p.iter().all(|c| c.abs() < 16.0) {
+            2
+        } else {
+            0
+        }
+    });
+    let styles = [style(0.0, 0.4), style(120.0, 0.15), style(240.0, 0.5)];
+    let camera = Camera { azimuth_degrees: 35.0, elevation_degrees: 25.0, ..front_camera() };
+    for label_interpolation in [LabelInterpolation::LargestIndicatorWeight, LabelInterpolation::Nearest] {
+        let settings = RenderSettings { label_interpolation, ..RenderSettings::default() };
+        let mut ray_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+        let with_cells = capture(&mut ray_caster, &camera, &settings, SIZE);
+        ray_caster.mark_every_cell_mixed();
+        let voted = capture(&mut ray_caster, &camera, &settings, SIZE);
+        let differences = channel_differences(&with_cells, &voted);
+        assert!(differences.iter().all(|&d| d == 0), "{label_interpolation:?}: largest {:?}", differences.iter().max());
+        assert!(with_cells.pixels().filter(|p| p[3] > 128).count() > 1000, "something is drawn");
+    }
+}
+
 /// Two classes meeting at the plane x = 0, seen along the plane: any colour that is not one of
 /// the two classes' own is bleeding.
 fn largest_bleeding(mode: RenderMode, label_interpolation: LabelInterpolation) -> f32 {
