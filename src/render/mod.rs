@@ -56,6 +56,6 @@ pub(crate) mod test_support;
 pub use camera::{Camera, Projection, ViewRays};
 pub use error::RenderError;
 pub use gpu::{Gpu, acquire};
-pub use raycast::{PixelRegion, RayCaster};
+pub use raycast::{MAX_CLASS_OPACITY_FACTOR, PixelRegion, RayCaster};
 pub use settings::{ClipBox, LabelInterpolation, Lighting, RenderMode, RenderSettings};
 pub use volume_texture::VolumeGeometry;

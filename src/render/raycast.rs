@@ -41,6 +41,10 @@ impl PixelRegion {
     }
 }
 
+/// The largest per-class opacity factor ([`RayCaster::set_class_opacity`]): enough to make
+/// the faintest default class opaque within a few samples, small enough to keep a slider usable.
+pub const MAX_CLASS_OPACITY_FACTOR: f32 = 8.0;
+
 /// Draws a volume with front-to-back ray casting; see the module doc.
 pub struct RayCaster {
     device: wgpu::Device,
@@ -70,6 +74,8 @@ pub struct RayCaster {
 
     /// The per-label table as last uploaded (label 0 first).
     class_table: Vec<ClassEntry>,
+    /// The styles behind `class_table` (class k is `class_styles[k - 1]`).
+    class_styles: Vec<ClassStyle>,
     /// Which labels occur in each brick, kept to re-derive occupancy when visibility changes.
     label_bricks: Option<LabelBricks>,
 }
@@ -191,6 +197,7 @@ impl RayCaster {
             pipeline,
             bind_group,
             class_table,
+            class_styles: Vec::new(),
             label_bricks: None,
         })
     }
@@ -243,6 +250,7 @@ impl RayCaster {
     /// Cheap: changing visibility or emphasis only rewrites the table and brick occupancy.
     pub fn set_class_table(&mut self, styles: &[ClassStyle]) -> Result<(), RenderError> {
         self.class_table = class_table(styles)?;
+        self.class_styles = styles.to_vec();
         self.queue.write_buffer(&self.class_table_buffer, 0, bytemuck::cast_slice(&self.class_table));
         if let Some(label_bricks) = &self.label_bricks {
             let occupancy = label_bricks.occupancy(&visible_labels(&self.class_table));
@@ -256,6 +264,42 @@ impl RayCaster {
             self.rebuild_bind_group();
         }
         Ok(())
+    }
+
+    /// Per-class opacity (the UI's slider): class `label` (1-based) is drawn with its opacity
+    /// times `factor` (its [`ClassStyle::emphasis`]): 1 is the default rule's opacity, 0 hides
+    /// the class (and lets empty-space skipping pass its bricks), up to
+    /// [`MAX_CLASS_OPACITY_FACTOR`]. Post-classification only: the pre-classified RGBA volume
+    /// bakes opacities in and must be rebuilt from the styles ([`Self::class_styles`]).
+    pub fn set_class_opacity(&mut self, label: u8, factor: f32) -> Result<(), RenderError> {
+        if !(0.0..=MAX_CLASS_OPACITY_FACTOR).contains(&factor) {
+            return Err(RenderError::BadSetting {
+                name: "class opacity factor",
+                value: factor.to_string(),
+                expected: "a number from 0 to MAX_CLASS_OPACITY_FACTOR",
+            });
+        }
+        let Some(style) = usize::from(label).checked_sub(1).and_then(|index| self.class_styles.get(index)) else {
+            return Err(RenderError::BadSetting {
+                name: "class label",
+                value: label.to_string(),
+                expected: "a class of the table (1 to the number of classes)",
+            });
+        };
+        let mut styles = self.class_styles.clone();
+        styles[usize::from(label) - 1] = ClassStyle { emphasis: factor, ..style.clone() };
+        self.set_class_table(&styles)
+    }
+
+    /// The opacity factor of class `label` ([`Self::set_class_opacity`]), if it is a class of
+    /// the table.
+    pub fn class_opacity(&self, label: u8) -> Option<f32> {
+        usize::from(label).checked_sub(1).and_then(|index| self.class_styles.get(index)).map(|style| style.emphasis)
+    }
+
+    /// The class styles as last set (class k is element k - 1), opacity factors included.
+    pub fn class_styles(&self) -> &[ClassStyle] {
+        &self.class_styles
     }
 
     /// Uploads the pre-classified volume: 4 bytes per voxel (straight-alpha RGBA, x fastest)

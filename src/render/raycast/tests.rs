@@ -7,7 +7,7 @@ use super::super::test_support::{
 };
 use super::*;
 use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
-use crate::render::{ClipBox, LabelInterpolation, Projection};
+use crate::render::{ClipBox, LabelInterpolation, MAX_CLASS_OPACITY_FACTOR, Projection};
 use crate::volume::VoxelType;
 
 const SIZE: [u32; 2] = [128, 128];
@@ -249,6 +249,43 @@ fn the_clip_box_and_class_visibility_remove_what_they_should() {
     let image = capture(&mut ray_caster, &camera, &flat(RenderMode::Postclassified), SIZE);
     assert_eq!(at(&image, centres[0])[3], 0.0, "hidden class 1");
     assert_eq!(at(&image, centres[1]), at(&whole, centres[1]), "class 2 untouched");
+}
+
+#[test]
+fn per_class_opacity_scales_one_class_and_zero_hides_it() {
+    let (phantom, mut styles, centres) = three_boxes();
+    let camera = front_camera();
+    let settings = flat(RenderMode::Postclassified);
+    let mut ray_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+    let whole = capture(&mut ray_caster, &camera, &settings, SIZE);
+    let at = |image: &image::RgbaImage, point| pixel_at(image, projected(&camera, point));
+    assert_eq!(ray_caster.class_opacity(1), Some(styles[0].emphasis));
+    assert_eq!((ray_caster.class_opacity(0), ray_caster.class_opacity(4)), (None, None));
+
+    // Zero: the same picture as hiding the class.
+    ray_caster.set_class_opacity(1, 0.0).unwrap();
+    let zero = capture(&mut ray_caster, &camera, &settings, SIZE);
+    styles[0].visible = false;
+    let mut hidden_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+    let hidden = capture(&mut hidden_caster, &camera, &settings, SIZE);
+    assert!(channel_differences(&zero, &hidden).iter().all(|&d| d == 0));
+    assert_eq!(at(&zero, centres[0])[3], 0.0, "class 1 is gone");
+    assert_eq!(at(&zero, centres[1]), at(&whole, centres[1]), "class 2 untouched");
+
+    // A twentieth of the opacity: class 1 fainter, then back to the start.
+    ray_caster.set_class_opacity(1, 0.05).unwrap();
+    let faint = capture(&mut ray_caster, &camera, &settings, SIZE);
+    let (faint_alpha, whole_alpha) = (at(&faint, centres[0])[3], at(&whole, centres[0])[3]);
+    assert!(faint_alpha > 0.05 && faint_alpha < whole_alpha - 0.1, "{faint_alpha} vs {whole_alpha}");
+    ray_caster.set_class_opacity(1, 1.0).unwrap();
+    let back = capture(&mut ray_caster, &camera, &settings, SIZE);
+    assert!(channel_differences(&back, &whole).iter().all(|&d| d == 0));
+
+    for (label, factor) in [(0, 1.0), (4, 1.0), (1, -0.1), (1, f32::NAN), (1, MAX_CLASS_OPACITY_FACTOR + 1.0)] {
+        let result = ray_caster.set_class_opacity(label, factor);
+        assert!(matches!(result, Err(RenderError::BadSetting { .. })), "{label} {factor}: {result:?}");
+    }
+    assert_eq!(ray_caster.class_opacity(1), Some(1.0), "a refused setting changes nothing");
 }
 
 #[test]
