@@ -7,12 +7,16 @@
 //! ```text
 //! cargo run --release --example render_benchmark -- [VOLUME] [WIDTHxHEIGHT] [--variants]
 //!     [--frames N] [--modes post,pre,preview] [--spacing X,Y,Z] [--step-voxels S] [--save PREFIX]
+//!     [--upsample K] [--adapter-only]
 //! ```
 //!
 //! Defaults: `../shared/data/engine_256x256x256_uint8.raw`, 1280x800, 10 frames, all three
 //! modes, the default sample distance (half the smallest voxel spacing). `--variants` also times
 //! post-classification without skipping, without shading, and at one sample per voxel; `--save`
-//! writes the first frame of each line as PREFIX-NAME.png. Classes are made up: two value
+//! writes the first frame of each line as PREFIX-NAME.png; `--upsample K` draws the volume
+//! resampled K times finer per axis (nearest voxel, spacing / K: the engine at 2 is a 512^3
+//! volume); `--adapter-only` prints the adapter and its device type and stops (benches/gpu.sh
+//! asks it whether there is a GPU). Classes are made up: two value
 //! thresholds at 1/4 and 1/2 of the value range, a faint and an opaque class (what
 //! `benches/vtk_raycast.py` draws with VTK); perspective camera at the default orbit; shading,
 //! jitter and empty-space skipping on.
@@ -23,6 +27,7 @@ use volasso::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget, Scene};
 use volasso::render::progressive::ProgressiveView;
 use volasso::render::{Camera, RayCaster, RenderMode, RenderSettings};
 use volasso::transfer::ClassStyle;
+use volasso::volume::{Volume, VoxelBytes};
 
 const WARM_UP: usize = 3;
 
@@ -35,6 +40,8 @@ struct Options {
     spacing_mm: Option<[f64; 3]>,
     step_voxels: Option<f32>,
     save: Option<String>,
+    upsample: usize,
+    adapter_only: bool,
 }
 
 fn parse() -> Result<Options, Box<dyn std::error::Error>> {
@@ -47,6 +54,8 @@ fn parse() -> Result<Options, Box<dyn std::error::Error>> {
         spacing_mm: None,
         step_voxels: None,
         save: None,
+        upsample: 1,
+        adapter_only: false,
     };
     let mut positional = 0;
     let mut arguments = std::env::args().skip(1);
@@ -58,6 +67,8 @@ fn parse() -> Result<Options, Box<dyn std::error::Error>> {
             "--modes" => options.modes = value()?.split(',').map(String::from).collect(),
             "--step-voxels" => options.step_voxels = Some(value()?.parse()?),
             "--save" => options.save = Some(value()?),
+            "--upsample" => options.upsample = value()?.parse::<usize>()?.clamp(1, 4),
+            "--adapter-only" => options.adapter_only = true,
             "--spacing" => {
                 let parts: Vec<f64> = value()?.split(',').map(str::parse).collect::<Result<_, _>>()?;
                 options.spacing_mm = Some(parts.try_into().map_err(|_| "--spacing takes X,Y,Z")?);
@@ -88,11 +99,52 @@ fn median_line(name: &str, mut milliseconds: Vec<f64>, extra: &str) {
     );
 }
 
+/// `volume` resampled `factor` times finer per axis: each voxel repeated, spacing divided.
+fn upsampled(volume: Volume, factor: usize) -> Result<Volume, Box<dyn std::error::Error>> {
+    if factor == 1 {
+        return Ok(volume);
+    }
+    let [size_x, size_y, size_z] = volume.dims;
+    let voxel = volume.voxel_type.size_bytes();
+    let source = volume.raw_bytes();
+    let row = size_x * factor * voxel;
+    let mut bytes = Vec::with_capacity(source.len() * factor.pow(3));
+    let mut fine_row = Vec::with_capacity(row);
+    for z in 0..size_z * factor {
+        for y in 0..size_y * factor {
+            fine_row.clear();
+            let start = volume.index(0, y / factor, z / factor) * voxel;
+            for coarse in source[start..start + size_x * voxel].chunks_exact(voxel) {
+                for _ in 0..factor {
+                    fine_row.extend_from_slice(coarse);
+                }
+            }
+            bytes.extend_from_slice(&fine_row);
+        }
+    }
+    let mut fine = Volume::new(
+        volume.dims.map(|side| side * factor),
+        volume.spacing_mm.map(|spacing| spacing / factor as f64),
+        volume.voxel_type,
+        volume.byte_order,
+        volume.scale,
+        VoxelBytes::Owned(bytes),
+        &volume.source,
+    )?;
+    fine.orientation = volume.orientation;
+    Ok(fine)
+}
+
 fn main() -> Result<(), Box<dyn std::error::Error>> {
     let options = parse()?;
     let [width, height] = options.size;
+    if options.adapter_only {
+        let gpu = volasso::render::acquire()?;
+        println!("adapter: {}, device type {:?}", gpu.adapter_name(), gpu.adapter_info.device_type);
+        return Ok(());
+    }
     let open = volasso::volume::OpenOptions { spacing_mm: options.spacing_mm, ..Default::default() };
-    let volume = volasso::volume::open(&options.path, &open)?;
+    let volume = upsampled(volasso::volume::open(&options.path, &open)?, options.upsample)?;
     let range = volume.value_range();
     let thresholds = [0.25, 0.5].map(|f| (range.min + f * (range.max - range.min)) as f32);
     let mut labels = vec![0u8; volume.voxel_count()];
