@@ -8,8 +8,9 @@
 //!   frames). Previews draw at [`PREVIEW_STEP_FACTOR`] times the sample distance (opacity is
 //!   corrected for the step, so colours stay) and at the largest size whose predicted time fits
 //!   [`PREVIEW_TARGET_FRACTION`] of the budget (the rest is margin for noise), between
-//!   [`MIN_PREVIEW_SCALE`] and full size per side. Full frames are cut into bands of rows
-//!   predicted to take [`BAND_SECONDS`] each.
+//!   [`MIN_PREVIEW_SCALE`] and full size per side; where even the smallest size would not fit
+//!   (a slow or busy machine), samples spread further apart, up to [`MAX_PREVIEW_STEP_VOXELS`].
+//!   Full frames are cut into bands of rows predicted to take [`BAND_SECONDS`] each.
 //! * [`ProgressiveView`] draws with a [`RayCaster`] into offscreen targets and reads pictures
 //!   back: [`ProgressiveView::preview`] at once, then [`ProgressiveView::start_full`] and
 //!   [`ProgressiveView::refine`] one band per call until the full frame comes back; a new
@@ -31,6 +32,8 @@ pub const PREVIEW_BUDGET_SECONDS: f64 = 0.15;
 pub const PREVIEW_TARGET_FRACTION: f64 = 0.6;
 /// Previews sample this many times as far apart as the full frame (at least one voxel apart).
 pub const PREVIEW_STEP_FACTOR: f32 = 2.0;
+/// The widest sample distance of a preview, in voxels.
+pub const MAX_PREVIEW_STEP_VOXELS: f32 = 4.0;
 /// The smallest preview, as a fraction of the full size per side.
 pub const MIN_PREVIEW_SCALE: f64 = 1.0 / 8.0;
 /// The planned time of one band of a full frame: how long a new request can wait.
@@ -97,6 +100,16 @@ impl FramePlanner {
                 (PREVIEW_TARGET_FRACTION * self.budget_seconds / (cost * full_work)).sqrt()
             }
             _ => FIRST_PREVIEW_SCALE,
+        };
+        // Below the smallest size, fewer samples per ray make up the rest (work ~ 1 / step).
+        let settings = if scale < MIN_PREVIEW_SCALE {
+            let step_voxels = settings.step_voxels * ((MIN_PREVIEW_SCALE / scale).powi(2) as f32);
+            RenderSettings {
+                step_voxels: step_voxels.min(MAX_PREVIEW_STEP_VOXELS).max(settings.step_voxels),
+                ..settings
+            }
+        } else {
+            settings
         };
         let scale = scale.clamp(MIN_PREVIEW_SCALE, 1.0);
         let size = full_size.map(|side| ((side as f64 * scale).round() as u32).clamp(1, side.max(1)));

@@ -91,10 +91,19 @@ fn previews_are_sized_to_the_budget_from_measured_costs() {
     let mut fast = FramePlanner::default();
     fast.record_preview(1e6, 1e-6);
     assert_eq!(fast.preview_plan(full, &settings).size, full);
-    // A very slow one stops at an eighth per side.
+    // A slow one stops at an eighth per side and samples further apart, up to a limit.
+    let mut slower = FramePlanner::default();
+    // Twice the work of a preview at an eighth per side (which is half the frame's work per
+    // pixel) in the planned time: twice the sample distance.
+    let seconds = PREVIEW_TARGET_FRACTION * PREVIEW_BUDGET_SECONDS * 2.0 * 2.0 / MIN_PREVIEW_SCALE.powi(2);
+    slower.record_full(work(full, &settings), seconds);
+    let plan = slower.preview_plan(full, &settings);
+    assert_eq!(plan.size, [160, 100]);
+    assert!((plan.settings.step_voxels - 2.0).abs() < 0.05, "{}", plan.settings.step_voxels);
     let mut slow = FramePlanner::default();
     slow.record_full(1.0, 10.0);
     assert_eq!(slow.preview_plan(full, &settings).size, [160, 100]);
+    assert_eq!(slow.preview_plan(full, &settings).settings.step_voxels, MAX_PREVIEW_STEP_VOXELS);
     // Measurements that mean nothing are ignored.
     slow.record_full(0.0, 1.0);
     slow.record_full(1.0, f64::NAN);
