@@ -13,6 +13,7 @@
 //!   `volasso classify`'s contract and errors.
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
+//! * `rendering`: what `volasso render` draws with the default class table (every class seen).
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay`.
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
@@ -34,5 +35,6 @@ mod formats;
 mod hostile;
 mod malformed;
 mod mutations;
+mod rendering;
 mod replay;
 mod support;
