@@ -115,12 +115,14 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     let volume = &import.volume;
     let mut acquired = Vec::new();
     for path in &import.files {
-        let FileKind::Image(header) = header::read_header(path, &crate::volume::limits::ReadLimits::default()).unwrap()
+        let FileKind::Image(mut headers) =
+            header::read_header(path, &crate::volume::limits::ReadLimits::default()).unwrap()
         else {
             panic!("{} is an image", path.display());
         };
+        let header = headers.remove(0);
         let slice = pixels::read_slice(&header, &crate::volume::limits::ReadLimits::default()).unwrap();
-        acquired.push((*header, slice));
+        acquired.push((header, slice));
     }
     let o = acquired[0].0.orientation.unwrap();
     let (r, c) = ([o[0], o[1], o[2]], [o[3], o[4], o[5]]);
