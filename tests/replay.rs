@@ -55,6 +55,23 @@ fn the_workflow_on_a_real_256_cubed_volume() {
     assert!(report["frames_while_classifying"]["count"].as_u64().unwrap_or(0) > 0, "{report}");
 }
 
+/// Loops around structures at a head's edge take in the air outside: the air must stay
+/// background and each class keep its own lassoed voxels (the scripts' `expect` lines), on a
+/// 16-bit clinical CT and on the 8-bit Visible Male head.
+#[test]
+fn loops_that_take_in_air_leave_the_air_background() {
+    for (name, data) in [
+        ("cranium-skull-lasso.touch", "cranium_ct_256x256x108_int16.raw"),
+        ("vismale-scalp-lasso.touch", "vismale_128x256x256_uint8.raw"),
+    ] {
+        let work = tempfile::tempdir().unwrap();
+        let volume = support::data(data);
+        let report =
+            replay(&["replay", script(name).to_str().unwrap(), "--volume", volume.to_str().unwrap()], work.path());
+        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{name}: {report}");
+    }
+}
+
 /// 10,000 random type-B events in 60 s with up to 10 fingers, off-screen positions, garbage
 /// codes and SYN_DROPPED in the middle of gestures, then a script that needs a working UI.
 #[test]
