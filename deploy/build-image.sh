@@ -74,10 +74,12 @@ root="$work/root"
 
 # Packages: systemd and the kernel to boot; Mesa's Vulkan drivers (radv/anv for a real GPU,
 # lavapipe as the fallback) and GL/GBM for wgpu; fontconfig and fonts for Slint's text layout; kbd to
-# load the keymap that removes console switching; e2fsprogs to check the data partition.
+# load the keymap that removes console switching; e2fsprogs to check the data partition; nftables
+# for the firewall that opens the DICOM receiver's port only.
 packages=(systemd systemd-sysv udev kmod linux-image-amd64 initramfs-tools zstd systemd-boot-efi
     mesa-vulkan-drivers libvulkan1 libgl1-mesa-dri libegl1 libegl-mesa0 libgbm1
-    libfontconfig1 libfreetype6 fonts-dejavu-core fontconfig-config kbd e2fsprogs dosfstools exfatprogs)
+    libfontconfig1 libfreetype6 fonts-dejavu-core fontconfig-config kbd e2fsprogs dosfstools exfatprogs
+    nftables)
 include=$(IFS=,; echo "${packages[*]}")
 
 stage "mmdebstrap $suite (root file system)"
@@ -125,7 +127,9 @@ data="$work/data"
 mkdir -p "$data/volumes" "$data/sessions" "$data/cache"
 for volume in "${volumes[@]}"; do cp -- "$volume" "$data/volumes/"; done
 chown -R "$kiosk_uid:$kiosk_uid" "$data/volumes" "$data/sessions" "$data/cache"
-chmod 0750 "$data/volumes" "$data/sessions" "$data/cache"
+chmod 0750 "$data/sessions" "$data/cache"
+# Shared with the DICOM receiver (group volasso): setgid, group-writable (tmpfiles.d/volasso.conf).
+chmod 2770 "$data/volumes"
 find "$data" -exec touch --no-dereference -d "@$SOURCE_DATE_EPOCH" {} +
 data_image="$work/data.img"
 mkfs.ext4 -q -F -L volasso-data -U "$data_fs_uuid" -E "hash_seed=$data_fs_uuid,root_owner=0:0" \

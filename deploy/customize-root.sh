@@ -1,8 +1,9 @@
 #!/usr/bin/env bash
 # mmdebstrap customize hook for build-image.sh: turns the bootstrapped Debian into the kiosk.
 #   customize-root.sh ROOT BINARY KIOSK_UID
-# Copies deploy/rootfs over ROOT, installs the binary, adds the kiosk user, enables the kiosk
-# units, masks every way to a login or a console, and strips what a read-only appliance never uses.
+# Copies deploy/rootfs over ROOT, installs the binary, adds the kiosk and receiver users, enables
+# the kiosk and receiver units, masks every way to a login or a console, and strips what a
+# read-only appliance never uses.
 set -euo pipefail
 root=$1
 binary=$2
@@ -25,6 +26,10 @@ fi
 chroot "$root" groupadd --system --gid "$kiosk_uid" volasso
 chroot "$root" useradd --system --uid "$kiosk_uid" --gid volasso --groups video,input \
     --home-dir /nonexistent --no-create-home --shell /usr/sbin/nologin volasso
+# The DICOM receiver's own user (the next uid, fixed like the kiosk's): in the kiosk's group only,
+# so that it can add series to the shared volumes folder and nothing else.
+chroot "$root" useradd --system --uid "$((kiosk_uid + 1))" --gid volasso \
+    --home-dir /nonexistent --no-create-home --shell /usr/sbin/nologin volasso-receive
 
 echo volasso > "$root/etc/hostname"
 printf '127.0.0.1 localhost\n127.0.1.1 volasso\n' > "$root/etc/hosts"
@@ -33,6 +38,9 @@ printf '127.0.0.1 localhost\n127.0.1.1 volasso\n' > "$root/etc/hosts"
 mkdir -p "$root/var/lib/volasso"
 
 chroot "$root" systemctl enable volasso.service volasso-keymap.service
+# The DICOM receiver, its network (DHCP on Ethernet, systemd-networkd) and the firewall that
+# opens its port only (/etc/nftables.conf).
+chroot "$root" systemctl enable volasso-receive.service systemd-networkd.service nftables.service
 chroot "$root" systemctl set-default multi-user.target
 # No login anywhere (display, serial, container consoles), no Ctrl-Alt-Del reboot, no first-boot
 # questions and nothing that wants a writable root.
@@ -46,9 +54,12 @@ chroot "$root" systemctl mask getty@.service serial-getty@.service console-getty
 rm -rf "$root"/var/cache/apt/* "$root"/var/lib/apt/lists/* "$root"/var/log/* "$root"/tmp/* \
     "$root"/var/cache/debconf/*-old "$root"/var/lib/dpkg/*-old "$root"/etc/*- "$root"/var/cache/ldconfig/aux-cache
 
-# Kernel modules a kiosk without network, sound or cameras never loads: about half their size.
+# Kernel modules a kiosk without wireless, sound or cameras never loads. Wired network drivers
+# (drivers/net) and the network stack's modules (kernel/net: nftables) stay for the DICOM
+# receiver; wireless ones go.
 for modules in "$root"/usr/lib/modules/*; do
-    rm -rf "$modules"/kernel/drivers/{net,media,infiniband,staging,comedi,isdn,bluetooth,iio,target,mtd,atm,nfc} \
-        "$modules"/kernel/sound "$modules"/kernel/net
+    rm -rf "$modules"/kernel/drivers/{media,infiniband,staging,comedi,isdn,bluetooth,iio,target,mtd,atm,nfc} \
+        "$modules"/kernel/drivers/net/wireless "$modules"/kernel/sound \
+        "$modules"/kernel/net/{bluetooth,wireless,mac80211,nfc}
     chroot "$root" depmod "$(basename "$modules")"
 done

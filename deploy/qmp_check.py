@@ -5,8 +5,10 @@ Waits for `volasso: ready WxH` on the serial log, screendumps the UI, taps it th
 input-send-event (the virtio tablet), screendumps until the screen changes, then presses the
 console's escape keys (Ctrl-Alt-F2, Alt-F2, Ctrl-Alt-Del) and checks the UI stays. Writes
 PNG screenshots to --out. Last, it hot-plugs the USB stick QEMU holds as drive `stick` and
-waits for the import's summary line and for the imported volumes' cards in the chooser, then
-opens the demo's card and waits for the work screen. Exits non-zero with the reason on stderr when a check fails.
+waits for the import's summary line and for the imported volumes' cards in the chooser. With
+--dicom-port and --dicom-series it pushes a DICOM series to the guest's receiver with storescu
+and waits for its stored line and its card. Then it opens the demo's card and waits for the
+work screen. Exits non-zero with the reason on stderr when a check fails.
 Standard library only (runs on the bare host).
 """
 
@@ -16,12 +18,15 @@ import os
 import re
 import socket
 import struct
+import subprocess
 import sys
 import time
 import zlib
 
 READY = re.compile(rb"volasso: ready (\d+)x(\d+)")
 IMPORTED = re.compile(rb"volasso-import: (\d+) imported, (\d+) skipped")
+# The DICOM receiver's JSON line for a stored series (volasso-receive.service, on the console).
+STORED = re.compile(rb'\{"event":"stored","name":"[A-Z0-9]+-[0-9a-f]{16}"[^\n]*')
 TABLET_MAX = 0x7FFF  # QEMU's absolute axis range for input-send-event
 
 
@@ -134,6 +139,8 @@ def main():
     parser.add_argument("--timeout", type=float, default=300)
     parser.add_argument("--stick-volumes", type=int, required=True, help="volumes on the VOLASSO stick")
     parser.add_argument("--tap", default="0.5,0.5", help="where to tap, as fractions of width,height")
+    parser.add_argument("--dicom-port", type=int, help="host port forwarded to the guest's DICOM receiver")
+    parser.add_argument("--dicom-series", help="a DICOM series folder to push with dcmtk's storescu")
     arguments = parser.parse_args()
     deadline = arguments.started + arguments.timeout
     qmp = Qmp(arguments.qmp, deadline, arguments.qemu_pid)
@@ -213,6 +220,9 @@ def main():
         fail("the imported volumes did not appear in the chooser within 30 s", arguments.serial)
     print(f"chooser: the imported volumes' cards appeared {time.time() - plugged:.1f} s after plugging in")
 
+    if arguments.dicom_port and arguments.dicom_series:
+        shown = push_dicom_series(qmp, arguments, shown)
+
     # The demo's card (the first) opens the work screen: slices, class bar, 3-D view.
     tap(qmp, 0.13, 0.3)
     opened = time.time()
@@ -224,6 +234,32 @@ def main():
     print(f"demo card: the work screen appeared {time.time() - opened - 5:.1f} s after the tap")
     print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick "
           "whose volumes appear in the chooser, opens the demo")
+
+
+def push_dicom_series(qmp, arguments, before):
+    """Sends a series to the guest's DICOM receiver (storescu through QEMU's port forward),
+    waits for its `"event":"stored"` line on the serial console and for its card in the chooser;
+    the chooser's pixels then."""
+    files = sorted(os.path.join(arguments.dicom_series, name) for name in os.listdir(arguments.dicom_series)
+                   if name != "DIRFILE")
+    pushed = time.time()
+    sent = subprocess.run(["storescu", "-aec", "VOLASSO", "127.0.0.1", str(arguments.dicom_port), *files],
+                          capture_output=True, timeout=120)
+    if sent.returncode != 0:
+        fail(f"storescu into the guest failed: {sent.stderr.decode(errors='replace')}", arguments.serial)
+    stored = None
+    while stored is None and time.time() < pushed + 120:
+        time.sleep(1)
+        with open(arguments.serial, "rb") as log:
+            stored = STORED.search(log.read())
+    if stored is None:
+        fail("the pushed series was not stored within 120 s", arguments.serial)
+    print(f"DICOM: {len(files)} files sent, `{stored.group(0).decode()[:120]}` {time.time() - pushed:.1f} s after the push")
+    shown = wait_for_change(qmp, arguments.out, "5b-received-series", before, 30)
+    if shown is None:
+        fail("the received series did not appear in the chooser within 30 s", arguments.serial)
+    print(f"chooser: the received series' card appeared {time.time() - pushed:.1f} s after the push")
+    return shown
 
 
 def wait_until_stable(qmp, out, name, seconds):

@@ -9,7 +9,8 @@
 # The image boots with OVMF, a virtio tablet and serial on a file; deploy/qmp_check.py waits for
 # `volasso: ready WxH`, takes QMP screendumps before and after a tap (input-send-event), fails
 # unless both are non-blank and differ, presses the console's escape keys and checks the UI
-# stays, then hot-plugs a USB stick labelled VOLASSO and waits for its volumes to be imported.
+# stays, then hot-plugs a USB stick labelled VOLASSO and waits for its volumes to be imported,
+# and pushes a DICOM series to the guest's receiver through a forwarded port (user-mode network).
 # Screenshots and the serial log go to deploy/out/test.
 set -euo pipefail
 repository=$(cd "$(dirname "$0")/.." && pwd)
@@ -24,7 +25,7 @@ while [ $# -gt 0 ]; do
         --accel) accel=$2; shift 2 ;;
         --gpu) gpu=$2; shift 2 ;;
         --timeout) timeout_seconds=$2; shift 2 ;;
-        -h|--help) sed -n '2,13p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
+        -h|--help) sed -n '2,14p' "$0" | sed 's/^# \{0,1\}//'; exit 0 ;;
         *) echo "error: unknown argument $1 (see --help)" >&2; exit 2 ;;
     esac
 done
@@ -93,6 +94,19 @@ mcopy -i "$stick" "$results/cube.nrrd" ::/cube.nrrd
 mcopy -i "$stick" "$results/cube.nrrd" ::/volumes/cube-copy.nrrd
 mcopy -i "$stick" "$0" ::/not-a-volume.sh
 
+# The DICOM receiver: QEMU's user-mode network forwards a free host port to the guest's 11112,
+# and qmp_check.py pushes the Philips series there with dcmtk's storescu (skipped without it).
+network=(-nic none)
+dicom=()
+series="$repository/../shared/data/dicom/philips_phantom_5mm"
+if command -v storescu > /dev/null && [ -d "$series" ]; then
+    dicom_port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
+    network=(-nic "user,model=virtio-net-pci,restrict=on,hostfwd=tcp:127.0.0.1:$dicom_port-:11112")
+    dicom=(--dicom-port "$dicom_port" --dicom-series "$series")
+else
+    echo "=== no storescu (apt-get install dcmtk) or no $series: the DICOM push is skipped"
+fi
+
 echo "=== image $(realpath "$image"): $(du -h --apparent-size "$image" | cut -f1) ($(stat -c %s "$image") bytes), $gpu display, $accel"
 started=$(date +%s.%N)
 "$qemu" -name volasso-test -machine q35 "${cpu[@]}" -smp 2 -m 2048 \
@@ -102,13 +116,13 @@ started=$(date +%s.%N)
     -drive if=virtio,format=qcow2,file="$results/overlay.qcow2" \
     "${display_device[@]}" -device virtio-tablet-pci -device virtio-keyboard-pci \
     -device qemu-xhci,id=xhci -drive if=none,id=stick,format=raw,readonly=on,file="$stick" \
-    -display none -nic none -serial "file:$results/serial.log" \
+    -display none "${network[@]}" -serial "file:$results/serial.log" \
     -qmp "unix:$results/qmp.sock,server=on,wait=off" -no-reboot &
 qemu_pid=$!
 trap 'kill "$qemu_pid" 2>/dev/null || true' EXIT
 status=0
 python3 "$deploy/qmp_check.py" --qemu-pid "$qemu_pid" --qmp "$results/qmp.sock" --stick-volumes 2 --serial "$results/serial.log" \
-    --out "$results" --started "$started" --timeout "$timeout_seconds" || status=$?
+    --out "$results" --started "$started" --timeout "$timeout_seconds" "${dicom[@]}" || status=$?
 kill "$qemu_pid" 2>/dev/null || true
 wait "$qemu_pid" 2>/dev/null || true
 echo "=== serial log: $results/serial.log; screenshots: $results/*.png"

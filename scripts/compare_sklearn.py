@@ -1,5 +1,5 @@
 #!/usr/bin/env python3
-"""Compare volasso's classifier with scikit-learn on the same voxels (issue 3, performance).
+"""Compare volasso's classifier with scikit-learn on the same voxels (speed and labels).
 
 `volasso classify VOLUME --strokes S.json --out L.nrrd --export-features DIR` writes, into DIR:
   train_features.npy   float32 (n, d)  standardised training feature vectors (after the cap)
@@ -80,7 +80,7 @@ def main() -> int:
         result["forest_seconds"] = {"train": forest_train, "predict": (time.perf_counter() - started) * scale}
         result["label_agreement_forest_svc"] = float(np.mean(forest_y == svc_y))
         # With `--classifier forest` (or the default) this checks volasso's own forest against
-        # scikit-learn's on the same lassos and voxels (issue 9).
+        # scikit-learn's on the same lassos and voxels.
         result["label_agreement_forest_volasso"] = float(np.mean(forest_y == volasso_y[subset]))
     print(json.dumps(result))
     return 0

@@ -17,6 +17,8 @@ const FLAG_SRGB_OUTPUT: u32 = 8u;
 const FLAG_NEAREST_LABEL: u32 = 16u;
 const CLASS_TABLE_SIZE: u32 = 256u;
 const BRICK_SIZE_VOXELS: u32 = 8u;
+// Twin of `render::cells::MIXED_CELL`: a cell whose eight labels differ.
+const MIXED_CELL: u32 = 255u;
 
 struct RenderUniforms {
     eye_in_world: vec3<f32>,
@@ -62,6 +64,7 @@ struct ClassEntry {
 @group(0) @binding(5) var rgba_bricks: texture_3d<u32>;
 @group(0) @binding(6) var label_bricks: texture_3d<u32>;
 @group(0) @binding(7) var volume_sampler: sampler;
+@group(0) @binding(8) var cell_labels: texture_3d<u32>;
 
 @vertex
 fn vertex_main(@builtin(vertex_index) index: u32) -> @builtin(position) vec4<f32> {
@@ -167,11 +170,19 @@ fn shade(colour: vec3<f32>, gradient: vec3<f32>, ray_direction: vec3<f32>, gradi
     return min(colour * (ambient + diffuse * facing) + vec3<f32>(specular), vec3<f32>(1.0));
 }
 
-// Post-classification: the sample's class from the eight labels around it, then that class's
-// colour from the interpolated scalar's gradient. Straight RGBA.
-fn postclassified_sample(texture_position: vec3<f32>, ray_direction: vec3<f32>) -> vec4<f32> {
+// The class of a sample from the eight labels around it: the class whose trilinearly weighted
+// indicator is largest (background competes too), or the nearest voxel's label.
+fn sample_label(texture_position: vec3<f32>) -> u32 {
     let voxel_position = texture_position * frame.dims - 0.5;
     let base = floor(voxel_position);
+    // Away from class borders the eight labels agree: one fetch of the cell's code answers
+    // (see render::cells); the half-voxel layer at the near faces has no cell.
+    if all(base >= vec3<f32>(0.0)) {
+        let code = textureLoad(cell_labels, vec3<i32>(base), 0).r;
+        if code != MIXED_CELL {
+            return code;
+        }
+    }
     let fraction = voxel_position - base;
     let last_voxel = vec3<i32>(frame.dims) - 1;
     var labels: array<u32, 8>;
@@ -187,27 +198,32 @@ fn postclassified_sample(texture_position: vec3<f32>, ray_direction: vec3<f32>) 
     for (var corner = 1u; corner < 8u; corner++) {
         uniform_neighbourhood = uniform_neighbourhood && labels[corner] == labels[0];
     }
-    var label = 0u;
     if uniform_neighbourhood {
-        // Inside a class (or background) every method agrees; skip the vote.
-        label = labels[0];
-    } else if has_flag(FLAG_NEAREST_LABEL) {
+        return labels[0];
+    }
+    if has_flag(FLAG_NEAREST_LABEL) {
         let nearest = vec3<u32>(fraction >= vec3<f32>(0.5));
-        label = labels[nearest.x | (nearest.y << 1u) | (nearest.z << 2u)];
-    } else {
-        // The class whose trilinearly weighted indicator is largest (background competes too).
-        var best_weight = -1.0;
-        for (var i = 0u; i < 8u; i++) {
-            var weight = 0.0;
-            for (var j = 0u; j < 8u; j++) {
-                weight += select(0.0, weights[j], labels[j] == labels[i]);
-            }
-            if weight > best_weight {
-                best_weight = weight;
-                label = labels[i];
-            }
+        return labels[nearest.x | (nearest.y << 1u) | (nearest.z << 2u)];
+    }
+    var label = 0u;
+    var best_weight = -1.0;
+    for (var i = 0u; i < 8u; i++) {
+        var weight = 0.0;
+        for (var j = 0u; j < 8u; j++) {
+            weight += select(0.0, weights[j], labels[j] == labels[i]);
+        }
+        if weight > best_weight {
+            best_weight = weight;
+            label = labels[i];
         }
     }
+    return label;
+}
+
+// Post-classification: the sample's class (`sample_label`), then that class's colour from the
+// interpolated scalar's gradient. Straight RGBA.
+fn postclassified_sample(texture_position: vec3<f32>, ray_direction: vec3<f32>) -> vec4<f32> {
+    let label = sample_label(texture_position);
     if label == 0u {
         return vec4<f32>(0.0);
     }
@@ -288,6 +304,9 @@ fn fragment_main(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f3
     var accumulated = vec4<f32>(0.0);
     var k = 0u;
     var iterations = 0u;
+    // The brick of the previous sample and whether it is empty: most samples share it.
+    var cached_brick = vec3<u32>(0xffffffffu);
+    var cached_brick_empty = false;
     loop {
         let t = t_entry + (f32(k) + jitter) * step_mm;
         if t > t_exit || accumulated.a >= frame.opaque_alpha || iterations >= frame.max_steps {
@@ -302,7 +321,11 @@ fn fragment_main(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f3
         if has_flag(FLAG_EMPTY_SPACE_SKIPPING) {
             let brick_position = clamp(texture_position * frame.dims / brick_size, vec3<f32>(0.0), vec3<f32>(frame.brick_dims - 1u));
             let brick = min(vec3<u32>(brick_position), frame.brick_dims - 1u);
-            if brick_is_empty(brick) {
+            if any(brick != cached_brick) {
+                cached_brick = brick;
+                cached_brick_empty = brick_is_empty(brick);
+            }
+            if cached_brick_empty {
                 let brick_low = (vec3<f32>(brick) * brick_size / frame.dims - 0.5) * frame.extent_mm;
                 let brick_high = (min(vec3<f32>(brick + 1u) * brick_size, frame.dims) / frame.dims - 0.5) * frame.extent_mm;
                 let t_low = (brick_low - origin) * inverse_direction;

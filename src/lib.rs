@@ -10,23 +10,29 @@
 //!
 //! The command line (`cli`), the kiosk UI (`app`, `ui/*.slint`) and its platform and input
 //! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
-//! `accuracy` measures the pipeline against phantoms with known truth (issue 9).
+//! `accuracy` measures the pipeline against phantoms with known truth.
 
 pub mod accuracy;
+#[doc(hidden)]
 pub mod app;
 pub mod atomic_file;
 pub mod classify;
+#[doc(hidden)]
 pub mod cli;
 pub mod cpu;
+#[doc(hidden)]
 pub mod display;
 pub mod features;
+#[doc(hidden)]
 pub mod kiosk;
 pub mod phantom;
+pub mod receive;
 pub mod render;
 pub mod rng;
 pub mod segmentation;
 pub mod slices;
 pub mod strokes;
+#[doc(hidden)]
 pub mod touch;
 pub mod transfer;
 pub mod volume;

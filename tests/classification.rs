@@ -1,4 +1,4 @@
-//! Classification end to end (issue 3): accuracy on the demo phantom with its ground truth,
+//! Classification end to end: accuracy on the demo phantom with its ground truth,
 //! coarse-to-fine against exact, the `classify` command's contract, and its clear errors.
 
 use crate::support::{assert_clean_error, volasso};
@@ -12,7 +12,7 @@ fn demo_labels(refinement: Refinement) -> (phantom::Phantom, Vec<u8>) {
     // Two lassos per class on each top-entropy slice, inside soft tissue (1) and bone (2).
     let strokes = phantom::lassos_inside(&phantom, &[1, 2], 2, 3.0);
     let training = TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
-    // The paper's method (SN-SVM on the 5-D features): what issue 3 built and measured; the
+    // The paper's method (SN-SVM on the 5-D features), measured on the demo phantom; the
     // default's accuracy is `accuracy.rs`'s.
     let options = SegmentationOptions { refinement, ..SegmentationOptions::paper() };
     let segmenter = segmentation::train(&phantom.volume, &training, &options).unwrap();

@@ -7,23 +7,34 @@
 //!   in a process of its own so that its allocations can be counted.
 //! * `hostile`: files built to exhaust memory or reach outside their folder (bombs, wrapping
 //!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
-//! * `accuracy`: the accuracy harness on small phantoms (issue 9): the default classifier
+//! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, and
-//!   `volasso classify`'s contract and errors (issue 3).
+//!   `volasso classify`'s contract and errors.
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
-//! * `replay`: the kiosk UI driven by touch scripts through `volasso replay` (issues 6, 7).
+//! * `rendering`: what `volasso render` draws with the default class table (every class seen).
+//! * `replay`: the kiosk UI driven by touch scripts through `volasso replay`.
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
+//! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
+//!   multi-frame DICOM read to the voxels of the uncompressed series; the series listing.
+//! * `dicom_jpeg2000`: JPEG 2000 lossless DICOM (encoded here with OpenJPEG) reads to the same
+//!   voxels.
+//! * `dicom_receive`: `volasso receive` against dcmtk's storescu and echoscu (store, replace,
+//!   several series, a killed association, refusals).
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
 mod classification;
 mod cli;
 mod deploy;
+mod dicom_codecs;
+mod dicom_jpeg2000;
+mod dicom_receive;
 mod formats;
 mod hostile;
 mod malformed;
 mod mutations;
+mod rendering;
 mod replay;
 mod support;

@@ -1,5 +1,5 @@
 //! Malformed inputs, each written by the test: every one gives exactly one clear error line
-//! naming the problem, exit status 1, and no panic (issue 2, "bad input").
+//! naming the problem, exit status 1, and no panic.
 
 use crate::support::{assert_clean_error, gzip, nifti_header, volasso};
 use std::path::Path;

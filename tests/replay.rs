@@ -1,4 +1,4 @@
-//! The UI driven by touch alone (issues 6 and 7): `volasso replay` runs the real UI headless
+//! The UI driven by touch alone: `volasso replay` runs the real UI headless
 //! (Slint's software renderer, the 3-D view on lavapipe or a GPU) from the scripts in
 //! `tests/replay/`, and fails on any broken expectation. What each script proves is in its
 //! header comment.
@@ -55,21 +55,51 @@ fn the_workflow_on_a_real_256_cubed_volume() {
     assert!(report["frames_while_classifying"]["count"].as_u64().unwrap_or(0) > 0, "{report}");
 }
 
+/// Runs `script` on `volume` (under ../shared/data) at each of `sizes` and asserts that every
+/// expectation held.
+fn replay_on(script_name: &str, volume: &str, sizes: &[&str]) {
+    let volume = support::data(volume);
+    for size in sizes {
+        let work = tempfile::tempdir().unwrap();
+        let report = replay(
+            &["replay", script(script_name).to_str().unwrap(), "--volume", volume.to_str().unwrap(), "--size", size],
+            work.path(),
+        );
+        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
+    }
+}
+
+/// Slices as a radiologist expects them, the patient's directions read off the screen at the
+/// panels' edges, on the tilted GE head CT and on the NIfTI brain (stored with y toward
+/// anterior, so its panels are flipped), at two screen sizes (`orientation.touch`).
+#[test]
+fn slices_show_the_patient_in_the_radiological_convention_with_edge_letters() {
+    replay_on("orientation.touch", "dicom/ge_head_tilt", &["1280x800", "1024x600"]);
+    replay_on("orientation.touch", "anatomical.nii", &["1280x800", "1024x600"]);
+}
+
+/// The flat band around the skull's lower edge on the coronal slice becomes a class, a quick
+/// sideways stroke still changes the slice, a stroke that is neither says so on the slice, and
+/// display windows never reach the classifier (`flat-band.touch`).
+#[test]
+fn a_flat_band_loop_is_a_lasso_not_a_swipe() {
+    replay_on("flat-band.touch", "dicom/ge_head_tilt", &["1280x800"]);
+}
+
+/// An enlarged, zoomed slice takes a loop around a small structure as a lasso; Back returns to
+/// the three slices (`enlarge-loop.touch`).
+#[test]
+fn an_enlarged_slice_takes_a_loop_around_a_small_structure() {
+    replay_on("enlarge-loop.touch", "cranium_ct_256x256x108_int16.raw", &["1024x600", "1280x800"]);
+}
+
 /// Loops around structures at a head's edge take in the air outside: the air must stay
 /// background and each class keep its own lassoed voxels (the scripts' `expect` lines), on a
 /// 16-bit clinical CT and on the 8-bit Visible Male head.
 #[test]
 fn loops_that_take_in_air_leave_the_air_background() {
-    for (name, data) in [
-        ("cranium-skull-lasso.touch", "cranium_ct_256x256x108_int16.raw"),
-        ("vismale-scalp-lasso.touch", "vismale_128x256x256_uint8.raw"),
-    ] {
-        let work = tempfile::tempdir().unwrap();
-        let volume = support::data(data);
-        let report =
-            replay(&["replay", script(name).to_str().unwrap(), "--volume", volume.to_str().unwrap()], work.path());
-        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{name}: {report}");
-    }
+    replay_on("cranium-skull-lasso.touch", "cranium_ct_256x256x108_int16.raw", &["1280x800"]);
+    replay_on("vismale-scalp-lasso.touch", "vismale_128x256x256_uint8.raw", &["1280x800"]);
 }
 
 /// 10,000 random type-B events in 60 s with up to 10 fingers, off-screen positions, garbage

@@ -190,10 +190,12 @@ pub enum Method {
     /// `SegmentationOptions::default()`, whatever it is (the paper's method with a majority
     /// pass after labelling).
     Default,
+    /// The default without its majority pass: the classifier's vote voxel by voxel.
+    DefaultVoxelwise,
 }
 
 impl Method {
-    pub const ALL: [Method; 9] = [
+    pub const ALL: [Method; 10] = [
         Method::SnSvmPaper5,
         Method::SnSvmPaper5Global,
         Method::SvmPaper5,
@@ -203,6 +205,7 @@ impl Method {
         Method::ForestMultiscale,
         Method::ForestMultiscaleFine,
         Method::Default,
+        Method::DefaultVoxelwise,
     ];
 
     pub fn name(self) -> &'static str {
@@ -216,6 +219,7 @@ impl Method {
             Method::ForestMultiscale => "forest-multiscale",
             Method::ForestMultiscaleFine => "forest-fine",
             Method::Default => "default",
+            Method::DefaultVoxelwise => "default-voxelwise",
         }
     }
 
@@ -250,6 +254,9 @@ impl Method {
             Method::ForestMultiscale => forest(FeatureSet::Multiscale),
             Method::ForestMultiscaleFine => forest(FeatureSet::MultiscaleFine),
             Method::Default => SegmentationOptions::default(),
+            Method::DefaultVoxelwise => {
+                SegmentationOptions { coherence: segmentation::Coherence::None, ..SegmentationOptions::default() }
+            }
         }
     }
 }

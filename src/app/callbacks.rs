@@ -2,8 +2,8 @@
 //! (the idle timeout restarts), changes state, starts slow work elsewhere, and pushes what
 //! changed back to the UI (refresh.rs).
 
-use super::drawing::{FingerPath, PathMeaning};
 use super::refresh;
+use super::slice_actions::{choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice};
 use super::ui::{AppWindow, Session};
 use super::{Screen, State, autosave};
 use crate::render::Camera;
@@ -39,14 +39,24 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| { open_volume(&w, s, index) }));
-    session.on_lasso_down(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
-        lasso_down(&w, s, panel, [x, y])
+    session.on_lasso_down(handler!(
+        window,
+        state,
+        idle,
+        |w, s, panel: i32, x: f32, y: f32, width: f32, height: f32, ms: f32| {
+            lasso_down(&w, s, panel, [x, y], [width, height], ms as f64)
+        }
+    ));
+    session.on_lasso_move(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+        lasso_move(&w, s, panel, [x, y], ms as f64)
     }));
-    session.on_lasso_move(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
-        lasso_move(&w, s, panel, [x, y])
+    session.on_lasso_up(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+        lasso_up(&w, s, panel, [x, y], ms as f64)
     }));
-    session.on_lasso_up(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32| {
-        lasso_up(&w, s, panel, [x, y])
+    session.on_enlarge(handler!(window, state, idle, |w, s, panel: i32| { enlarge(&w, s, panel) }));
+    session.on_shrink(handler!(window, state, idle, |w, s| { shrink(&w, s) }));
+    session.on_choose_window(handler!(window, state, idle, |w, s, name: slint::SharedString| {
+        choose_window(&w, s, &name)
     }));
     session.on_step_slice(handler!(window, state, idle, |w, s, panel: i32, delta: i32| {
         step_slice(&w, s, panel, delta)
@@ -82,7 +92,7 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     }));
     session.on_reset_view(handler!(window, state, idle, |_w, s| {
         let mut state = s.borrow_mut();
-        state.camera = Camera::default();
+        state.camera = state.home_camera;
         state.view_dirty = true;
     }));
     session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
@@ -124,6 +134,7 @@ fn reset_to_start(window: &AppWindow, state: &Shared) {
         state.restore_unconfirmed = false;
         state.chosen_template = None;
         state.camera = Camera::default();
+        state.home_camera = Camera::default();
         state.banner.clear();
         state.status.clear();
         if let Some(dir) = &state.config.session_dir {
@@ -165,83 +176,8 @@ fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
     refresh::push_status(window, state);
 }
 
-fn lasso_down(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
-    let mut state_ref = state.borrow_mut();
-    let Some(work) = state_ref.work.as_mut() else { return };
-    let mut path = FingerPath::default();
-    path.add(point);
-    work.drawing = Some((panel.max(0) as usize, path));
-    drop(state_ref);
-    refresh::push_lasso(window, state);
-}
-
-fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
-    let mut state_ref = state.borrow_mut();
-    let Some((drawn_on, path)) = state_ref.work.as_mut().and_then(|work| work.drawing.as_mut()) else { return };
-    if *drawn_on != panel.max(0) as usize {
-        return;
-    }
-    path.add(point);
-    drop(state_ref);
-    refresh::push_lasso(window, state);
-}
-
-fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2]) {
-    let meaning = {
-        let mut state_ref = state.borrow_mut();
-        let Some(work) = state_ref.work.as_mut() else { return };
-        let Some((drawn_on, mut path)) = work.drawing.take() else { return };
-        if drawn_on != panel.max(0) as usize || point[0] < 0.0 {
-            None
-        } else {
-            path.add(point);
-            work.panels.get(drawn_on).map(|p| (drawn_on, path.meaning(work.loaded.volume.dims, p.axis, p.slice)))
-        }
-    };
-    refresh::push_lasso(window, state);
-    match meaning {
-        Some((_, PathMeaning::Lasso(lasso))) => edit_session(window, state, |session| {
-            session.add_lasso(lasso);
-            Ok(())
-        }),
-        Some((panel, PathMeaning::Swipe(delta))) => step_slice(window, state, panel as i32, delta),
-        Some((_, PathMeaning::Nothing)) => {
-            state.borrow_mut().status = "Draw a loop around what you want to mark".into();
-            refresh::push_status(window, state);
-        }
-        None => {}
-    }
-}
-
-fn step_slice(window: &AppWindow, state: &Shared, panel: i32, delta: i32) {
-    {
-        let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
-        let ranking = &work.loaded.entropies;
-        let Some(shown) = work.panels.get_mut(panel.max(0) as usize) else { return };
-        let order = &ranking.axis(shown.axis).order;
-        shown.rank = (shown.rank as i64 + delta as i64).clamp(0, order.len() as i64 - 1) as usize;
-        shown.slice = order[shown.rank];
-    }
-    refresh::push_slice(window, state, panel.max(0) as usize);
-}
-
-fn scrub_slice(window: &AppWindow, state: &Shared, panel: i32, slice: i32) {
-    {
-        let mut state = state.borrow_mut();
-        let Some(work) = state.work.as_mut() else { return };
-        let ranking = &work.loaded.entropies;
-        let Some(shown) = work.panels.get_mut(panel.max(0) as usize) else { return };
-        let order = &ranking.axis(shown.axis).order;
-        let slice = (slice.max(0) as usize).min(order.len() - 1);
-        shown.slice = slice;
-        shown.rank = order.iter().position(|&s| s == slice).unwrap_or(0);
-    }
-    refresh::push_slice(window, state, panel.max(0) as usize);
-}
-
 /// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.
-fn edit_session(
+pub(super) fn edit_session(
     window: &AppWindow,
     state: &Shared,
     edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), String>,

@@ -1,36 +1,68 @@
 //! A finger path on a slice picture, turned into what it meant: a lasso (a closed polygon in
-//! voxel coordinates, the strokes file's convention), a horizontal swipe to the next- or
-//! previous-ranked slice, or nothing (a tap or a scribble without area).
+//! the slice's image coordinates, the strokes file's convention), a horizontal swipe to the
+//! next- or previous-ranked slice, or something the app cannot interpret, which the user is
+//! told about ([`Unclear::message`]), never silently dropped. This is the one place that
+//! decides; `touch::gestures` only separates taps, drags and two-finger gestures.
 //!
-//! Why geometry and not timing: a swipe is a nearly straight horizontal stroke, which encloses
-//! almost no area, while a lasso is drawn to enclose some; the two are told apart the same way
-//! whether the events come from a finger, a mouse or a replay script.
+//! The decision is by the path's *shape*, measured in screen pixels (finger scale, the same
+//! whether the slice is small or enlarged and zoomed), never by its direction:
+//! * a **loop** returns near its start relative to its size (the gap from end to start is at
+//!   most [`CLOSE_FRACTION`] of the larger side of its bounding box) and encloses area (at
+//!   least [`LOOP_MIN_FILL`] of that box, and [`LOOP_MIN_AREA_PX`]); so a flat band drawn
+//!   right, down a little, back left and up is a loop, however fast;
+//! * a **swipe** is open, nearly straight (its chord at least [`SWIPE_MIN_STRAIGHTNESS`] of
+//!   its length), long ([`SWIPE_MIN_PX`]), fast ([`SWIPE_MIN_SPEED_PX_PER_S`]) and mostly
+//!   horizontal;
+//! * a tap, a slow or bent open stroke, a scribble that encloses nothing, or a loop around
+//!   less than a voxel is [`PathMeaning::Unclear`].
+//!
+//! Coordinates: the UI reports points as fractions of the picture *as shown*, which
+//! [`SliceLayout`] arranges in the radiological convention (flipped or turned by quarter
+//! turns). A lasso's vertices go through the layout's inverse, so the lasso holds the voxels
+//! under the finger whatever the flips.
 //!
 //! Never: touches the UI or the volume.
 
-use crate::slices::{Axis, SliceGeometry};
+use crate::slices::{Axis, SliceGeometry, SliceLayout};
 use crate::strokes::Lasso;
 
-/// Points closer than this (as a fraction of the picture) to the previous one are dropped: a
-/// finger resting on the glass sends many.
-const MIN_STEP_FRACTION: f32 = 0.003;
+/// Points closer than this (screen pixels) to the previous one are dropped: a finger resting on
+/// the glass sends many.
+const MIN_STEP_PX: f32 = 1.5;
 
 /// A path keeps at most this many points, so a touch storm cannot grow it without bound.
 pub const MAX_PATH_POINTS: usize = 4096;
 
-/// A swipe spans at least this fraction of the picture's width...
-const SWIPE_MIN_WIDTH: f32 = 0.25;
-/// ...while staying within this fraction of its height...
-const SWIPE_MAX_HEIGHT: f32 = 0.12;
+/// A path within this many pixels of where it started is a tap (the gesture recogniser's slop).
+pub const TAP_EXTENT_PX: f32 = crate::touch::gestures::TAP_SLOP_PX;
 
-/// A lasso must enclose at least this fraction of the picture (about a 3x3 voxel patch on a
-/// 128-voxel slice); smaller ones are taps or slips.
-const MIN_AREA_FRACTION: f32 = 0.0004;
+/// A loop ends within this fraction of its bounding box's larger side from its start.
+pub const CLOSE_FRACTION: f32 = 0.35;
+/// A loop encloses at least this fraction of its bounding box (a circle 0.79, a flat band
+/// nearly 1, a scribble back and forth nearly 0)...
+pub const LOOP_MIN_FILL: f32 = 0.15;
+/// ...and at least this many square pixels.
+pub const LOOP_MIN_AREA_PX: f32 = 64.0;
 
-/// The finger path on one slice picture, in fractions (0..1) of the picture's width and height.
-#[derive(Clone, Debug, Default, PartialEq)]
+/// A swipe's chord is at least this fraction of its length (nearly straight)...
+pub const SWIPE_MIN_STRAIGHTNESS: f32 = 0.85;
+/// ...at least this long...
+pub const SWIPE_MIN_PX: f32 = 40.0;
+/// ...covered at least this fast (a flick is 1000 px/s and more; drawing is slower)...
+pub const SWIPE_MIN_SPEED_PX_PER_S: f32 = 400.0;
+/// ...and at least this many times wider than tall.
+pub const SWIPE_MIN_ASPECT: f32 = 2.0;
+
+/// The finger path on one slice picture.
+#[derive(Clone, Debug, PartialEq)]
 pub struct FingerPath {
+    /// The points, in fractions (0..1) of the picture's width and height as shown.
     pub points: Vec<[f32; 2]>,
+    /// The picture's size on screen when the finger landed, in pixels.
+    picture_px: [f32; 2],
+    /// When the first and the last point came, in milliseconds of the UI clock.
+    start_ms: f64,
+    end_ms: f64,
 }
 
 /// What a finished path meant.
@@ -39,17 +71,58 @@ pub enum PathMeaning {
     Lasso(Lasso),
     /// +1: to the next-ranked slice (a swipe to the left, like turning a page); -1: back.
     Swipe(i32),
-    Nothing,
+    Unclear(Unclear),
+}
+
+/// Why a path was neither a loop nor a swipe.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Unclear {
+    /// The finger hardly moved.
+    Tap,
+    /// It did not come back near its start, and was not a quick straight sideways swipe.
+    Open,
+    /// It came back but enclosed (almost) nothing: a line drawn back and forth.
+    NoArea,
+    /// The loop holds no voxel centre.
+    TooSmall,
+    /// The slice is not in the volume (it changed under the finger).
+    NoSlice,
+}
+
+impl Unclear {
+    /// What the user is told.
+    pub fn message(self) -> &'static str {
+        match self {
+            Unclear::Tap | Unclear::NoSlice => "Draw a closed loop around the structure",
+            Unclear::Open => {
+                "Draw a closed loop around the structure: the path did not come back to its start (swipe quickly sideways to change the slice)"
+            }
+            Unclear::NoArea => "Draw a closed loop around the structure: the path enclosed no area",
+            Unclear::TooSmall => "Draw a closed loop around the structure: this loop holds no whole voxel",
+        }
+    }
 }
 
 impl FingerPath {
-    pub fn add(&mut self, fraction: [f32; 2]) {
+    /// A path starting at `fraction` of a picture shown `picture_px` pixels large, at `time_ms`.
+    pub fn new(picture_px: [f32; 2], fraction: [f32; 2], time_ms: f64) -> FingerPath {
+        let picture_px = picture_px.map(|side| if side.is_finite() && side >= 1.0 { side } else { 1.0 });
+        let time_ms = if time_ms.is_finite() { time_ms } else { 0.0 };
+        let mut path = FingerPath { points: Vec::new(), picture_px, start_ms: time_ms, end_ms: time_ms };
+        path.add(fraction, time_ms);
+        path
+    }
+
+    pub fn add(&mut self, fraction: [f32; 2], time_ms: f64) {
         if !(fraction[0].is_finite() && fraction[1].is_finite()) || self.points.len() >= MAX_PATH_POINTS {
             return;
         }
-        if let Some(last) = self.points.last() {
-            let step = (fraction[0] - last[0]).abs().max((fraction[1] - last[1]).abs());
-            if step < MIN_STEP_FRACTION {
+        if time_ms.is_finite() && time_ms >= self.end_ms {
+            self.end_ms = time_ms;
+        }
+        if let Some(&last) = self.points.last() {
+            let [dx, dy] = self.to_px([fraction[0] - last[0], fraction[1] - last[1]]);
+            if dx.abs().max(dy.abs()) < MIN_STEP_PX {
                 return;
             }
         }
@@ -70,96 +143,101 @@ impl FingerPath {
         commands
     }
 
-    /// What the path meant on slice `slice` along `axis` of a volume of `dims`.
-    pub fn meaning(&self, dims: [usize; 3], axis: Axis, slice: usize) -> PathMeaning {
-        let Some(geometry) = SliceGeometry::new(dims, axis, slice) else {
-            return PathMeaning::Nothing;
-        };
-        if self.points.len() < 2 {
-            return PathMeaning::Nothing;
+    fn to_px(&self, fraction: [f32; 2]) -> [f32; 2] {
+        [fraction[0] * self.picture_px[0], fraction[1] * self.picture_px[1]]
+    }
+
+    /// What the path meant on slice `slice` along `layout.axis` of a volume of `dims`, shown
+    /// as `layout` arranges it (module doc).
+    pub fn meaning(&self, dims: [usize; 3], layout: &SliceLayout, slice: usize) -> PathMeaning {
+        let axis: Axis = layout.axis;
+        if SliceGeometry::new(dims, axis, slice).is_none() {
+            return PathMeaning::Unclear(Unclear::NoSlice);
         }
-        let (mut low, mut high) = ([f32::INFINITY; 2], [f32::NEG_INFINITY; 2]);
-        for point in &self.points {
+        let shape = Shape::of(&self.points.iter().map(|&p| self.to_px(p)).collect::<Vec<_>>());
+        if shape.extent < TAP_EXTENT_PX {
+            return PathMeaning::Unclear(Unclear::Tap);
+        }
+        if shape.gap <= CLOSE_FRACTION * shape.extent {
+            if shape.area < LOOP_MIN_AREA_PX || shape.area < LOOP_MIN_FILL * shape.box_area {
+                return PathMeaning::Unclear(Unclear::NoArea);
+            }
+            // Voxel centres at whole numbers: the shown picture spans -0.5 .. size - 0.5.
+            let [width, height] = layout.screen_size(dims).map(|side| side as f64);
+            let points = self
+                .points
+                .iter()
+                .map(|&[x, y]| layout.image_from_screen([x as f64 * width - 0.5, y as f64 * height - 0.5], dims))
+                .collect::<Vec<_>>();
+            let lasso = Lasso { axis, slice, points };
+            if lasso.selected_voxels(dims).is_empty() {
+                return PathMeaning::Unclear(Unclear::TooSmall);
+            }
+            return PathMeaning::Lasso(lasso);
+        }
+        let seconds = ((self.end_ms - self.start_ms) / 1000.0).max(1e-3) as f32;
+        let swipe = shape.chord[0].abs() >= SWIPE_MIN_ASPECT * shape.chord[1].abs()
+            && shape.gap >= SWIPE_MIN_PX
+            && shape.gap >= SWIPE_MIN_STRAIGHTNESS * shape.length
+            && shape.gap / seconds >= SWIPE_MIN_SPEED_PX_PER_S;
+        if swipe {
+            return PathMeaning::Swipe(if shape.chord[0] < 0.0 { 1 } else { -1 });
+        }
+        PathMeaning::Unclear(Unclear::Open)
+    }
+}
+
+/// A path's measurements in screen pixels.
+#[derive(Clone, Copy, Debug)]
+struct Shape {
+    /// From the first point to the last.
+    chord: [f32; 2],
+    /// The chord's length: how far the end is from the start.
+    gap: f32,
+    length: f32,
+    /// The larger side of the bounding box, and the box's area.
+    extent: f32,
+    box_area: f32,
+    /// The area the path encloses when closed by the chord (shoelace, absolute).
+    area: f32,
+}
+
+impl Shape {
+    fn of(points: &[[f32; 2]]) -> Shape {
+        let (Some(&first), Some(&last)) = (points.first(), points.last()) else {
+            return Shape { chord: [0.0; 2], gap: 0.0, length: 0.0, extent: 0.0, box_area: 0.0, area: 0.0 };
+        };
+        let (mut low, mut high) = (first, first);
+        for point in points {
             for a in 0..2 {
                 low[a] = low[a].min(point[a]);
                 high[a] = high[a].max(point[a]);
             }
         }
-        let (first, last) = (self.points[0], self.points[self.points.len() - 1]);
-        if high[0] - low[0] >= SWIPE_MIN_WIDTH && high[1] - low[1] <= SWIPE_MAX_HEIGHT {
-            return PathMeaning::Swipe(if last[0] < first[0] { 1 } else { -1 });
+        let chord = [last[0] - first[0], last[1] - first[1]];
+        let length = points.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum();
+        // In f64 and about the first point, so long paths far from the origin keep their area.
+        let relative = |p: &[f32; 2]| [(p[0] - first[0]) as f64, (p[1] - first[1]) as f64];
+        let twice: f64 = points
+            .iter()
+            .zip(points.iter().cycle().skip(1))
+            .map(|(a, b)| {
+                let (a, b) = (relative(a), relative(b));
+                a[0] * b[1] - b[0] * a[1]
+            })
+            .sum();
+        let size = [high[0] - low[0], high[1] - low[1]];
+        Shape {
+            chord,
+            gap: chord[0].hypot(chord[1]),
+            length,
+            extent: size[0].max(size[1]),
+            box_area: size[0] * size[1],
+            area: (twice.abs() / 2.0) as f32,
         }
-        if self.points.len() < 3 || enclosed_area(&self.points) < MIN_AREA_FRACTION {
-            return PathMeaning::Nothing;
-        }
-        // Voxel (i, j) has its centre at (i, j), so the picture spans -0.5 .. width - 0.5.
-        let (width, height) = (geometry.width as f64, geometry.height as f64);
-        let points =
-            self.points.iter().map(|&[x, y]| [x as f64 * width - 0.5, y as f64 * height - 0.5]).collect::<Vec<_>>();
-        PathMeaning::Lasso(Lasso { axis, slice, points })
     }
-}
-
-/// The area the closed path encloses (shoelace formula, absolute), in picture fractions.
-fn enclosed_area(points: &[[f32; 2]]) -> f32 {
-    let twice: f32 = points.iter().zip(points.iter().cycle().skip(1)).map(|(a, b)| a[0] * b[1] - b[0] * a[1]).sum();
-    twice.abs() / 2.0
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    fn path(points: &[[f32; 2]]) -> FingerPath {
-        let mut path = FingerPath::default();
-        for &point in points {
-            path.add(point);
-        }
-        path
-    }
-
-    #[test]
-    fn a_loop_becomes_a_lasso_in_voxel_coordinates() {
-        let square = path(&[[0.25, 0.25], [0.75, 0.25], [0.75, 0.75], [0.25, 0.75]]);
-        let PathMeaning::Lasso(lasso) = square.meaning([100, 40, 10], Axis::Z, 3) else {
-            panic!("not a lasso: {:?}", square.meaning([100, 40, 10], Axis::Z, 3));
-        };
-        assert_eq!((lasso.axis, lasso.slice), (Axis::Z, 3));
-        assert_eq!(lasso.points[0], [24.5, 9.5]);
-        assert_eq!(lasso.points[2], [74.5, 29.5]);
-        // Half the width and half the height of a 100 x 40 slice: 50 x 20 voxels.
-        assert_eq!(lasso.selected_voxels([100, 40, 10]).len(), 50 * 20);
-    }
-
-    #[test]
-    fn a_flat_horizontal_stroke_is_a_swipe_with_a_direction() {
-        let left = path(&[[0.8, 0.5], [0.5, 0.52], [0.2, 0.5]]);
-        assert_eq!(left.meaning([64, 64, 64], Axis::X, 1), PathMeaning::Swipe(1));
-        let right = path(&[[0.2, 0.5], [0.6, 0.48]]);
-        assert_eq!(right.meaning([64, 64, 64], Axis::X, 1), PathMeaning::Swipe(-1));
-    }
-
-    #[test]
-    fn taps_lines_and_tiny_loops_mean_nothing() {
-        let dims = [64, 64, 64];
-        assert_eq!(path(&[[0.5, 0.5]]).meaning(dims, Axis::Z, 0), PathMeaning::Nothing);
-        assert_eq!(path(&[[0.1, 0.1], [0.2, 0.2], [0.3, 0.3]]).meaning(dims, Axis::Z, 0), PathMeaning::Nothing);
-        let tiny = path(&[[0.5, 0.5], [0.51, 0.5], [0.51, 0.51], [0.5, 0.51]]);
-        assert_eq!(tiny.meaning(dims, Axis::Z, 0), PathMeaning::Nothing);
-        let square = path(&[[0.2, 0.2], [0.6, 0.2], [0.6, 0.6]]);
-        assert_eq!(square.meaning(dims, Axis::Z, 64), PathMeaning::Nothing, "slice outside the volume");
-    }
-
-    #[test]
-    fn paths_are_bounded_and_ignore_non_finite_points() {
-        let mut path = FingerPath::default();
-        path.add([f32::NAN, 0.5]);
-        assert!(path.points.is_empty());
-        for k in 0..3 * MAX_PATH_POINTS {
-            path.add([(k % 100) as f32 / 100.0, (k / 100) as f32 / 1000.0]);
-        }
-        assert_eq!(path.points.len(), MAX_PATH_POINTS);
-        assert!(path.svg_commands().starts_with("M 0.0 0.0 L 10.0 0.0"));
-        assert!(path.svg_commands().ends_with('Z'));
-    }
-}
+#[path = "drawing_tests.rs"]
+mod tests;

@@ -1,5 +1,5 @@
 //! The volumes the chooser offers: the built-in demo phantom and every volume file or DICOM
-//! folder in the data folder; opening one (with its ranked slices and display window) and
+//! folder in the data folder; opening one (with its ranked slices and display windows) and
 //! its thumbnail happen on worker threads, and failures come back as messages for a card or a
 //! banner.
 //!
@@ -10,7 +10,8 @@
 //!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
-use crate::slices::{Axis, DisplayWindow, SliceEntropies, foreground_slice_entropies, slice_image};
+use super::windowing::WindowChoices;
+use crate::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use crate::transfer::RgbImage;
 use crate::volume::{OpenOptions, Volume, open::detect_format};
 use std::path::{Path, PathBuf};
@@ -113,7 +114,8 @@ pub struct LoadedVolume {
     pub source: VolumeSource,
     pub volume: Arc<Volume>,
     pub entropies: SliceEntropies,
-    pub window: DisplayWindow,
+    /// The display windows offered, the first shown at once.
+    pub windows: WindowChoices,
 }
 
 /// Runs `work`, turning a panic inside it into an error: the worker survives, and the file
@@ -163,21 +165,27 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
     let entropies = foreground_slice_entropies(&volume);
     // Here, off the interactive path: every training on the volume needs it.
     volume.otsu_threshold();
-    let window = DisplayWindow::automatic(&volume);
-    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, window })
+    let windows = WindowChoices::for_volume(&volume);
+    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, windows })
 }
 
-/// The thumbnail and a one-line description of a loaded volume.
+/// The thumbnail and a one-line description of a loaded volume: its top axial slice (the
+/// stored z slice when the orientation is unknown), shown as the work screen shows it.
 pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), String> {
     let volume = &loaded.volume;
-    let slice = loaded.entropies.axis(Axis::Z).top();
-    let grey = slice_image(volume, Axis::Z, slice, loaded.window).map_err(|e| e.to_string())?;
-    let step = (grey.width.max(grey.height)).div_ceil(THUMBNAIL_SIDE).max(1);
-    let (width, height) = (grey.width.div_ceil(step), grey.height.div_ceil(step));
+    let orientation = volume.orientation.as_ref();
+    let layout = SliceLayout::new(orientation, plane_axes(orientation)[0]);
+    let slice = loaded.entropies.axis(layout.axis).top();
+    let grey = slice_image(volume, layout.axis, slice, loaded.windows.initial().window).map_err(|e| e.to_string())?;
+    let (shown, shown_width, shown_height) = layout
+        .arrange_pixels(&grey.pixels, 1, grey.width, grey.height)
+        .ok_or_else(|| format!("slice {slice} along {}: the picture does not hold its pixels", layout.axis))?;
+    let step = (shown_width.max(shown_height)).div_ceil(THUMBNAIL_SIDE).max(1);
+    let (width, height) = (shown_width.div_ceil(step), shown_height.div_ceil(step));
     let mut pixels = Vec::with_capacity(width * height * 3);
     for j in 0..height {
         for i in 0..width {
-            pixels.extend([grey.pixels[(j * step) * grey.width + i * step]; 3]);
+            pixels.extend([shown[(j * step) * shown_width + i * step]; 3]);
         }
     }
     let [x, y, z] = volume.dims;
@@ -188,7 +196,7 @@ pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), String> {
 /// What the loader thread reports.
 pub enum LoaderEvent {
     Thumbnail { index: usize, result: Result<(RgbImage, String), String> },
-    Opened { index: usize, result: Result<LoadedVolume, String> },
+    Opened { index: usize, result: Result<Box<LoadedVolume>, String> },
 }
 
 /// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
@@ -222,7 +230,7 @@ impl Loader {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         let failed = sender.clone();
         if !spawn("open", move || {
-            let result = guarded(&source, || load(&source, &options));
+            let result = guarded(&source, || load(&source, &options)).map(Box::new);
             let _ = sender.send(LoaderEvent::Opened { index, result });
         }) {
             let _ = failed.send(LoaderEvent::Opened { index, result: Err("cannot start a thread to open it".into()) });

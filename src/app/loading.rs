@@ -1,6 +1,8 @@
 //! What the loader thread reports, applied to the app: thumbnails onto the chooser's cards, a
 //! file that cannot be opened onto its card ("Cannot open" and why) and the banner, an opened
-//! volume onto the work screen (with the saved session's classes), and the restore marker
+//! volume onto the work screen (with the saved session's classes, its panels in the
+//! radiological convention, the 3-D view's home position and a banner for what its reader
+//! tolerated, such as a missing slice under `--allow-gaps`), and the restore marker
 //! lifted once a restored session has opened and classified (autosave.rs). Also the periodic
 //! listing of the data folder, whose new volumes join the chooser.
 //!
@@ -10,7 +12,9 @@ use super::library::{LoadedVolume, LoaderEvent, VolumeSource};
 use super::refresh::{session_changed, show_screen, to_slint_image};
 use super::session::WorkSession;
 use super::ui::{AppWindow, Session, VolumeCard};
-use super::{PANEL_AXES, Panel, Screen, State, Work, autosave};
+use super::{Panel, Screen, State, Work, autosave};
+use crate::render::Camera;
+use crate::slices::{HomeView, SliceLayout, plane_axes};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -93,7 +97,7 @@ pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
             match result {
                 Ok(loaded) => {
                     drop(state_ref);
-                    open_work(window, state, loaded);
+                    open_work(window, state, *loaded);
                 }
                 Err(message) => {
                     let source = state_ref.sources.get(index).cloned();
@@ -136,9 +140,16 @@ fn reason(message: &str, source: Option<&VolumeSource>) -> String {
 /// The work screen on a newly opened volume, with the saved session's classes if it was saved
 /// for this volume.
 fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
+    let caption;
     {
         let mut state = state.borrow_mut();
-        let panels = PANEL_AXES.map(|axis| Panel { axis, rank: 0, slice: loaded.entropies.axis(axis).top() });
+        let orientation = loaded.volume.orientation.as_ref();
+        let panels = plane_axes(orientation).map(|axis| Panel {
+            axis,
+            rank: 0,
+            slice: loaded.entropies.axis(axis).top(),
+            layout: SliceLayout::new(orientation, axis),
+        });
         let mut session = WorkSession::default();
         if let Some(saved) = state.restore.take()
             && saved.volume == loaded.source.key()
@@ -148,11 +159,56 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
                 state.chosen_template = Some(crate::transfer::HueTemplate::new(template, saved.rotation_degrees));
             }
         }
+        let home = orientation.map(HomeView::of);
+        caption = home_caption(home.as_ref());
+        state.home_camera = match home {
+            Some(home) => Camera {
+                azimuth_degrees: home.azimuth_degrees,
+                elevation_degrees: home.elevation_degrees,
+                ..Camera::default()
+            },
+            None => Camera::default(),
+        };
+        state.camera = state.home_camera;
+        if !loaded.volume.warnings.is_empty() {
+            for warning in &loaded.volume.warnings {
+                log::warn!("{}: {warning}", loaded.source.name());
+            }
+            state.banner = format!("{}: {}", loaded.source.name(), loaded.volume.warnings.join("; "));
+        }
         state.renderer.set_volume(loaded.volume.clone());
-        state.camera = crate::render::Camera::default();
-        state.work = Some(Work { loaded, session, panels, drawing: None, classified: None, requested: None });
+        let initial = loaded.windows.initial();
+        state.work = Some(Work {
+            loaded,
+            session,
+            panels,
+            drawing: None,
+            classified: None,
+            requested: None,
+            window: initial.window,
+            window_name: initial.name.to_string(),
+            enlarged: None,
+            zoom: 1.0,
+            pan: [0.0; 2],
+            feedback: None,
+        });
     }
-    window.global::<Session>().set_view_picture(slint::Image::default());
+    let session = window.global::<Session>();
+    session.set_view_picture(slint::Image::default());
+    session.set_view_caption(caption.into());
     show_screen(window, Screen::Work);
     session_changed(window, state);
+}
+
+/// What the 3-D view says about its home position: nothing when it shows the patient from the
+/// front with the head up; otherwise what it shows instead (`HomeView`'s flags).
+pub(super) fn home_caption(home: Option<&HomeView>) -> &'static str {
+    match home {
+        None => "Orientation unknown: stored axes",
+        Some(home) if home.mirrored => {
+            "Front view, mirrored: the patient's left is on the left (left-handed file axes)"
+        }
+        Some(home) if !home.exact => "Nearest front view with the head up",
+        Some(_) => "",
+    }
 }

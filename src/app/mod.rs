@@ -1,12 +1,19 @@
 //! The kiosk app: the Slint UI (`ui/*.slint`) wired to the pipeline. It holds what the user is
 //! doing (the open volume, the three slices shown, the session of classes and lassos, the
 //! camera) and runs everything slow elsewhere: volumes open on a loader thread, the
-//! classifier on a job thread, the 3-D view on a render thread. The UI thread only moves
-//! data between them and Slint, so it never blocks (issue 6).
+//! classifier on a job thread, the 3-D view on a render thread. The UI thread moves data
+//! between them and Slint and never waits for them; it writes the autosave and draws the
+//! slice pictures itself.
 //!
-//! Data flow: callbacks (callbacks.rs) change [`State`]; a 16 ms poll timer collects finished
-//! work (`loading.rs` applies what the loader reports); `refresh.rs` pushes state into the
-//! `Session` global. Every volume file is treated as hostile: one that fails or panics its
+//! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
+//! [`State`]; a 16 ms poll timer collects finished work (`loading.rs` applies what the loader
+//! reports); `refresh.rs` pushes state into the `Session` global.
+//!
+//! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
+//! sagittal panels with the patient's directions at their edges; the stored order and
+//! "orientation unknown" when the file says nothing), and the 3-D view starts from the front
+//! with the head up (`slices::HomeView`). Lassos are stored in voxel coordinates whatever the
+//! flips (drawing.rs), and display windows never reach the classifier (windowing.rs). Every volume file is treated as hostile: one that fails or panics its
 //! reader becomes a "Cannot open" card, and a saved session that cannot be restored (or that
 //! stopped the app while restoring) is set aside with a banner (`autosave.rs`).
 //!
@@ -26,11 +33,13 @@ mod loading;
 pub mod pictures;
 mod refresh;
 pub mod session;
+mod slice_actions;
 pub mod ui;
 pub mod view3d;
+pub mod windowing;
 
 use crate::render::Camera;
-use crate::slices::Axis;
+use crate::slices::{Axis, DisplayWindow, SliceLayout};
 use crate::strokes::StrokesFile;
 use crate::transfer::HueTemplate;
 use crate::volume::OpenOptions;
@@ -85,9 +94,6 @@ const POLL_INTERVAL: Duration = Duration::from_millis(16);
 /// while the app runs (a USB import on the appliance) appear in the chooser.
 const RESCAN_POLLS: u32 = 125;
 
-/// The slices the work screen shows, by panel: axial, coronal, sagittal.
-const PANEL_AXES: [Axis; 3] = [Axis::Z, Axis::Y, Axis::X];
-
 /// The screens of `Session.screen`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Screen {
@@ -96,25 +102,40 @@ pub enum Screen {
     Work = 2,
 }
 
-/// One slice panel: which axis, and where in that axis's entropy ranking it stands.
+/// The panels of the work screen: axial, coronal, sagittal (`slices::plane_axes`).
+const PANEL_COUNT: usize = 3;
+
+/// One slice panel: which axis, where in that axis's ranking it stands, and how it lies on the
+/// screen.
 #[derive(Clone, Copy, Debug)]
 struct Panel {
     axis: Axis,
-    /// 0 = the highest-entropy slice.
+    /// 0 = the highest-ranked slice.
     rank: usize,
     slice: usize,
+    layout: SliceLayout,
 }
 
 /// An open volume and the user's work on it.
 struct Work {
     loaded: LoadedVolume,
     session: WorkSession,
-    panels: [Panel; 3],
+    panels: [Panel; PANEL_COUNT],
     /// The finger path being drawn, on which panel.
     drawing: Option<(usize, FingerPath)>,
     classified: Option<Classified>,
     /// The training data of the newest job started, so an unchanged set is not sent again.
     requested: Option<StrokesFile>,
+    /// The display window of the slices and its name (a preset, or "Custom" after a drag).
+    window: DisplayWindow,
+    window_name: String,
+    /// The panel that fills the work area, if one does, with its zoom (1 = fits) and pan
+    /// (fractions of the visible area, from its centre).
+    enlarged: Option<usize>,
+    zoom: f32,
+    pan: [f32; 2],
+    /// Why the last path on a panel meant nothing, shown on that panel until the next touch.
+    feedback: Option<(usize, String)>,
 }
 
 /// Everything the callbacks and the poll timer share (on the UI thread only).
@@ -132,6 +153,9 @@ struct State {
     jobs: ClassificationJobs,
     renderer: ViewRenderer,
     camera: Camera,
+    /// Where "Reset view" and a double tap take the camera: the volume's anterior view with
+    /// the head up when its orientation is known (`slices::HomeView`).
+    home_camera: Camera,
     /// The template the user picked; until then each class count gets its default
     /// ([`HueTemplate::default_for`]).
     chosen_template: Option<HueTemplate>,
@@ -186,8 +210,12 @@ impl Drop for App {
 
 impl App {
     /// Builds the UI on the current Slint platform. With a saved session in
-    /// `config.session_dir`, its volume opens and its classes come back.
-    pub fn new(config: AppConfig) -> Result<App, slint::PlatformError> {
+    /// `config.session_dir`, its volume opens and its classes come back. Volumes decode into
+    /// at most the kiosk's memory ceiling (`kiosk::memory`) unless the options set one.
+    pub fn new(mut config: AppConfig) -> Result<App, slint::PlatformError> {
+        if config.open_options.max_decoded_bytes.is_none() {
+            config.open_options.max_decoded_bytes = crate::kiosk::memory::kiosk_memory_ceiling();
+        }
         let window = AppWindow::new()?;
         let sources = library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
@@ -206,6 +234,7 @@ impl App {
             jobs: ClassificationJobs::default(),
             renderer: ViewRenderer::new(),
             camera: Camera::default(),
+            home_camera: Camera::default(),
             chosen_template: None,
             orbit_from: None,
             view_dirty: false,
@@ -309,10 +338,21 @@ impl App {
         callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
     }
 
+    /// A two-finger gesture on the slice normal to `axis`: `zoom` multiplies the zoom and
+    /// `pan` moves it (fractions of the slice's visible area) when that slice is enlarged;
+    /// otherwise `pan` drags the display window (windowing.rs).
+    pub fn slice_gesture(&self, axis: Axis, zoom: f32, pan: [f32; 2]) {
+        slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
+    }
+
     /// The app's state by name, for replay scripts' `expect KEY VALUE`: `screen` (start,
     /// chooser, work), `classes`, `pending`, `volume`, `banner`, `busy`, `classifying`, `classified`,
-    /// `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the chooser's cards) and
-    /// `cannot-open` (those whose file cannot be opened).
+    /// `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the chooser's cards),
+    /// `cannot-open` (those whose file cannot be opened), `panels` (the panels' axes, e.g.
+    /// `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown), `letters-z` /
+    /// `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown), `window`
+    /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
+    /// on a panel) and `camera` (azimuth and elevation in degrees).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
@@ -332,10 +372,26 @@ impl App {
                 let template = state.template();
                 format!("{} {}", template.template.name(), template.rotation_degrees)
             }
+            "panels" => work.map_or(String::new(), |w| w.panels.map(|p| p.axis.name()).join(",")),
+            "window" => work.map_or(String::new(), |w| windowing::describe(&w.window_name, w.window)),
+            "enlarged" => {
+                work.and_then(|w| w.enlarged).and_then(|p| work?.panels.get(p)).map_or("none", |p| p.axis.name()).into()
+            }
+            "zoom" => format!("{:.1}", work.map_or(1.0, |w| w.zoom)),
+            "feedback" => work.and_then(|w| w.feedback.as_ref()).map_or(String::new(), |(_, m)| m.clone()),
+            "camera" => format!("{:.1} {:.1}", state.camera.azimuth_degrees, state.camera.elevation_degrees),
             _ => {
-                let axis = key.strip_prefix("slice-").and_then(Axis::from_name)?;
-                let panel = work?.panels.iter().find(|panel| panel.axis == axis)?;
-                panel.slice.to_string()
+                let (kind, axis) = key.rsplit_once('-')?;
+                let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;
+                match kind {
+                    "slice" => panel.slice.to_string(),
+                    "plane" => panel.layout.plane.map_or("unknown", |plane| plane.name()).to_string(),
+                    "letters" => panel
+                        .layout
+                        .edge_letters
+                        .map_or(String::new(), |l| [l.top, l.right, l.bottom, l.left].join(",")),
+                    _ => return None,
+                }
             }
         };
         Some(value)

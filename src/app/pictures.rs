@@ -1,11 +1,13 @@
 //! The pictures the work screen shows on its slices: the grey slice through the display
 //! window, the classification's colours over it (paper §3.5's colours, so slices and 3-D view
 //! agree), and the voxels of the lassos drawn on this slice, highlighted the moment the finger
-//! lifts (the feedback the paper's users missed).
+//! lifts (the feedback the paper's users missed). All three are drawn in the slice's image
+//! coordinates and then arranged together by the panel's [`SliceLayout`] (the radiological
+//! convention's flips and quarter turns), so colours always lie on the voxels they belong to.
 //!
 //! Never: touches the UI; pictures are plain [`RgbImage`]s.
 
-use crate::slices::{Axis, DisplayWindow, SliceGeometry, slice_image};
+use crate::slices::{DisplayWindow, SliceGeometry, SliceLayout, slice_image};
 use crate::strokes::{Lasso, polygon_rows};
 use crate::transfer::{ClassStyle, DEFAULT_OVERLAY_ALPHA, HueTemplate, RgbImage, hsv_to_rgb, slice_overlay};
 use crate::volume::Volume;
@@ -20,16 +22,20 @@ pub struct Highlight<'a> {
     pub colour: [u8; 3],
 }
 
-/// The picture of `slice` along `axis`: grey, the classification (labels and styles) if
-/// any, then the highlighted lassos that lie on this slice.
+/// The picture of `slice` along `layout.axis` as the screen shows it: grey, the
+/// classification (labels and styles) if any, then the highlighted lassos that lie on this
+/// slice, arranged by `layout`. An error when the volume's file shrank under its memory map
+/// (reading it would crash the app).
 pub fn slice_picture(
     volume: &Volume,
-    axis: Axis,
+    layout: &SliceLayout,
     slice: usize,
     window: DisplayWindow,
     classification: Option<(&[u8], &[ClassStyle])>,
     highlights: &[Highlight],
 ) -> Result<RgbImage, String> {
+    volume.check_still_mapped().map_err(|e| e.to_string())?;
+    let axis = layout.axis;
     let mut picture = match classification {
         Some((labels, styles)) => slice_overlay(volume, labels, styles, axis, slice, window, DEFAULT_OVERLAY_ALPHA)
             .map_err(|e| e.to_string())?,
@@ -40,7 +46,7 @@ pub fn slice_picture(
         }
     };
     let Some(geometry) = SliceGeometry::new(volume.dims, axis, slice) else {
-        return Ok(picture);
+        return Err(format!("slice {slice} along {axis} is outside the volume"));
     };
     for highlight in highlights {
         for lasso in highlight.lassos.iter().filter(|lasso| lasso.axis == axis && lasso.slice == slice) {
@@ -54,7 +60,10 @@ pub fn slice_picture(
             });
         }
     }
-    Ok(picture)
+    let (pixels, width, height) = layout
+        .arrange_pixels(&picture.pixels, 3, picture.width, picture.height)
+        .ok_or_else(|| format!("slice {slice} along {axis}: the picture does not hold its pixels"))?;
+    Ok(RgbImage { width, height, pixels })
 }
 
 /// The colour a class is shown with in the class bar: its style's mid hue once classified,
@@ -73,20 +82,24 @@ pub fn class_colour(style: Option<&ClassStyle>, template: &HueTemplate, index: u
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::app::drawing::{FingerPath, PathMeaning};
     use crate::phantom::demo_foot_with;
+    use crate::slices::Axis;
+    use crate::volume::PatientOrientation;
 
     #[test]
     fn lasso_voxels_on_the_slice_are_tinted_and_others_are_not() {
         let phantom = demo_foot_with([32, 24, 16], 3).unwrap();
         let volume = &phantom.volume;
         let window = DisplayWindow::automatic(volume);
-        let plain = slice_picture(volume, Axis::Z, 8, window, None, &[]).unwrap();
+        let layout = SliceLayout::new(None, Axis::Z);
+        let plain = slice_picture(volume, &layout, 8, window, None, &[]).unwrap();
         let lassos = [
             Lasso { axis: Axis::Z, slice: 8, points: vec![[1.5, 1.5], [5.5, 1.5], [5.5, 5.5], [1.5, 5.5]] },
             Lasso { axis: Axis::Z, slice: 9, points: vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]] },
         ];
         let tinted =
-            slice_picture(volume, Axis::Z, 8, window, None, &[Highlight { lassos: &lassos, colour: [255, 0, 0] }])
+            slice_picture(volume, &layout, 8, window, None, &[Highlight { lassos: &lassos, colour: [255, 0, 0] }])
                 .unwrap();
         let changed: Vec<usize> = (0..plain.width * plain.height)
             .filter(|&p| plain.pixels[3 * p..][..3] != tinted.pixels[3 * p..][..3])
@@ -96,6 +109,81 @@ mod tests {
         assert!(changed.iter().all(|&p| (2..=5).contains(&(p % 32)) && (2..=5).contains(&(p / 32))));
         let pixel = &tinted.pixels[3 * (3 * 32 + 3)..][..3];
         assert!(pixel[0] > pixel[1] && pixel[0] > pixel[2], "{pixel:?}");
+    }
+
+    /// The screen pixels of `picture` that are not grey.
+    fn coloured(picture: &RgbImage) -> Vec<[usize; 2]> {
+        (0..picture.width * picture.height)
+            .filter(|&p| {
+                let rgb = &picture.pixels[3 * p..][..3];
+                rgb[0] != rgb[1] || rgb[1] != rgb[2]
+            })
+            .map(|p| [p % picture.width, p / picture.width])
+            .collect()
+    }
+
+    #[test]
+    fn lassos_and_classes_show_under_the_finger_on_flipped_and_turned_panels() {
+        // A sagittally stored MRI (x anterior, y inferior, z left): every panel is turned or
+        // flipped on screen.
+        let dims = [12, 16, 20];
+        let mut volume = Volume::from_f32(dims, [1.0; 3], &vec![0.5; 12 * 16 * 20], std::path::Path::new("t")).unwrap();
+        volume.orientation = PatientOrientation::new([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]], None);
+        let window = DisplayWindow::from_range(0.0, 1.0);
+        let red = ClassStyle {
+            hue_degrees: [0.0, 0.0],
+            saturation: 1.0,
+            value: 1.0,
+            opacity: [1.0, 1.0],
+            gradient_max: 1.0,
+            emphasis: 1.0,
+            visible: true,
+        };
+        // The finger goes round screen pixels 2..=5 across and 3..=8 down.
+        let under_finger: Vec<[usize; 2]> = (3..=8).flat_map(|v| (2..=5).map(move |u| [u, v])).collect();
+        for axis in Axis::ALL {
+            let layout = SliceLayout::new(volume.orientation.as_ref(), axis);
+            let [width, height] = layout.screen_size(dims).map(|side| side as f32);
+            let at = |u: f32, v: f32| [(u + 0.5) / width, (v + 0.5) / height];
+            let mut path = FingerPath::new([10.0 * width, 10.0 * height], at(1.5, 2.5), 0.0);
+            for (k, point) in [at(5.5, 2.5), at(5.5, 8.5), at(1.5, 8.5), at(1.5, 2.5)].into_iter().enumerate() {
+                path.add(point, 200.0 * (k + 1) as f64);
+            }
+            let PathMeaning::Lasso(lasso) = path.meaning(dims, &layout, 4) else { panic!("{axis}: not a lasso") };
+            let highlighted = slice_picture(
+                &volume,
+                &layout,
+                4,
+                window,
+                None,
+                &[Highlight { lassos: std::slice::from_ref(&lasso), colour: [255, 0, 0] }],
+            )
+            .unwrap();
+            assert_eq!([highlighted.width, highlighted.height], layout.screen_size(dims));
+            assert_eq!(coloured(&highlighted), under_finger, "{axis}: lasso highlight");
+            let mut labels = vec![0u8; volume.voxel_count()];
+            for voxel in lasso.selected_voxels(dims) {
+                labels[voxel] = 1;
+            }
+            let classified =
+                slice_picture(&volume, &layout, 4, window, Some((&labels, std::slice::from_ref(&red))), &[]).unwrap();
+            assert_eq!(coloured(&classified), under_finger, "{axis}: class overlay");
+        }
+    }
+
+    #[test]
+    fn a_volume_file_truncated_while_open_gives_a_message_not_a_crash() {
+        let folder = tempfile::tempdir().unwrap();
+        let path = folder.path().join("cut_16x16x16_uint8.raw");
+        std::fs::write(&path, vec![9u8; 4096]).unwrap();
+        let volume = crate::volume::open(&path, &crate::volume::OpenOptions::default()).unwrap();
+        assert!(volume.is_memory_mapped());
+        let layout = SliceLayout::new(None, Axis::Z);
+        let window = DisplayWindow::from_range(0.0, 255.0);
+        assert!(slice_picture(&volume, &layout, 15, window, None, &[]).is_ok());
+        std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(100).unwrap();
+        let error = slice_picture(&volume, &layout, 15, window, None, &[]).unwrap_err();
+        assert!(error.contains(&path.display().to_string()), "{error}");
     }
 
     #[test]

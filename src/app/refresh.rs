@@ -6,7 +6,7 @@ use super::loading;
 use super::pictures::{Highlight, class_colour, slice_picture};
 use super::ui::{AppWindow, ClassEntry, Session, SliceView, VolumeCard};
 use super::view3d::RenderReply;
-use super::{PANEL_AXES, Screen, State, autosave};
+use super::{PANEL_COUNT, Screen, State, autosave};
 use crate::strokes::{ClassStrokes, StrokesFile};
 use crate::transfer::{ClassStyle, RgbImage, apply_template};
 use slint::{ComponentHandle, Model};
@@ -152,13 +152,31 @@ pub(super) fn save(state: &Shared) {
     }
 }
 
-/// Everything on the work screen: slices, class bar, status.
+/// Everything on the work screen: slices, their layout and window, class bar, status.
 pub(super) fn push_work(window: &AppWindow, state: &Shared) {
-    for panel in 0..PANEL_AXES.len() {
+    for panel in 0..PANEL_COUNT {
         push_slice(window, state, panel);
     }
+    push_slice_layout(window, state);
     push_classes(window, state);
     push_status(window, state);
+}
+
+/// Which slice is enlarged, its zoom and pan, and the display window's name and presets.
+pub(super) fn push_slice_layout(window: &AppWindow, state: &Shared) {
+    let state = state.borrow();
+    let session = window.global::<Session>();
+    let Some(work) = state.work.as_ref() else {
+        session.set_enlarged(-1);
+        return;
+    };
+    session.set_enlarged(work.enlarged.map_or(-1, |panel| panel as i32));
+    session.set_slice_zoom(work.zoom);
+    session.set_slice_pan_x(work.pan[0]);
+    session.set_slice_pan_y(work.pan[1]);
+    session.set_window_name(work.window_name.clone().into());
+    let names: Vec<slint::SharedString> = work.loaded.windows.names().into_iter().map(Into::into).collect();
+    session.set_window_names(Rc::new(slint::VecModel::from(names)).into());
 }
 
 pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
@@ -242,20 +260,21 @@ pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
     let _ = window;
 }
 
-/// The slice picture of one panel (grey, classes, lassos) and its numbers.
+/// The slice picture of one panel (grey, classes, lassos, arranged for the screen) and its
+/// numbers, title, edge letters and feedback.
 pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
-    let state = state.borrow();
-    let model = state.slices_model.clone();
-    let Some(work) = state.work.as_ref() else {
+    let mut state_ref = state.borrow_mut();
+    let model = state_ref.slices_model.clone();
+    let Some(work) = state_ref.work.as_ref() else {
         model.set_vec(Vec::new());
         return;
     };
     let Some(shown) = work.panels.get(panel) else { return };
     let volume = &work.loaded.volume;
-    let styles = display_styles(&state);
+    let styles = display_styles(&state_ref);
     let classification = work.classified.as_ref().zip(styles.as_deref()).map(|(c, s)| (c.labels.as_slice(), s));
-    let template = state.template();
-    let total = state.training_class_count();
+    let template = state_ref.template();
+    let total = state_ref.training_class_count();
     let next = work.session.classes.len();
     let mut highlights: Vec<Highlight> = Vec::new();
     if classification.is_none() {
@@ -264,36 +283,50 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
         }
     }
     highlights.push(Highlight { lassos: &work.session.pending, colour: class_colour(None, &template, next, next + 1) });
-    let picture = match slice_picture(volume, shown.axis, shown.slice, work.loaded.window, classification, &highlights)
+    let layout = &shown.layout;
+    let (picture, failure) = match slice_picture(volume, layout, shown.slice, work.window, classification, &highlights)
     {
-        Ok(picture) => to_slint_image(&picture),
-        Err(message) => {
-            log::warn!("slice picture: {message}");
-            slint::Image::default()
-        }
+        Ok(picture) => (to_slint_image(&picture), None),
+        Err(message) => (slint::Image::default(), Some(message)),
     };
-    let [width_axis, height_axis] = shown.axis.image_axes();
-    let extent = |axis: usize| volume.dims[axis] as f64 * volume.spacing_mm[axis];
+    let [across_mm, down_mm] = layout.screen_extent_mm(volume.dims, volume.spacing_mm);
+    let letters = layout.edge_letters;
+    let letter = |pick: fn(&crate::slices::EdgeLetters) -> &'static str| letters.as_ref().map_or("", pick).into();
     let view = SliceView {
         axis: shown.axis.name().into(),
-        title: match shown.axis.name() {
-            "z" => "Axial z",
-            "y" => "Coronal y",
-            _ => "Sagittal x",
-        }
-        .into(),
+        title: layout.plane.map_or_else(|| format!("Slice {}", shown.axis), |plane| plane.name().to_string()).into(),
+        oriented: layout.plane.is_some(),
         picture,
         slice: shown.slice as i32,
         count: volume.dims[shown.axis.position()] as i32,
         rank: shown.rank as i32 + 1,
-        aspect: (extent(width_axis) / extent(height_axis).max(1e-9)) as f32,
+        aspect: (across_mm / down_mm.max(1e-9)) as f32,
         lasso: work
             .drawing
             .as_ref()
             .filter(|(on, _)| *on == panel)
             .map_or(String::new(), |(_, path)| path.svg_commands())
             .into(),
+        letter_top: letter(|l| l.top),
+        letter_right: letter(|l| l.right),
+        letter_bottom: letter(|l| l.bottom),
+        letter_left: letter(|l| l.left),
+        feedback: work
+            .feedback
+            .as_ref()
+            .filter(|(on, _)| *on == panel)
+            .map_or(String::new(), |(_, m)| m.clone())
+            .into(),
     };
+    if let Some(message) = failure {
+        // The file under the volume changed (truncated) or the slice is gone: say so once.
+        log::warn!("slice picture: {message}");
+        let banner = format!("Cannot show the slice: {message}");
+        if state_ref.banner != banner {
+            state_ref.banner = banner;
+        }
+    }
+    drop(state_ref);
     if panel < model.row_count() {
         model.set_row_data(panel, view);
     } else {

@@ -2,13 +2,20 @@
 //! classified volume offscreen and hands back pictures. The UI thread only sends requests and
 //! shows the newest picture, so a slow GPU (lavapipe takes seconds per frame) never blocks it.
 //! Requests are coalesced: while a frame is drawn, newer cameras replace older ones.
+//! Frames are progressive ([`crate::render::progressive`]): each request is answered at once
+//! with a preview sized to 150 ms, then, while no new request comes, the full frame is drawn
+//! band by band and sent with the same id; any request abandons it.
 //!
 //! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
 //! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
 //!
+//! Before a volume is uploaded its memory map is checked (`Volume::check_still_mapped`): a file
+//! truncated while open gives a message, not a crash.
+//!
 //! Never: touches Slint; never renders on the UI thread.
 
-use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
+use crate::render::headless::OFFSCREEN_FORMAT;
+use crate::render::progressive::ProgressiveView;
 use crate::render::{Camera, RayCaster, RenderMode, RenderSettings, gpu};
 use crate::transfer::ClassStyle;
 use crate::volume::Volume;
@@ -138,9 +145,10 @@ impl Drop for ViewRenderer {
 
 /// The GPU side: opened lazily, kept for the thread's life.
 struct GpuScene {
-    gpu: gpu::Gpu,
     ray_caster: RayCaster,
-    target: Option<(OffscreenTarget, [u32; 2])>,
+    view: ProgressiveView,
+    /// The frame being refined: its id, size and when its preview started.
+    refining: Option<(u64, Camera, [u32; 2], Instant)>,
     has_volume: bool,
     has_labels: bool,
 }
@@ -149,7 +157,21 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
     let mut scene: Option<GpuScene> = None;
     let mut failed = false;
     loop {
-        let Ok(first) = requests.recv() else { return };
+        // While a full frame is refined, draw its next band unless a request is waiting.
+        let first = match scene.as_mut().filter(|scene| scene.refining.is_some()) {
+            Some(scene) => match requests.try_recv() {
+                Ok(request) => request,
+                Err(TryRecvError::Empty) => {
+                    refine(scene, &replies);
+                    continue;
+                }
+                Err(TryRecvError::Disconnected) => return,
+            },
+            None => match requests.recv() {
+                Ok(request) => request,
+                Err(_) => return,
+            },
+        };
         // Take everything queued; keep only the newest frame request.
         let mut batch = vec![first];
         loop {
@@ -173,11 +195,21 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
             }
         }
         let Some(scene) = scene.as_mut() else { continue };
-        let mut frame = None;
+        // The scene or the camera changes: the full frame being refined is out of date; without
+        // a new camera it is started again.
+        let mut frame = scene.refining.take().map(|(id, camera, size, _)| (id, camera, size));
+        scene.view.cancel_full();
         for request in batch {
             let result = match request {
                 Request::Volume(volume) => {
                     scene.has_labels = false;
+                    // A volume file truncated since it was opened would crash the upload
+                    // (SIGBUS on the lost pages): say so instead.
+                    if let Err(error) = volume.check_still_mapped() {
+                        scene.has_volume = false;
+                        let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+                        continue;
+                    }
                     scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true)
                 }
                 Request::Labels(labels, styles) => scene
@@ -199,9 +231,9 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
             if !(scene.has_volume && scene.has_labels) {
                 continue;
             }
-            match draw(scene, &camera, size) {
+            match draw(scene, id, &camera, size) {
                 Ok(picture) => {
-                    let _ = replies.send(RenderReply::Picture(Picture { id, ..picture }));
+                    let _ = replies.send(RenderReply::Picture(picture));
                 }
                 Err(message) => {
                     let _ = replies.send(RenderReply::Failed(message));
@@ -216,25 +248,87 @@ fn open_scene() -> Result<GpuScene, String> {
     log::info!("3-D view renders on {}", gpu.adapter_name());
     let ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT)
         .map_err(|error| format!("3-D view unavailable: {error}"))?;
-    Ok(GpuScene { gpu, ray_caster, target: None, has_volume: false, has_labels: false })
+    let view = ProgressiveView::new(&gpu.device, &gpu.queue);
+    Ok(GpuScene { ray_caster, view, refining: None, has_volume: false, has_labels: false })
 }
 
-fn draw(scene: &mut GpuScene, camera: &Camera, size: [u32; 2]) -> Result<Picture, String> {
-    let started = Instant::now();
-    if scene.target.as_ref().is_none_or(|(_, target_size)| *target_size != size) {
-        let target = OffscreenTarget::new(&scene.gpu.device, &scene.gpu.queue, size[0], size[1], OFFSCREEN_FORMAT)
-            .map_err(|error| format!("3-D view: {error}"))?;
-        scene.target = Some((target, size));
+fn settings() -> RenderSettings {
+    RenderSettings { mode: RenderMode::Postclassified, background: [0.0, 0.0, 0.0, 1.0], ..RenderSettings::default() }
+}
+
+/// Draws the next band of the full frame; sends the frame once it is whole.
+fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
+    let Some((id, _, _, started)) = scene.refining else { return };
+    match scene.view.refine(&mut scene.ray_caster) {
+        Ok(None) if scene.view.refining() => {}
+        Ok(None) => scene.refining = None,
+        Ok(Some(image)) => {
+            scene.refining = None;
+            let _ = replies.send(RenderReply::Picture(Picture { id, image, seconds: started.elapsed().as_secs_f64() }));
+        }
+        Err(error) => {
+            scene.refining = None;
+            let _ = replies.send(RenderReply::Failed(format!("3-D view: {error}")));
+        }
     }
-    let Some((target, _)) = scene.target.as_ref() else {
-        return Err("3-D view: no render target".into());
-    };
-    let settings = RenderSettings {
-        mode: RenderMode::Postclassified,
-        background: [0.0, 0.0, 0.0, 1.0],
-        ..RenderSettings::default()
-    };
-    let image =
-        target.capture(&mut scene.ray_caster, camera, &settings).map_err(|error| format!("3-D view: {error}"))?;
-    Ok(Picture { id: 0, image, seconds: started.elapsed().as_secs_f64() })
+}
+
+/// Draws the preview of a frame and starts its full frame.
+fn draw(scene: &mut GpuScene, id: u64, camera: &Camera, size: [u32; 2]) -> Result<Picture, String> {
+    let started = Instant::now();
+    let settings = settings();
+    let image = scene
+        .view
+        .preview(&mut scene.ray_caster, camera, &settings, size)
+        .map_err(|error| format!("3-D view: {error}"))?;
+    scene.view.start_full(camera, &settings, size);
+    scene.refining = Some((id, *camera, size, started));
+    Ok(Picture { id, image, seconds: started.elapsed().as_secs_f64() })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_frame_comes_back_as_a_preview_then_whole() {
+        let dims = [24usize; 3];
+        let inside = |i: usize| {
+            let p = [i % 24, (i / 24) % 24, i / 576].map(|c| c as f32 - 11.5);
+            p.iter().map(|c| c * c).sum::<f32>() < 64.0
+        };
+        let values: Vec<f32> = (0..24 * 24 * 24).map(|i| if inside(i) { 200.0 } else { 0.0 }).collect();
+        let labels: Vec<u8> = (0..values.len()).map(|i| inside(i) as u8).collect();
+        let volume = Volume::from_f32(dims, [1.0; 3], &values, "sphere".as_ref()).unwrap();
+        let style = ClassStyle {
+            hue_degrees: [30.0, 60.0],
+            saturation: 0.7,
+            value: 0.9,
+            opacity: [0.4, 0.8],
+            gradient_max: 100.0,
+            emphasis: 1.0,
+            visible: true,
+        };
+        let mut renderer = ViewRenderer::new();
+        renderer.set_volume(Arc::new(volume));
+        renderer.set_labels(Arc::new(labels), vec![style]);
+        let size = [160, 100];
+        let id = renderer.request_frame(Camera::default(), size);
+        let mut pictures = Vec::new();
+        let deadline = Instant::now() + Duration::from_secs(120);
+        while pictures.len() < 2 && Instant::now() < deadline {
+            match renderer.poll() {
+                Some(RenderReply::Picture(picture)) => pictures.push(picture),
+                Some(RenderReply::Failed(message)) => panic!("{message}"),
+                None => std::thread::sleep(Duration::from_millis(5)),
+            }
+        }
+        assert_eq!(pictures.len(), 2, "a preview and the full frame");
+        assert!(pictures.iter().all(|picture| picture.id == id));
+        let (preview, full) = (&pictures[0].image, &pictures[1].image);
+        assert!(preview.width() < size[0], "the first preview is smaller: {:?}", preview.dimensions());
+        assert_eq!(full.dimensions(), (size[0], size[1]));
+        assert!(full.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
+        assert!(!renderer.busy());
+    }
 }

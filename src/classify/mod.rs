@@ -1,6 +1,7 @@
 //! Voxel classification by the SN-SVM of Khan, Ksantini, Ahmad & Guan (paper §3.4;
-//! shared/spec/snsvm.md): a kernel SVM whose regulariser adds a kernel nonparametric
-//! discriminant (KND) term, trained one-vs-one over the painted classes.
+//! `docs/snsvm.md`, whose section numbers the modules here cite as `snsvm.md §N`): a kernel
+//! SVM whose regulariser adds a kernel nonparametric discriminant (KND) term, trained
+//! one-vs-one over the painted classes.
 //!
 //! The pipeline inside this module, as in snsvm.md §7:
 //!

@@ -26,7 +26,8 @@ pub struct AccuracyArgs {
     #[arg(long, value_delimiter = ',', default_values_t = [1u64, 2, 3, 4, 5, 6, 7, 8])]
     pub seeds: Vec<u64>,
     /// Methods (default: all): snsvm-paper5, svm-paper5, forest-paper5, svm-multiscale,
-    /// snsvm-multiscale, forest-multiscale, forest-fine, default.
+    /// snsvm-multiscale, forest-multiscale, forest-fine, default,
+    /// default-voxelwise.
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
     /// How the simulated user draws: clean (inside each structure), leaky (loops around it,

@@ -37,6 +37,8 @@ pub enum Command {
     Record(RecordArgs),
     /// Measure classification accuracy on phantoms with known truth (simulated lassos).
     Accuracy(super::accuracy::AccuracyArgs),
+    /// A DICOM storage SCP: a PACS pushes CT/MR series, each stored in --data-dir once complete.
+    Receive(super::receive::ReceiveArgs),
 }
 
 #[derive(Debug, Args)]

@@ -15,8 +15,8 @@
 //! and standardises the training voxels' features; `train` fits the classifier; `predict`
 //! classifies the volume, including the features of every voxel it evaluates (they are
 //! computed on the fly, slab by slab, never stored); `total` is their sum (writing the label
-//! file is not timed). With `--repeat N` each is the median over N runs: the benchmark of
-//! issue 3 (`benches/README.md`).
+//! file is not timed). With `--repeat N` each is the median over N runs: the classification
+//! benchmark (`benches/README.md`).
 
 use super::CliError;
 use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};

@@ -10,6 +10,7 @@ mod import;
 mod info;
 mod memory;
 mod npy;
+mod receive;
 mod record;
 mod render;
 mod replay;
@@ -70,6 +71,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Replay(args)) => replay::run(&args),
         Some(Command::Record(args)) => record::run(&args),
         Some(Command::Accuracy(args)) => accuracy::run(&args),
+        Some(Command::Receive(args)) => receive::run(&args),
         None => ui::run(&ui::UiArgs::from_environment()),
     }
 }

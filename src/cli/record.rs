@@ -1,5 +1,5 @@
 //! `volasso record [--device PATH] --out FILE [--seconds N]`: records a touchscreen's raw events
-//! as `volasso-events/1` (issue 7), for replay through the same tracker the kiosk uses.
+//! as `volasso-events/1`, for replay through the same tracker the kiosk uses.
 //!
 //! Times in the file count from the start of the recording. The file is written atomically
 //! when the time is up (or the device fails, keeping what was read); nothing is written if no

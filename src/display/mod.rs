@@ -1,5 +1,5 @@
 //! The kiosk's screen: whole frames of XRGB8888 pixels shown on a DRM/KMS display, with no
-//! window system, for the appliance image (issue 8, deploy/README.md).
+//! window system, for the appliance image (deploy/README.md).
 //!
 //! Nouns: a *card* is a `/dev/dri/cardN` device; a *connector* is one of its outputs (HDMI-A-1,
 //! Virtual-1) with a list of *modes*; a *CRTC* scans a *framebuffer* out to a connector. Entry

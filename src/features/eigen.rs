@@ -1,6 +1,5 @@
-//! Eigenvalues of symmetric 3 x 3 matrices, for the Hessian features of [`super::multiscale`]
-//! (issue 9): the trigonometric closed form (Smith 1961), one matrix at a time or a group side
-//! by side.
+//! Eigenvalues of symmetric 3 x 3 matrices, for the Hessian features of [`super::multiscale`]:
+//! the trigonometric closed form (Smith 1961), one matrix at a time or a group side by side.
 //!
 //! Both forms run the same operations in the same order, so a matrix gets the same bits either
 //! way (the features use the group form only); the group form lets the compiler keep several matrices in one vector register, and the

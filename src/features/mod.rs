@@ -20,7 +20,7 @@
 //! Both paths share one arithmetic, so they agree bit for bit. [`Standardiser`] maps features to
 //! zero mean and unit deviation, fitted on the training vectors.
 //!
-//! [`FeatureSet::Multiscale`] (issue 9) adds smoothed intensity, gradients, Hessian eigenvalues
+//! [`FeatureSet::Multiscale`] adds smoothed intensity, gradients, Hessian eigenvalues
 //! and differences of Gaussians at four scales, computed blockwise (see [`multiscale`]).
 //!
 //! Never: keeps a feature copy of the volume, knows about classes, or trains anything.
@@ -51,7 +51,7 @@ pub enum FeatureSet {
     #[default]
     Paper5,
     /// Intensity, smoothed intensity, gradient magnitude, Hessian eigenvalues and differences
-    /// of Gaussians at scales 0.8-3.2 voxels (17-D, [`multiscale`]; issue 9).
+    /// of Gaussians at scales 0.8-3.2 voxels (17-D, [`multiscale`]).
     Multiscale,
     /// The same at the two finest scales, 0.8 and 1.15 voxels (9-D; a third of the work).
     MultiscaleFine,

@@ -52,10 +52,9 @@ pub fn run(config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Res
         if let Some(fingers) = &fingers {
             match fingers.recv_timeout(timeout) {
                 Ok(first) => {
-                    let view = view_rect(&app);
                     for event in std::iter::once(first).chain(fingers.try_iter()) {
                         routed.clear();
-                        router.route(&event, view, &mut routed);
+                        router.route(&event, &|label| super::harness::element_rect(&app, label), &mut routed);
                         deliver(&app, &window, &mut routed);
                     }
                 }
@@ -87,12 +86,9 @@ fn deliver(app: &App, window: &KioskWindow, routed: &mut Vec<Routed>) {
         match action {
             Routed::Pointer(event) => window.dispatch(event),
             Routed::ViewGesture { zoom, pan_pixels, turn_degrees } => app.view_gesture(zoom, pan_pixels, turn_degrees),
+            Routed::SliceGesture { axis, zoom, pan_fraction } => app.slice_gesture(axis, zoom, pan_fraction),
         }
     }
-}
-
-fn view_rect(app: &App) -> Option<crate::touch::script::Rect> {
-    super::harness::element_rect(app, "view")
 }
 
 fn copy_rows(pixels: &[Xrgb8888], size: [u32; 2], target: &mut [u32], stride: usize) {

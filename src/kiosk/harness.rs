@@ -58,6 +58,18 @@ pub fn element_rect(app: &App, label: &str) -> Option<Rect> {
     })
 }
 
+/// The accessible value of the element of `app` with accessible label `label` (the first with
+/// a size), with where it is on screen: e.g. the letter at a slice's edge.
+pub fn element_value(app: &App, label: &str) -> Option<(Rect, String)> {
+    ElementHandle::find_by_accessible_label(app.window(), label).find_map(|element| {
+        let (position, size) = (element.absolute_position(), element.size());
+        (size.width > 0.0 && size.height > 0.0).then(|| {
+            let rect = Rect { x: position.x, y: position.y, width: size.width, height: size.height };
+            (rect, element.accessible_value().map(|value| value.to_string()).unwrap_or_default())
+        })
+    })
+}
+
 /// The app under a scripted hand; see the module doc.
 pub struct Harness {
     app: App,
@@ -111,12 +123,17 @@ impl Harness {
         element_rect(&self.app, label)
     }
 
+    /// The accessible value of the element with accessible label `label`, and where it is.
+    pub fn element_value(&self, label: &str) -> Option<(Rect, String)> {
+        element_value(&self.app, label)
+    }
+
     /// Feeds one finger event at its time (the clock moves there first, frame by frame).
     pub fn finger(&mut self, event: &FingerEvent) {
         self.advance_to(Duration::from_micros(event.time_us));
-        let view = self.element_rect("view");
+        let app = &self.app;
         let mut routed = Vec::new();
-        self.router.route(event, view, &mut routed);
+        self.router.route(event, &|label| element_rect(app, label), &mut routed);
         if !routed.is_empty() {
             self.app.note_input();
         }
@@ -126,6 +143,7 @@ impl Harness {
                 Routed::ViewGesture { zoom, pan_pixels, turn_degrees } => {
                     self.app.view_gesture(zoom, pan_pixels, turn_degrees)
                 }
+                Routed::SliceGesture { axis, zoom, pan_fraction } => self.app.slice_gesture(axis, zoom, pan_fraction),
             }
         }
     }

@@ -1,4 +1,4 @@
-//! `volasso replay`: runs a touch script against the real UI, headless (issue 7). A script is
+//! `volasso replay`: runs a touch script against the real UI, headless. A script is
 //! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see src/touch/script) or an
 //! event recording (`volasso-events/1` or evemu-record text). Readable commands become
 //! type-B multitouch events of a virtual touchscreen, and every event, scripted or recorded,
@@ -6,8 +6,11 @@
 //!
 //! Expectations (`expect KEY VALUE`) compare [`App::query`](crate::app::App::query) keys, plus:
 //! `view-colours N` (the 3-D view shows at least N distinct hues), `view-differs NAME` (the 3-D
-//! view differs from the screenshot NAME taken earlier), and `element NAME` (an element with that
-//! accessible label is on screen).
+//! view differs from the screenshot NAME taken earlier), `element NAME` (an element with that
+//! accessible label is on screen), and `letters ELEMENT TOP,RIGHT,BOTTOM,LEFT` (the patient
+//! letters shown at the four edges of a slice, clockwise from the top, e.g.
+//! `expect letters "slice z" A,L,P,R`: each letter is read from the screen's accessibility tree
+//! and must lie at its edge of the part of the slice on screen).
 
 use super::harness::{FrameTimes, Harness};
 use crate::app::AppConfig;
@@ -211,6 +214,7 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
             }
         }
         "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
+        "letters" => expect_letters(harness, value),
         key if expectations::KEYS.contains(&key) => {
             let (volume, labels, strokes) = harness.app().classification().ok_or("nothing is classified yet")?;
             expectations::check(key, value, &volume, &labels, &strokes)
@@ -220,6 +224,53 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
             if found == value { Ok(()) } else { Err(format!("{key} is '{found}', expected '{value}'")) }
         }
     }
+}
+
+/// `expect letters "slice z" A,L,P,R` (module doc).
+fn expect_letters(harness: &Harness, value: &str) -> Result<(), String> {
+    let usage = || format!("letters wants ELEMENT TOP,RIGHT,BOTTOM,LEFT, not '{value}'");
+    let (element, letters) = value.rsplit_once(' ').ok_or_else(usage)?;
+    let wanted: Vec<&str> = letters.split(',').collect();
+    if wanted.len() != 4 {
+        return Err(usage());
+    }
+    let picture = harness.element_rect(element).ok_or(format!("no element '{element}' on screen"))?;
+    // The picture may be zoomed beyond its area: the letters sit on the part that shows.
+    let area = element
+        .strip_prefix("slice ")
+        .and_then(|axis| harness.element_rect(&format!("slice area {axis}")))
+        .unwrap_or(picture);
+    let left = picture.x.max(area.x);
+    let top = picture.y.max(area.y);
+    let shown = Rect {
+        x: left,
+        y: top,
+        width: (picture.x + picture.width).min(area.x + area.width) - left,
+        height: (picture.y + picture.height).min(area.y + area.height) - top,
+    };
+    let mut problems = Vec::new();
+    for (edge, want) in ["top", "right", "bottom", "left"].into_iter().zip(wanted) {
+        let label = format!("{element} letter {edge}");
+        let Some((rect, letter)) = harness.element_value(&label) else {
+            problems.push(format!("no {edge} letter"));
+            continue;
+        };
+        if letter != want {
+            problems.push(format!("{edge} is '{letter}', expected '{want}'"));
+        }
+        let centre = rect.point([0.5, 0.5]);
+        let at_edge = shown.contains(centre)
+            && match edge {
+                "top" => centre[1] < shown.y + 0.25 * shown.height,
+                "bottom" => centre[1] > shown.y + 0.75 * shown.height,
+                "left" => centre[0] < shown.x + 0.25 * shown.width,
+                _ => centre[0] > shown.x + 0.75 * shown.width,
+            };
+        if !at_edge {
+            problems.push(format!("the {edge} letter is at {centre:?}, not at that edge of {shown:?}"));
+        }
+    }
+    if problems.is_empty() { Ok(()) } else { Err(format!("{element}: {}", problems.join("; "))) }
 }
 
 /// The RGB pixels of the 3-D view's rectangle in `screen`.

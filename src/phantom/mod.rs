@@ -23,7 +23,7 @@
 //! voxels it is all partial volume, and its intermediate values are also those of every
 //! bone surface's blurred edge, so voxel features reaching one voxel out mistake the whole
 //! bone-soft tissue interface for joint (Dice about 0.1-0.5). It stays in the truth as the
-//! benchmark for richer features (issue 9); the acceptance class set is air, soft tissue, bone.
+//! benchmark for richer features (`volasso accuracy`); the acceptance class set is air, soft tissue, bone.
 //!
 //! Generation is deterministic (noise comes from a hash of seed and voxel index, not from a
 //! stream, so the thread schedule cannot change a bit) and parallel over z slices.

@@ -1,4 +1,4 @@
-//! Procedural phantoms with known truth for the accuracy harness (issue 9), beside the demo
+//! Procedural phantoms with known truth for the accuracy harness, beside the demo
 //! foot: each is a function from a point in millimetres to a class, turned into a volume by
 //! per-class values, texture, a smooth multiplicative bias field, partial-volume blur and noise.
 //!

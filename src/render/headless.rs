@@ -8,7 +8,7 @@
 
 use super::preclassify::preclassified_rgba;
 use super::volume_texture::VolumeGeometry;
-use super::{Camera, RayCaster, RenderError, RenderMode, RenderSettings};
+use super::{Camera, PixelRegion, RayCaster, RenderError, RenderMode, RenderSettings};
 use crate::transfer::ClassStyle;
 use crate::volume::Volume;
 use std::path::Path;
@@ -122,13 +122,29 @@ impl OffscreenTarget {
         camera: &Camera,
         settings: &RenderSettings,
     ) -> Result<(), RenderError> {
+        self.draw_region(ray_caster, camera, settings, None)
+    }
+
+    /// The width and height of the target in pixels.
+    pub fn size(&self) -> [u32; 2] {
+        self.size
+    }
+
+    /// Draws `region` of a frame (`None`: all of it) and waits for the GPU to finish it.
+    pub fn draw_region(
+        &self,
+        ray_caster: &mut RayCaster,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: Option<PixelRegion>,
+    ) -> Result<(), RenderError> {
         if ray_caster.target_format() != self.texture.format() {
             return Err(RenderError::WrongTargetFormat { found: ray_caster.target_format() });
         }
         ray_caster.resize(self.size[0], self.size[1]);
         let mut encoder =
             self.device.create_command_encoder(&wgpu::CommandEncoderDescriptor { label: Some("offscreen frame") });
-        ray_caster.render(&mut encoder, &self.view, camera, settings)?;
+        ray_caster.render_region(&mut encoder, &self.view, camera, settings, region)?;
         let submission = self.queue.submit([encoder.finish()]);
         self.wait(submission)
     }

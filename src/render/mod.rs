@@ -11,8 +11,10 @@
 //! eight neighbouring labels, so colours never bleed across class borders.
 //!
 //! Modules: [`gpu`] (device acquisition), [`volume_texture`] (slab uploads), [`bricks`]
-//! (empty-space skipping), [`camera`], [`settings`], [`uniforms`] (the shader's twins),
-//! [`raycast`] ([`RayCaster`]), [`preclassify`] (the RGBA volume on the CPU), [`headless`]
+//! (empty-space skipping), [`cells`] (one fetch per sample away from class borders),
+//! [`camera`], [`settings`], [`uniforms`] (the shader's twins), [`raycast`] ([`RayCaster`]),
+//! [`progressive`] (previews sized to a time budget, full frames in bands), [`preclassify`]
+//! (the RGBA volume on the CPU), [`headless`]
 //! (offscreen rendering to images and PNG files).
 //!
 //! ```no_run
@@ -35,10 +37,12 @@
 
 pub mod bricks;
 pub mod camera;
+pub mod cells;
 pub mod error;
 pub mod gpu;
 pub mod headless;
 pub mod preclassify;
+pub mod progressive;
 pub mod raycast;
 pub mod settings;
 pub mod uniforms;
@@ -52,6 +56,6 @@ pub(crate) mod test_support;
 pub use camera::{Camera, Projection, ViewRays};
 pub use error::RenderError;
 pub use gpu::{Gpu, acquire};
-pub use raycast::RayCaster;
+pub use raycast::{MAX_CLASS_OPACITY_FACTOR, PixelRegion, RayCaster};
 pub use settings::{ClipBox, LabelInterpolation, Lighting, RenderMode, RenderSettings};
 pub use volume_texture::VolumeGeometry;

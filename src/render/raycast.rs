@@ -18,9 +18,32 @@ use super::volume_texture::{self, ScalarTexture, VolumeGeometry, VolumeTexture};
 use super::{Camera, RenderError, RenderMode, RenderSettings, bricks};
 use crate::transfer::ClassStyle;
 use crate::volume::Volume;
+use bindings::{BoundViews, create_bind_group, create_bind_group_layout};
 
 /// The ray casting shader, compiled into the binary.
 pub const SHADER_SOURCE: &str = include_str!("../../shaders/raycast.wgsl");
+
+/// A rectangle of pixels of a frame, from its top-left corner.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRegion {
+    pub x: u32,
+    pub y: u32,
+    pub width: u32,
+    pub height: u32,
+}
+
+impl PixelRegion {
+    /// Whether the region is non-empty and inside a frame of `size` pixels.
+    pub fn fits(&self, size: [u32; 2]) -> bool {
+        let inside =
+            |start: u32, length: u32, side: u32| length > 0 && start.checked_add(length).is_some_and(|end| end <= side);
+        inside(self.x, self.width, size[0]) && inside(self.y, self.height, size[1])
+    }
+}
+
+/// The largest per-class opacity factor ([`RayCaster::set_class_opacity`]): enough to make
+/// the faintest default class opaque within a few samples, small enough to keep a slider usable.
+pub const MAX_CLASS_OPACITY_FACTOR: f32 = 8.0;
 
 /// Draws a volume with front-to-back ray casting; see the module doc.
 pub struct RayCaster {
@@ -37,6 +60,8 @@ pub struct RayCaster {
     rgba_texture: Option<VolumeTexture>,
     rgba_brick_texture: Option<VolumeTexture>,
     label_brick_texture: Option<VolumeTexture>,
+    /// The label of each cell of eight labels that agree (see [`super::cells`]).
+    cell_texture: Option<VolumeTexture>,
     /// Bound wherever a float texture is not set yet.
     placeholder_float_texture: VolumeTexture,
     /// Bound wherever an integer texture is not set yet.
@@ -49,6 +74,8 @@ pub struct RayCaster {
 
     /// The per-label table as last uploaded (label 0 first).
     class_table: Vec<ClassEntry>,
+    /// The styles behind `class_table` (class k is `class_styles[k - 1]`).
+    class_styles: Vec<ClassStyle>,
     /// Which labels occur in each brick, kept to re-derive occupancy when visibility changes.
     label_bricks: Option<LabelBricks>,
 }
@@ -140,6 +167,7 @@ impl RayCaster {
             rgba: &placeholder_float_texture.view,
             rgba_bricks: &placeholder_uint_texture.view,
             label_bricks: &placeholder_uint_texture.view,
+            cells: &placeholder_uint_texture.view,
         };
         let bind_group = create_bind_group(
             device,
@@ -161,6 +189,7 @@ impl RayCaster {
             rgba_texture: None,
             rgba_brick_texture: None,
             label_brick_texture: None,
+            cell_texture: None,
             placeholder_float_texture,
             placeholder_uint_texture,
             sampler,
@@ -168,6 +197,7 @@ impl RayCaster {
             pipeline,
             bind_group,
             class_table,
+            class_styles: Vec::new(),
             label_bricks: None,
         })
     }
@@ -183,6 +213,7 @@ impl RayCaster {
         if self.label_texture.as_ref().is_some_and(|labels| labels.geometry != scalar.volume.geometry) {
             self.label_texture = None;
             self.label_brick_texture = None;
+            self.cell_texture = None;
             self.label_bricks = None;
         }
         self.scalar_texture = Some(scalar);
@@ -198,6 +229,7 @@ impl RayCaster {
             missing: "a scalar volume (call set_volume before set_labels)",
         })?;
         let texture = volume_texture::upload_labels(&self.device, &self.queue, geometry, labels)?;
+        let cells = super::cells::upload_cells(&self.device, &self.queue, geometry, labels)?;
         let label_bricks = LabelBricks::new(geometry.dims, labels);
         let occupancy = label_bricks.occupancy(&visible_labels(&self.class_table));
         self.label_brick_texture = Some(volume_texture::upload_bricks(
@@ -209,6 +241,7 @@ impl RayCaster {
         )?);
         self.label_bricks = Some(label_bricks);
         self.label_texture = Some(texture);
+        self.cell_texture = Some(cells);
         self.rebuild_bind_group();
         Ok(())
     }
@@ -217,6 +250,7 @@ impl RayCaster {
     /// Cheap: changing visibility or emphasis only rewrites the table and brick occupancy.
     pub fn set_class_table(&mut self, styles: &[ClassStyle]) -> Result<(), RenderError> {
         self.class_table = class_table(styles)?;
+        self.class_styles = styles.to_vec();
         self.queue.write_buffer(&self.class_table_buffer, 0, bytemuck::cast_slice(&self.class_table));
         if let Some(label_bricks) = &self.label_bricks {
             let occupancy = label_bricks.occupancy(&visible_labels(&self.class_table));
@@ -230,6 +264,42 @@ impl RayCaster {
             self.rebuild_bind_group();
         }
         Ok(())
+    }
+
+    /// Per-class opacity (the UI's slider): class `label` (1-based) is drawn with its opacity
+    /// times `factor` (its [`ClassStyle::emphasis`]): 1 is the default rule's opacity, 0 hides
+    /// the class (and lets empty-space skipping pass its bricks), up to
+    /// [`MAX_CLASS_OPACITY_FACTOR`]. Post-classification only: the pre-classified RGBA volume
+    /// bakes opacities in and must be rebuilt from the styles ([`Self::class_styles`]).
+    pub fn set_class_opacity(&mut self, label: u8, factor: f32) -> Result<(), RenderError> {
+        if !(0.0..=MAX_CLASS_OPACITY_FACTOR).contains(&factor) {
+            return Err(RenderError::BadSetting {
+                name: "class opacity factor",
+                value: factor.to_string(),
+                expected: "a number from 0 to MAX_CLASS_OPACITY_FACTOR",
+            });
+        }
+        let Some(style) = usize::from(label).checked_sub(1).and_then(|index| self.class_styles.get(index)) else {
+            return Err(RenderError::BadSetting {
+                name: "class label",
+                value: label.to_string(),
+                expected: "a class of the table (1 to the number of classes)",
+            });
+        };
+        let mut styles = self.class_styles.clone();
+        styles[usize::from(label) - 1] = ClassStyle { emphasis: factor, ..style.clone() };
+        self.set_class_table(&styles)
+    }
+
+    /// The opacity factor of class `label` ([`Self::set_class_opacity`]), if it is a class of
+    /// the table.
+    pub fn class_opacity(&self, label: u8) -> Option<f32> {
+        usize::from(label).checked_sub(1).and_then(|index| self.class_styles.get(index)).map(|style| style.emphasis)
+    }
+
+    /// The class styles as last set (class k is element k - 1), opacity factors included.
+    pub fn class_styles(&self) -> &[ClassStyle] {
+        &self.class_styles
     }
 
     /// Uploads the pre-classified volume: 4 bytes per voxel (straight-alpha RGBA, x fastest)
@@ -269,6 +339,21 @@ impl RayCaster {
         camera: &Camera,
         settings: &RenderSettings,
     ) -> Result<(), RenderError> {
+        self.render_region(encoder, target, camera, settings, None)
+    }
+
+    /// [`render`](Self::render) limited to `region` of the frame (`None`: all of it), leaving
+    /// the other pixels of `target` as they are. The rays are those of the whole frame, so a
+    /// frame drawn in regions is the frame drawn at once, pixel for pixel (progressive
+    /// rendering draws full frames in bands it can abandon).
+    pub fn render_region(
+        &mut self,
+        encoder: &mut wgpu::CommandEncoder,
+        target: &wgpu::TextureView,
+        camera: &Camera,
+        settings: &RenderSettings,
+        region: Option<PixelRegion>,
+    ) -> Result<(), RenderError> {
         settings.validate()?;
         let frame_volume = self.frame_volume(settings.mode)?;
         let target_size = target.texture().size();
@@ -282,6 +367,15 @@ impl RayCaster {
         let extent_mm: [f32; 3] =
             std::array::from_fn(|a| (frame_volume.dims[a] as f64 * frame_volume.spacing_mm[a]) as f32);
         let rays = camera.view_rays(extent_mm, self.viewport_size[0], self.viewport_size[1]);
+        if let Some(region) = region
+            && !region.fits(self.viewport_size)
+        {
+            return Err(RenderError::BadSetting {
+                name: "region",
+                value: format!("{region:?}"),
+                expected: "a non-empty rectangle inside the frame",
+            });
+        }
         let uniforms =
             RenderUniforms::new(&rays, settings, &frame_volume, self.viewport_size, self.target_format.is_srgb());
         self.queue.write_buffer(&self.uniform_buffer, 0, bytemuck::bytes_of(&uniforms));
@@ -293,7 +387,12 @@ impl RayCaster {
                 depth_slice: None,
                 resolve_target: None,
                 ops: wgpu::Operations {
-                    load: wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                    // A region keeps the rest of the frame (the fragment shader writes every
+                    // pixel it covers).
+                    load: match region {
+                        None => wgpu::LoadOp::Clear(wgpu::Color::TRANSPARENT),
+                        Some(_) => wgpu::LoadOp::Load,
+                    },
                     store: wgpu::StoreOp::Store,
                 },
             })],
@@ -302,10 +401,23 @@ impl RayCaster {
             occlusion_query_set: None,
             multiview_mask: None,
         });
+        if let Some(region) = region {
+            pass.set_scissor_rect(region.x, region.y, region.width, region.height);
+        }
         pass.set_pipeline(&self.pipeline);
         pass.set_bind_group(0, &self.bind_group, &[]);
         pass.draw(0..3, 0..1);
         Ok(())
+    }
+
+    /// Marks every label cell mixed, so every sample takes the eight-label path (tests compare
+    /// both paths).
+    #[cfg(test)]
+    pub(crate) fn mark_every_cell_mixed(&mut self) {
+        let geometry = self.label_texture.as_ref().map(|labels| labels.geometry).expect("labels are set");
+        let mixed = vec![super::cells::MIXED_CELL; geometry.voxel_count()];
+        self.cell_texture = Some(super::cells::upload_cells(&self.device, &self.queue, geometry, &mixed).unwrap());
+        self.rebuild_bind_group();
     }
 
     fn scalar_geometry(&self) -> Option<VolumeGeometry> {
@@ -351,6 +463,7 @@ impl RayCaster {
             rgba: view_or(self.rgba_texture.as_ref(), float),
             rgba_bricks: view_or(self.rgba_brick_texture.as_ref(), uint),
             label_bricks: view_or(self.label_brick_texture.as_ref(), uint),
+            cells: view_or(self.cell_texture.as_ref(), uint),
         };
         self.bind_group = create_bind_group(
             &self.device,
@@ -363,82 +476,7 @@ impl RayCaster {
     }
 }
 
-/// The texture views bound at bindings 2-6.
-struct BoundViews<'a> {
-    scalar: &'a wgpu::TextureView,
-    labels: &'a wgpu::TextureView,
-    rgba: &'a wgpu::TextureView,
-    rgba_bricks: &'a wgpu::TextureView,
-    label_bricks: &'a wgpu::TextureView,
-}
-
-fn create_bind_group(
-    device: &wgpu::Device,
-    layout: &wgpu::BindGroupLayout,
-    uniform_buffer: &wgpu::Buffer,
-    class_table_buffer: &wgpu::Buffer,
-    views: &BoundViews,
-    sampler: &wgpu::Sampler,
-) -> wgpu::BindGroup {
-    let texture = |binding, view| wgpu::BindGroupEntry { binding, resource: wgpu::BindingResource::TextureView(view) };
-    device.create_bind_group(&wgpu::BindGroupDescriptor {
-        label: Some("ray caster bind group"),
-        layout,
-        entries: &[
-            wgpu::BindGroupEntry { binding: 0, resource: uniform_buffer.as_entire_binding() },
-            wgpu::BindGroupEntry { binding: 1, resource: class_table_buffer.as_entire_binding() },
-            texture(2, views.scalar),
-            texture(3, views.labels),
-            texture(4, views.rgba),
-            texture(5, views.rgba_bricks),
-            texture(6, views.label_bricks),
-            wgpu::BindGroupEntry { binding: 7, resource: wgpu::BindingResource::Sampler(sampler) },
-        ],
-    })
-}
-
-/// Bindings 0-7 of `raycast.wgsl`, all for the fragment stage.
-fn create_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let uniform = |binding, size: usize| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
-            has_dynamic_offset: false,
-            min_binding_size: wgpu::BufferSize::new(size as u64),
-        },
-        count: None,
-    };
-    let texture = |binding, sample_type| wgpu::BindGroupLayoutEntry {
-        binding,
-        visibility: wgpu::ShaderStages::FRAGMENT,
-        ty: wgpu::BindingType::Texture {
-            sample_type,
-            view_dimension: wgpu::TextureViewDimension::D3,
-            multisampled: false,
-        },
-        count: None,
-    };
-    let filterable = wgpu::TextureSampleType::Float { filterable: true };
-    device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
-        label: Some("ray caster bind group layout"),
-        entries: &[
-            uniform(0, std::mem::size_of::<RenderUniforms>()),
-            uniform(1, std::mem::size_of::<ClassEntry>() * super::uniforms::CLASS_TABLE_SIZE),
-            texture(2, filterable),
-            texture(3, wgpu::TextureSampleType::Uint),
-            texture(4, filterable),
-            texture(5, wgpu::TextureSampleType::Uint),
-            texture(6, wgpu::TextureSampleType::Uint),
-            wgpu::BindGroupLayoutEntry {
-                binding: 7,
-                visibility: wgpu::ShaderStages::FRAGMENT,
-                ty: wgpu::BindingType::Sampler(wgpu::SamplerBindingType::Filtering),
-                count: None,
-            },
-        ],
-    })
-}
+mod bindings;
 
 #[cfg(test)]
 mod tests;

@@ -263,6 +263,7 @@ mod tests {
         assert_eq!(wgsl_constant("FLAG_NEAREST_LABEL"), FLAG_NEAREST_LABEL);
         assert_eq!(wgsl_constant("CLASS_TABLE_SIZE") as usize, CLASS_TABLE_SIZE);
         assert_eq!(wgsl_constant("BRICK_SIZE_VOXELS") as usize, bricks::BRICK_SIZE_VOXELS);
+        assert_eq!(wgsl_constant("MIXED_CELL"), super::super::cells::MIXED_CELL as u32);
     }
 
     #[test]

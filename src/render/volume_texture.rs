@@ -13,6 +13,7 @@
 //!   the colour of transparent neighbours (black, from `ClassStyle::rgba`) from darkening
 //!   borders (Wittenbrink, Malzbender & Goss 1998).
 //! * brick occupancy: `R8Uint`, one texel per brick (see [`super::bricks`]).
+//! * label cells: `R8Uint`, one code per cell of eight labels (see [`super::cells`]).
 //!
 //! Never: keeps data on the CPU after an upload, or filters anything itself.
 
@@ -56,7 +57,7 @@ pub struct ScalarTexture {
 /// to matter next to the volume.
 const SLAB_BYTES: usize = 8 << 20;
 
-fn create_texture(
+pub(super) fn create_texture(
     device: &wgpu::Device,
     label: &str,
     what: &'static str,
@@ -98,14 +99,14 @@ pub fn placeholder(device: &wgpu::Device, label: &str, format: wgpu::TextureForm
 }
 
 /// Z-slices per slab for slices of `slice_bytes` bytes.
-fn slices_per_slab(slice_bytes: usize) -> usize {
+pub(super) fn slices_per_slab(slice_bytes: usize) -> usize {
     (SLAB_BYTES / slice_bytes.max(1)).max(1)
 }
 
 /// Writes z-slices `slab` from `bytes` (tightly packed rows), then
 /// submits and waits: `write_texture` stages its bytes until the next submit, so without this
 /// the staging copies of all slabs would add up to a second copy of the volume.
-fn write_slab(
+pub(super) fn write_slab(
     device: &wgpu::Device,
     queue: &wgpu::Queue,
     texture: &wgpu::Texture,

@@ -2,7 +2,12 @@
 //! physical values to 0..=255, as a CT viewer's window/level does.
 //!
 //! [`DisplayWindow::automatic`] chooses the window from the data with robust percentiles, so one
-//! rule serves CT in Hounsfield units and 8-bit scans alike (see its doc for the rule).
+//! rule serves CT in Hounsfield units and 8-bit scans alike (see its doc for the rule);
+//! [`DisplayWindow::between_percentiles`] gives any other percentile window (the work screen's
+//! foreground windows for MRI), and [`looks_like_ct`] is the one test for Hounsfield units.
+//!
+//! Never: changes stored values; a window is for display only (classification reads the
+//! stored values).
 
 use super::{Axis, SliceError, SliceGeometry};
 use crate::volume::Volume;
@@ -38,18 +43,29 @@ impl DisplayWindow {
     }
 
     /// The window chosen from the data: the 1st and 99th percentiles of the voxels that count.
-    /// For CT (values reach -900 and 200 or beyond: Hounsfield units) only voxels above
-    /// -500 HU count, so air does not crush soft tissue to black; the result spans fat and
-    /// soft tissue to dense bone. For other data (8-bit scans, MRI) every finite voxel counts.
-    /// One parallel pass over the volume, histogram of 4096 bins (so the percentiles are
-    /// exact to 1/4096 of the value range).
+    /// For CT ([`looks_like_ct`]) only voxels above -500 HU count, so air does not crush soft
+    /// tissue to black; the result spans fat and soft tissue to dense bone. For other data
+    /// (8-bit scans, MRI) every finite voxel counts. One parallel pass over the volume.
     pub fn automatic(volume: &Volume) -> DisplayWindow {
         let range = volume.value_range();
-        let looks_like_ct = range.min <= CT_AIR_AT_MOST_HU && range.max >= CT_DENSE_AT_LEAST_HU;
-        let low = if looks_like_ct { CT_TISSUE_ABOVE_HU } else { range.min };
-        let span = range.max - low;
-        if span.is_nan() || span <= 0.0 {
-            return DisplayWindow::from_range(range.min, range.max);
+        let floor = if looks_like_ct(volume) { CT_TISSUE_ABOVE_HU } else { range.min };
+        DisplayWindow::between_percentiles(volume, floor, LOW_PERCENTILE, HIGH_PERCENTILE)
+            .unwrap_or_else(|| DisplayWindow::from_range(range.min, range.max))
+    }
+
+    /// The window from the `low` to the `high` quantile (fractions, 0..=1) of the finite voxels
+    /// at or above `floor` (e.g. the background level, for the foreground's percentiles);
+    /// `None` when no voxel counts. One parallel pass over the volume, histogram of 4096 bins
+    /// over `floor..max` (so the quantiles are exact to 1/4096 of that range).
+    pub fn between_percentiles(volume: &Volume, floor: f64, low: f64, high: f64) -> Option<DisplayWindow> {
+        let range = volume.value_range();
+        let floor = if floor.is_nan() { range.min } else { floor.max(range.min) };
+        let span = range.max - floor;
+        if span.is_nan() || span < 0.0 {
+            return None;
+        }
+        if span == 0.0 {
+            return Some(DisplayWindow::from_range(floor, floor));
         }
         let bins_per_unit = PERCENTILE_BINS as f64 / span;
         let plane = volume.dims[0] * volume.dims[1];
@@ -62,8 +78,8 @@ impl DisplayWindow {
                     volume.read_z_slice_f32(z, &mut values);
                     for &value in &values {
                         let value = value as f64;
-                        if value.is_finite() && value >= low {
-                            let bin = ((value - low) * bins_per_unit) as usize;
+                        if value.is_finite() && value >= floor {
+                            let bin = ((value - floor) * bins_per_unit) as usize;
                             counts[bin.min(PERCENTILE_BINS - 1)] += 1;
                         }
                     }
@@ -80,20 +96,20 @@ impl DisplayWindow {
             .unwrap_or_default();
         let total: u64 = counts.iter().sum();
         if total == 0 {
-            return DisplayWindow::from_range(range.min, range.max);
+            return None;
         }
         let value_at = |fraction: f64| {
-            let wanted = (fraction * total as f64).ceil().max(1.0) as u64;
+            let wanted = (fraction.clamp(0.0, 1.0) * total as f64).ceil().max(1.0) as u64;
             let mut seen = 0;
             for (bin, &count) in counts.iter().enumerate() {
                 seen += count;
                 if seen >= wanted {
-                    return low + (bin as f64 + 0.5) / bins_per_unit;
+                    return floor + (bin as f64 + 0.5) / bins_per_unit;
                 }
             }
             range.max
         };
-        DisplayWindow::from_range(value_at(LOW_PERCENTILE), value_at(HIGH_PERCENTILE))
+        Some(DisplayWindow::from_range(value_at(low), value_at(high)))
     }
 
     /// The grey level of `value`: 0 at or below the window, 255 at or above, NaN black.
@@ -104,6 +120,14 @@ impl DisplayWindow {
         // `as` maps NaN to 0 and saturates; +0.5 rounds to nearest.
         (level + 0.5).clamp(0.0, 255.0) as u8
     }
+}
+
+/// True when the volume's values are Hounsfield units: they reach air (-900 or below) and
+/// dense tissue (200 or above), as every CT does and MRI (arbitrary, non-negative units) and
+/// 8-bit scans do not. The one rule for "is this CT" (display windows and their presets).
+pub fn looks_like_ct(volume: &Volume) -> bool {
+    let range = volume.value_range();
+    range.min <= CT_AIR_AT_MOST_HU && range.max >= CT_DENSE_AT_LEAST_HU
 }
 
 /// An 8-bit grey image, row-major (`pixels[j * width + i]`).

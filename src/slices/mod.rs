@@ -23,7 +23,7 @@ mod foreground;
 mod home_view;
 mod layout;
 
-pub use display::{DisplayWindow, GreyImage, slice_image};
+pub use display::{DisplayWindow, GreyImage, looks_like_ct, slice_image};
 pub use entropy::{ENTROPY_BINS, EntropyBinning, RankedSlices, SliceEntropies, entropy_nats, slice_entropies};
 pub use foreground::{
     EDGE_FRACTION, EXTENT_MIN_FRACTION, central_band, foreground_extent, foreground_slice_entropies,

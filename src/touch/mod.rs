@@ -1,5 +1,5 @@
 //! Touch input: from a touchscreen's evdev events to gestures, and a simulated touchscreen that
-//! drives the real UI from readable scripts (issue 7).
+//! drives the real UI from readable scripts.
 //!
 //! **How touch reaches the appliance.** The kiosk reads the touchscreen itself, with this
 //! module: [`device`] opens `/dev/input/event*` through the `evdev` crate and delivers

@@ -1,4 +1,4 @@
-//! Eq. 5-9 of the paper (§3.5; `harmony.md`): per-class gradient maximum, saturation, value
+//! Eq. 5-9 of the paper (§3.5; `docs/colour.md`): per-class gradient maximum, saturation, value
 //! and opacity, from one parallel pass over the label volume, folded into [`ClassStyle`]s.
 //!
 //! Positions are normalised to the unit cube: voxel `i` of an axis with `n` voxels of spacing

@@ -1,5 +1,5 @@
 //! Transfer functions from classes: harmonic hue templates and per-class colour and opacity
-//! (paper §3.5, eq. 4-9; `harmony.md`).
+//! (paper §3.5, eq. 4-9; `docs/colour.md`).
 //!
 //! The output of this stage is a small table, one [`ClassStyle`] per class, from which any
 //! voxel's RGBA follows given its class and gradient factor. The renderer evaluates the table
@@ -8,6 +8,8 @@
 //! ([`slice_overlay`]).
 //!
 //! * [`templates`]: hue templates and the per-class hue ranges of eq. 4.
+//! * [`opacity`]: the default opacities (see-through: every class visible), eq. 9 kept as an
+//!   [`OpacityRule`].
 //! * [`harmony`]: eq. 5-9 from one parallel pass of per-class statistics -> `Vec<ClassStyle>`,
 //!   for the whole volume or for a clip box; [`ClassTable`] keeps the styles beside a label
 //!   volume as JSON.
@@ -17,6 +19,7 @@
 //! Never: classifies, or touches the GPU.
 
 pub mod harmony;
+pub mod opacity;
 pub mod overlay;
 pub mod rgba;
 pub mod style;
@@ -27,6 +30,7 @@ pub use harmony::{
     ClassStatistics, ClipBox, apply_template, class_statistics, class_styles, class_styles_in_box,
     styles_from_statistics,
 };
+pub use opacity::{ClassSurface, OpacityRule, class_surfaces, see_through_opacities};
 pub use overlay::{DEFAULT_OVERLAY_ALPHA, RgbImage, slice_overlay, write_png};
 pub use rgba::{composite_along_z, for_each_rgba_group, rgba_volume, stage_rgba_nrrd, write_rgba_nrrd};
 pub use style::{ClassStyle, hsv_to_rgb};

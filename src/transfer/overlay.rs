@@ -1,4 +1,4 @@
-//! Slice overlays (issue 4): class colours over the grey slice the user lassos on, so the
+//! Slice overlays: class colours over the grey slice the user lassos on, so the
 //! classification can be checked slice by slice, exportable as PNG.
 //!
 //! Each labelled pixel takes its class's colour at the voxel's own gradient factor (the RGB of

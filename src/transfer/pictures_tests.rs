@@ -1,4 +1,4 @@
-//! Pictures of real volumes for looking at (issue 4): grey slices to draw lassos on, then slice
+//! Pictures of real volumes for looking at: grey slices to draw lassos on, then slice
 //! overlays and a z-composited RGBA projection from a label NRRD made by `volasso classify`.
 //! Ignored by default (they need labels made beforehand); run with
 //! `VOLASSO_PICTURES=DIR VOLASSO_VOLUME=V VOLASSO_STROKES=S.json cargo test --lib pictures -- --ignored`

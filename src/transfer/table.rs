@@ -1,11 +1,12 @@
 //! The per-class table kept beside a label volume (`labels.nrrd` + `labels.classes.json`):
 //! template, clip box and one [`ClassStyle`] per class. It is what lets the renderer classify
 //! after interpolation and lets template, emphasis, visibility and clipping change colours
-//! without running the classifier again (the paper's §3.5 limitations; `harmony.md`).
+//! without running the classifier again (the paper's §3.5 limitations; `docs/colour.md`).
 //!
 //! Never: stores per-voxel data.
 
 use super::harmony::{ClipBox, apply_template, class_statistics, styles_from_statistics};
+use super::opacity::{OpacityRule, class_surfaces, see_through_opacities};
 use super::templates::HueTemplate;
 use super::{ClassStyle, TransferError};
 use crate::volume::Volume;
@@ -22,6 +23,10 @@ pub const CLASS_TABLE_FORMAT: &str = "volasso-classes/1";
 pub struct ClassTable {
     pub format: String,
     pub template: HueTemplate,
+    /// How the default opacities were set (tables written before the field existed read as
+    /// the default rule; their styles are kept as written until restyled).
+    #[serde(default)]
+    pub opacity_rule: OpacityRule,
     /// The box the statistics were taken over; `None`: the whole volume.
     pub clip: Option<ClipBox>,
     /// Voxels of each class inside the box.
@@ -30,16 +35,29 @@ pub struct ClassTable {
 }
 
 impl ClassTable {
-    /// Styles for the whole volume; a class with no voxels starts hidden.
+    /// Styles for the whole volume with the default opacity rule; a class with no voxels
+    /// starts hidden.
     pub fn compute(
         volume: &Volume,
         labels: &[u8],
         class_count: usize,
         template: HueTemplate,
     ) -> Result<ClassTable, TransferError> {
+        ClassTable::compute_with_rule(volume, labels, class_count, template, OpacityRule::default())
+    }
+
+    /// [`compute`](Self::compute) with the opacities of `opacity_rule`.
+    pub fn compute_with_rule(
+        volume: &Volume,
+        labels: &[u8],
+        class_count: usize,
+        template: HueTemplate,
+        opacity_rule: OpacityRule,
+    ) -> Result<ClassTable, TransferError> {
         let mut table = ClassTable {
             format: CLASS_TABLE_FORMAT.to_string(),
             template,
+            opacity_rule,
             clip: None,
             voxel_counts: Vec::new(),
             styles: vec![neutral_style(); class_count],
@@ -58,6 +76,13 @@ impl ClassTable {
             ClipBox::whole(volume.dims).ok_or(TransferError::ClipBox { lo: [0; 3], hi: [0; 3], dims: volume.dims })?;
         let statistics = class_statistics(volume, labels, self.styles.len(), clip.unwrap_or(whole))?;
         let mut styles = styles_from_statistics(&statistics, &self.template);
+        if self.opacity_rule == OpacityRule::SeeThrough {
+            let surfaces = class_surfaces(volume, labels, self.styles.len(), clip.unwrap_or(whole))?;
+            let reference_step_mm = volume.spacing_mm.iter().copied().fold(f64::INFINITY, f64::min);
+            for (style, opacity) in styles.iter_mut().zip(see_through_opacities(&surfaces, reference_step_mm)) {
+                style.opacity = opacity;
+            }
+        }
         for (style, old) in styles.iter_mut().zip(&self.styles) {
             style.emphasis = old.emphasis;
             style.visible = old.visible;

@@ -1,4 +1,4 @@
-//! Harmonic hue templates (paper §3.5, Fig. 3; Cohen-Or et al. 2006; `harmony.md`) and the
+//! Harmonic hue templates (paper §3.5, Fig. 3; Cohen-Or et al. 2006; `docs/colour.md`) and the
 //! per-class hue ranges of eq. 4 laid out along them.
 //!
 //! A [`HueTemplate`] is a [`TemplateType`] (one or two sectors of the hue wheel) turned by a
@@ -77,7 +77,7 @@ impl TemplateType {
         TemplateType::ALL.into_iter().find(|t| t.name() == name)
     }
 
-    /// The sectors in walking order (widths and centre distances from `harmony.md`).
+    /// The sectors in walking order (widths and centre distances from `docs/colour.md`).
     pub fn sectors(self) -> &'static [Sector] {
         const fn sector(centre_offset_degrees: f32, width_degrees: f32) -> Sector {
             Sector { centre_offset_degrees, width_degrees }

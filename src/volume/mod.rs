@@ -13,6 +13,7 @@
 //! Never: decides what a voxel means (that is `features`), or writes anywhere but the cache
 //! folder and the paths it is given.
 
+pub mod array;
 pub mod cache;
 pub mod dicom;
 pub mod error;
@@ -27,6 +28,7 @@ pub mod orientation;
 pub mod raw;
 pub mod storage;
 
+pub use array::StoredVoxel;
 pub use error::VolumeError;
 pub use foreground::{ForegroundRows, any_at_or_above};
 pub use open::{OpenOptions, open};

@@ -1,5 +1,5 @@
 //! A random forest of classification trees (Breiman 2001), the second classifier beside the
-//! SN-SVM (issue 9): it extrapolates in intensity as a constant (a voxel brighter than every
+//! SN-SVM: it extrapolates in intensity as a constant (a voxel brighter than every
 //! lassoed voxel goes with the brightest training voxels, not with whichever class the RBF
 //! kernel happens to decay towards), needs no kernel width, and is cheap to train.
 //!

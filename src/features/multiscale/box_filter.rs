@@ -1,4 +1,4 @@
-//! Box filters for the multi-scale cascade (issue 9): the mean over 2r + 1 neighbours along a
+//! Box filters for the multi-scale cascade: the mean over 2r + 1 neighbours along a
 //! row or across rows, borders clamped to the edge. Sums run in a fixed order of offset, so every
 //! block of the volume gives the same bits for the same voxel whatever its extent.
 

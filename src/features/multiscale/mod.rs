@@ -1,4 +1,4 @@
-//! Multi-scale voxel features (issue 9), [`super::FeatureSet::Multiscale`]: what interactive voxel
+//! Multi-scale voxel features, [`super::FeatureSet::Multiscale`]: what interactive voxel
 //! classifiers (ilastik-style) feed a random forest, in 17 dimensions:
 //! 0. intensity;
 //! 1-4. the volume smoothed at scales sigma = 0.82, 1.15, 1.83 and 3.16 voxels;
@@ -108,7 +108,7 @@ const MIN_BLOCK_DEPTH: usize = 4;
 const MAX_BLOCK_DEPTH: usize = 32;
 /// A whole-volume pass is one parallel task per block, and the last task to start keeps one
 /// core busy while the others wait: with at least this many blocks that tail is short.
-/// Measured on 2 cores with forest-fine (session 6): engine 256 planes, blocks of 28 -> 20
+/// Measured on 2 cores with forest-fine: engine 256 planes, blocks of 28 -> 20
 /// planes, 155 -> 137 ms; the head (blocks of 32 or 16) within noise.
 const MIN_BLOCKS: usize = 12;
 /// Thinner blocks than this smooth more halo than core (lobster: 8 planes scored as well as

@@ -1,4 +1,4 @@
-//! Reading multi-scale features out of a volume (issue 9): for scattered voxels (training, in
+//! Reading multi-scale features out of a volume: for scattered voxels (training, in
 //! 16^3 tiles, each one block) and plane by plane for whole-volume labelling (a block of z planes
 //! moved forward as the planes asked for move on). The features themselves are [`super`]'s.
 

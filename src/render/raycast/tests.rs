@@ -7,7 +7,7 @@ use super::super::test_support::{
 };
 use super::*;
 use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
-use crate::render::{ClipBox, LabelInterpolation, Projection};
+use crate::render::{ClipBox, LabelInterpolation, MAX_CLASS_OPACITY_FACTOR, Projection};
 use crate::volume::VoxelType;
 
 const SIZE: [u32; 2] = [128, 128];
@@ -252,6 +252,43 @@ fn the_clip_box_and_class_visibility_remove_what_they_should() {
 }
 
 #[test]
+fn per_class_opacity_scales_one_class_and_zero_hides_it() {
+    let (phantom, mut styles, centres) = three_boxes();
+    let camera = front_camera();
+    let settings = flat(RenderMode::Postclassified);
+    let mut ray_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+    let whole = capture(&mut ray_caster, &camera, &settings, SIZE);
+    let at = |image: &image::RgbaImage, point| pixel_at(image, projected(&camera, point));
+    assert_eq!(ray_caster.class_opacity(1), Some(styles[0].emphasis));
+    assert_eq!((ray_caster.class_opacity(0), ray_caster.class_opacity(4)), (None, None));
+
+    // Zero: the same picture as hiding the class.
+    ray_caster.set_class_opacity(1, 0.0).unwrap();
+    let zero = capture(&mut ray_caster, &camera, &settings, SIZE);
+    styles[0].visible = false;
+    let mut hidden_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+    let hidden = capture(&mut hidden_caster, &camera, &settings, SIZE);
+    assert!(channel_differences(&zero, &hidden).iter().all(|&d| d == 0));
+    assert_eq!(at(&zero, centres[0])[3], 0.0, "class 1 is gone");
+    assert_eq!(at(&zero, centres[1]), at(&whole, centres[1]), "class 2 untouched");
+
+    // A twentieth of the opacity: class 1 fainter, then back to the start.
+    ray_caster.set_class_opacity(1, 0.05).unwrap();
+    let faint = capture(&mut ray_caster, &camera, &settings, SIZE);
+    let (faint_alpha, whole_alpha) = (at(&faint, centres[0])[3], at(&whole, centres[0])[3]);
+    assert!(faint_alpha > 0.05 && faint_alpha < whole_alpha - 0.1, "{faint_alpha} vs {whole_alpha}");
+    ray_caster.set_class_opacity(1, 1.0).unwrap();
+    let back = capture(&mut ray_caster, &camera, &settings, SIZE);
+    assert!(channel_differences(&back, &whole).iter().all(|&d| d == 0));
+
+    for (label, factor) in [(0, 1.0), (4, 1.0), (1, -0.1), (1, f32::NAN), (1, MAX_CLASS_OPACITY_FACTOR + 1.0)] {
+        let result = ray_caster.set_class_opacity(label, factor);
+        assert!(matches!(result, Err(RenderError::BadSetting { .. })), "{label} {factor}: {result:?}");
+    }
+    assert_eq!(ray_caster.class_opacity(1), Some(1.0), "a refused setting changes nothing");
+}
+
+#[test]
 fn opacity_is_corrected_for_the_sample_distance() {
     // A 10-voxel slab along the view direction at opacity 0.1 per voxel: 1 - 0.9^10 whatever
     // the step.
@@ -284,6 +321,35 @@ fn shading_darkens_the_rim_and_can_be_switched_off() {
     assert!(brightness(&shaded, centre) > brightness(&shaded, rim) + 0.15, "headlight: the centre faces the eye");
     let flat_image = capture(&mut ray_caster, &camera, &flat(RenderMode::Postclassified), SIZE);
     assert!((brightness(&flat_image, centre) - brightness(&flat_image, rim)).abs() < 0.03);
+}
+
+#[test]
+fn label_cells_never_change_the_image() {
+    // Three classes touching along curved borders, seen at an angle: cells of every kind.
+    let phantom = Phantom::new([48; 3], [1.0, 1.0, 1.5], VoxelType::U8, |p| {
+        let distance = |c: [f32; 3]| (0..3).map(|a| (p[a] - c[a]).powi(2)).sum::<f32>().sqrt();
+        if distance([-6.0, 0.0, -4.0]) < 13.0 {
+            1
+        } else if distance([8.0, 2.0, 6.0]) < 12.0 {
+            3
+        } else if p.iter().all(|c| c.abs() < 16.0) {
+            2
+        } else {
+            0
+        }
+    });
+    let styles = [style(0.0, 0.4), style(120.0, 0.15), style(240.0, 0.5)];
+    let camera = Camera { azimuth_degrees: 35.0, elevation_degrees: 25.0, ..front_camera() };
+    for label_interpolation in [LabelInterpolation::LargestIndicatorWeight, LabelInterpolation::Nearest] {
+        let settings = RenderSettings { label_interpolation, ..RenderSettings::default() };
+        let mut ray_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+        let with_cells = capture(&mut ray_caster, &camera, &settings, SIZE);
+        ray_caster.mark_every_cell_mixed();
+        let voted = capture(&mut ray_caster, &camera, &settings, SIZE);
+        let differences = channel_differences(&with_cells, &voted);
+        assert!(differences.iter().all(|&d| d == 0), "{label_interpolation:?}: largest {:?}", differences.iter().max());
+        assert!(with_cells.pixels().filter(|p| p[3] > 128).count() > 1000, "something is drawn");
+    }
 }
 
 /// Two classes meeting at the plane x = 0, seen along the plane: any colour that is not one of

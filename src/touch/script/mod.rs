@@ -1,5 +1,5 @@
 //! The replay script language: readable touch scripts that drive the real UI through a
-//! simulated touchscreen (issue 7).
+//! simulated touchscreen.
 //!
 //! ```text
 //! # Outline the bone on the axial slice, name it, and look at it.

@@ -16,6 +16,7 @@
 //!
 //! Never: interprets values, or hands dicom-object a byte it has not checked.
 
+use super::deflated::{self, MetaLayout};
 use crate::volume::limits::{self, ReadLimits};
 use crate::volume::{VolumeError, VoxelType};
 use dicom_core::dictionary::{DataDictionary, DataDictionaryEntry};
@@ -56,12 +57,12 @@ pub(super) fn read_object(path: &Path, scope: Scope, limits: &ReadLimits) -> Res
     let (mut file, file_len) = limits::open_regular(path)?;
     let invalid = |problem: String| VolumeError::Dicom { problem, path: path.to_path_buf() };
     let mut bytes = Vec::new();
-    let end = match scope {
+    let walked = match scope {
         Scope::Whole => {
             limits::check_ceiling(file_len, limits, path)?;
             bytes = limits::reserve(file_len as usize, path)?;
             (&mut file).take(file_len).read_to_end(&mut bytes).map_err(|e| VolumeError::io(e, path))?;
-            Walker::new(&bytes, bytes.len() as u64, scope).file().map_err(|stop| invalid(stop.problem()))?
+            Walker::new(&bytes, bytes.len() as u64, scope).file()
         }
         Scope::Header => {
             let mut wanted = file_len.min(FIRST_HEADER_READ);
@@ -71,7 +72,6 @@ pub(super) fn read_object(path: &Path, scope: Scope, limits: &ReadLimits) -> Res
                 // A file that shrank while being read ends where its bytes end.
                 let total = if (bytes.len() as u64) < wanted { bytes.len() as u64 } else { file_len };
                 match Walker::new(&bytes, total, scope).file() {
-                    Ok(end) => break end,
                     Err(Stop::NeedMore) if wanted < file_len.min(MOST_HEADER_BYTES) => {
                         wanted = file_len.min(MOST_HEADER_BYTES).min(wanted.saturating_mul(4));
                     }
@@ -81,10 +81,24 @@ pub(super) fn read_object(path: &Path, scope: Scope, limits: &ReadLimits) -> Res
                             MOST_HEADER_BYTES >> 20
                         )));
                     }
-                    Err(stop) => return Err(invalid(stop.problem())),
+                    walked => break walked,
                 }
             }
         }
+    };
+    let (bytes, end) = match walked {
+        Ok(end) => (bytes, end),
+        Err(Stop::Deflated(meta)) => {
+            // The data set is one deflate stream: all of it, inflated, then walked as any file.
+            limits::check_ceiling(file_len, limits, path)?;
+            let rest = file_len.saturating_sub(bytes.len() as u64);
+            (&mut file).take(rest).read_to_end(&mut bytes).map_err(|e| VolumeError::io(e, path))?;
+            let inflated = deflated::inflate_file(&bytes, &meta, limits, path)?;
+            let end =
+                Walker::new(&inflated, inflated.len() as u64, scope).file().map_err(|stop| invalid(stop.problem()))?;
+            (inflated, end)
+        }
+        Err(stop) => return Err(invalid(stop.problem())),
     };
     // The walk above assumed exactly this reading: the preamble, and odd lengths as they are.
     let options =
@@ -99,6 +113,8 @@ enum Stop {
     /// The bytes read so far end before the walk does (only with a prefix of the file).
     NeedMore,
     Invalid(String),
+    /// The data set is deflated ([`deflated`]); the meta group's layout.
+    Deflated(MetaLayout),
 }
 
 impl Stop {
@@ -106,6 +122,7 @@ impl Stop {
         match self {
             Stop::NeedMore => "the file ends in the middle of its attributes (truncated)".into(),
             Stop::Invalid(problem) => problem,
+            Stop::Deflated(_) => "the deflated data set was not inflated".into(),
         }
     }
 }
@@ -178,6 +195,7 @@ impl<'a> Walker<'a> {
         let mut position = 132 + first.size + 4;
         let meta_end = position.saturating_add(group_length);
         let mut transfer_syntax = None;
+        let mut elements = Vec::new();
         while position < meta_end && position < self.total {
             let header = self.header(position, EXPLICIT_LITTLE)?;
             let length = header
@@ -189,14 +207,19 @@ impl<'a> Walker<'a> {
                 let value = self.need(value_start, length)?;
                 transfer_syntax = Some(String::from_utf8_lossy(value).trim_matches(['\0', ' ']).to_string());
             }
+            self.need(position, header.size + length)?;
+            elements.push((header.tag.element(), position as usize, (value_start + length) as usize));
             position = value_start + length;
         }
         let syntax = match transfer_syntax.as_deref() {
             None => return Err(Stop::Invalid("the file meta group names no transfer syntax".into())),
             Some("1.2.840.10008.1.2") => Syntax { explicit_vr: false, big_endian: false },
             Some("1.2.840.10008.1.2.2") => Syntax { explicit_vr: true, big_endian: true },
-            Some(uid @ ("1.2.840.10008.1.2.1.99" | "1.2.840.10008.1.2.4.95")) => {
-                return Err(Stop::Invalid(format!("deflated transfer syntax {uid} is not read")));
+            Some(deflated::DEFLATED_EXPLICIT_LITTLE) => {
+                return Err(Stop::Deflated(MetaLayout { elements, data_set_start: position as usize }));
+            }
+            Some(uid @ "1.2.840.10008.1.2.4.95") => {
+                return Err(Stop::Invalid(format!("transfer syntax {uid} (JPIP referenced deflate) is not read")));
             }
             // Every other syntax (explicit little endian, and all the compressed ones) encodes
             // the data set in explicit VR little endian.

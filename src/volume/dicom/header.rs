@@ -5,8 +5,10 @@
 //! [`read_header`] parses a file up to (not including) its PixelData and returns a
 //! [`SliceHeader`], or [`FileKind::NotImage`] for DICOM files that hold no image (a DICOMDIR,
 //! a structured report, a presentation state). Everything a later stage relies on is checked
-//! here once: one sample per pixel, 8 or 16 allocated bits, a native transfer syntax, a finite
-//! rescale, unit orientation cosines.
+//! here once: one sample per pixel, 8 or 16 allocated bits, a transfer syntax whose pixel data
+//! dicom-rs's codec registry decodes (native, deflated, JPEG, JPEG-LS, JPEG 2000, RLE; see
+//! [`readable_transfer_syntax`]), a finite rescale, unit orientation cosines. An enhanced
+//! multi-frame image gives one header per frame ([`super::frames`]).
 //!
 //! Never: reads pixel data (that is [`super::pixels`]) or compares files with each other
 //! (that is [`super::geometry`]).
@@ -16,19 +18,30 @@ use crate::volume::limits::ReadLimits;
 use crate::volume::{ValueScale, VolumeError};
 use dicom_core::Tag;
 use dicom_dictionary_std::tags;
-use dicom_object::DefaultDicomObject;
+use dicom_encoding::transfer_syntax::TransferSyntaxIndex;
+use dicom_object::{DefaultDicomObject, InMemDicomObject};
+use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 use std::path::{Path, PathBuf};
 
 /// Media Storage SOP Class UID of a DICOMDIR (Media Storage Directory Storage).
 pub(super) const MEDIA_STORAGE_DIRECTORY_UID: &str = "1.2.840.10008.1.3.10";
 
-/// Transfer syntaxes whose PixelData is stored uncompressed (native) and which dicom-rs
-/// decodes without optional features.
+/// Transfer syntaxes whose PixelData is stored uncompressed (native).
 const NATIVE_TRANSFER_SYNTAXES: [&str; 3] = [
     "1.2.840.10008.1.2",   // Implicit VR Little Endian
     "1.2.840.10008.1.2.1", // Explicit VR Little Endian
     "1.2.840.10008.1.2.2", // Explicit VR Big Endian (retired)
 ];
+
+/// True when this reader decodes the pixel data of `uid`: a native syntax, Deflated Explicit VR
+/// Little Endian (inflated by [`super::deflated`]), or a syntax whose decoder dicom-rs's
+/// registry holds in this build (JPEG baseline, extended and lossless, JPEG-LS, JPEG 2000, RLE).
+pub fn readable_transfer_syntax(uid: &str) -> bool {
+    let uid = uid.trim_end_matches(['\0', ' ']);
+    NATIVE_TRANSFER_SYNTAXES.contains(&uid)
+        || uid == super::deflated::DEFLATED_EXPLICIT_LITTLE
+        || TransferSyntaxRegistry.get(uid).is_some_and(|syntax| syntax.can_decode_all())
+}
 
 /// How stored pixel samples are laid out (Image Pixel module).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -48,7 +61,13 @@ pub(super) struct SliceHeader {
     /// Empty when the file has none (then it forms a series of its own kind with other such files).
     pub series_uid: String,
     pub series_description: String,
+    /// Modality (CT, MR, ...), empty when absent.
+    pub modality: String,
     pub sop_instance_uid: String,
+    /// Which frame of the file this is (0 for a single-frame file).
+    pub frame: u32,
+    /// NumberOfFrames of the file (1 for a single-frame file).
+    pub frames_in_file: u32,
     pub rows: usize,
     pub columns: usize,
     /// DICOM order: spacing between rows (along y), then between columns (along x).
@@ -82,15 +101,12 @@ const IMAGE_STORAGE_CLASSES: [&str; 11] = [
 /// The result of looking at one DICOM file.
 #[derive(Debug)]
 pub(super) enum FileKind {
-    Image(Box<SliceHeader>),
-    /// A well-formed image this reader cannot turn into voxels (colour, compressed,
-    /// multi-frame, odd bit layout). Its series is skipped with a warning when another series
+    /// One header per frame (one for a single-frame file), in frame order.
+    Image(Vec<SliceHeader>),
+    /// A well-formed image this reader cannot turn into voxels (colour, a transfer syntax
+    /// without a decoder, multi-frame without per-frame positions, odd bit layout). Its series is skipped with a warning when another series
     /// can be read, and `error` is returned when it is the one asked for.
-    Unsupported {
-        series_uid: String,
-        series_description: String,
-        error: VolumeError,
-    },
+    Unsupported { series_uid: String, series_description: String, error: VolumeError },
     /// A valid DICOM file without an image (DICOMDIR, report): skipped quietly.
     NotImage,
 }
@@ -127,7 +143,7 @@ pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, 
     let series_uid = text(&object, tags::SERIES_INSTANCE_UID);
     let series_description = text(&object, tags::SERIES_DESCRIPTION);
     let supported = check_transfer_syntax(object.meta().transfer_syntax(), path)
-        .and_then(|()| check_grey_single_frame(&object, path))
+        .and_then(|()| check_grey(&object, path))
         .and_then(|()| pixel_format(&object, path));
     let pixel_format = match supported {
         Ok(pixel_format) => pixel_format,
@@ -135,53 +151,118 @@ pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, 
             return Ok(FileKind::Unsupported { series_uid, series_description, error });
         }
     };
-    let rescale = ValueScale {
-        slope: single_float(&object, tags::RESCALE_SLOPE, "RescaleSlope", path)?.unwrap_or(1.0),
-        intercept: single_float(&object, tags::RESCALE_INTERCEPT, "RescaleIntercept", path)?.unwrap_or(0.0),
+    let frames_in_file = match unsigned(&object, tags::NUMBER_OF_FRAMES, "NumberOfFrames", path)? {
+        None => 1,
+        Some(0) => return Err(VolumeError::header("NumberOfFrames", "is 0", path)),
+        Some(frames) => frames,
     };
-    if rescale.slope == 0.0 {
-        return Err(VolumeError::header("RescaleSlope", "must not be zero", path));
-    }
-    let pixel_spacing_mm = match floats::<2>(&object, tags::PIXEL_SPACING, "PixelSpacing", path)? {
-        Some(spacing) => Some(spacing),
-        None => floats::<2>(&object, tags::IMAGER_PIXEL_SPACING, "ImagerPixelSpacing", path)?,
-    };
-    if let Some(spacing) = pixel_spacing_mm
-        && spacing.iter().any(|s| *s <= 0.0)
-    {
-        return Err(VolumeError::header(
-            "PixelSpacing",
-            format!("{} \\ {} mm: both must be positive", spacing[0], spacing[1]),
-            path,
-        ));
-    }
-    let slice_thickness_mm = match single_float(&object, tags::SPACING_BETWEEN_SLICES, "SpacingBetweenSlices", path)? {
-        Some(spacing) if spacing > 0.0 => Some(spacing),
-        _ => single_float(&object, tags::SLICE_THICKNESS, "SliceThickness", path)?.filter(|thickness| *thickness > 0.0),
-    };
-    let orientation = match floats::<6>(&object, tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient", path)? {
-        Some(cosines) => Some(normalised_orientation(cosines, path)?),
-        None => None,
-    };
-    Ok(FileKind::Image(Box::new(SliceHeader {
+    let plane = PlaneAttributes::read(&object, path)?;
+    let header = SliceHeader {
         path: path.to_path_buf(),
         series_uid,
         series_description,
+        modality: text(&object, tags::MODALITY),
         sop_instance_uid: text(&object, tags::SOP_INSTANCE_UID),
+        frame: 0,
+        frames_in_file,
         rows: rows as usize,
         columns: columns as usize,
-        pixel_spacing_mm,
-        position_mm: floats::<3>(&object, tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient", path)?,
-        orientation,
-        slice_thickness_mm,
+        pixel_spacing_mm: plane.pixel_spacing_mm,
+        position_mm: plane.position_mm,
+        orientation: plane.orientation,
+        slice_thickness_mm: plane.slice_thickness_mm,
         pixel_format,
-        rescale,
-    })))
+        rescale: plane.rescale,
+    };
+    if !super::frames::has_functional_groups(&object) {
+        if frames_in_file > 1 {
+            let error = VolumeError::Unsupported {
+                what: "multi-frame DICOM image without per-frame positions (PerFrameFunctionalGroupsSequence)",
+                value: format!("NumberOfFrames {frames_in_file}"),
+                path: path.to_path_buf(),
+            };
+            return Ok(FileKind::Unsupported {
+                series_uid: header.series_uid,
+                series_description: header.series_description,
+                error,
+            });
+        }
+        return Ok(FileKind::Image(vec![header]));
+    }
+    let (series_uid, series_description) = (header.series_uid.clone(), header.series_description.clone());
+    match super::frames::frame_headers(&object, header, path) {
+        Ok(headers) => Ok(FileKind::Image(headers)),
+        Err(error) => Ok(FileKind::Unsupported { series_uid, series_description, error }),
+    }
 }
 
-/// Refuses encapsulated (compressed) pixel data with the syntax's name.
+/// The attributes that place an image plane and scale its values: top-level ones, or those
+/// of one frame's functional groups ([`super::frames`]).
+#[derive(Clone, Copy, Debug)]
+pub(super) struct PlaneAttributes {
+    pub pixel_spacing_mm: Option<[f64; 2]>,
+    pub position_mm: Option<[f64; 3]>,
+    pub orientation: Option<[f64; 6]>,
+    pub slice_thickness_mm: Option<f64>,
+    pub rescale: ValueScale,
+}
+
+impl PlaneAttributes {
+    /// The attributes as found directly in `object` (absent ones `None`, rescale 1 and 0).
+    pub fn read(object: &InMemDicomObject, path: &Path) -> Result<PlaneAttributes, VolumeError> {
+        let mut plane = PlaneAttributes {
+            pixel_spacing_mm: None,
+            position_mm: None,
+            orientation: None,
+            slice_thickness_mm: None,
+            rescale: ValueScale::IDENTITY,
+        };
+        plane.update(object, path)?;
+        Ok(plane)
+    }
+
+    /// Replaces each attribute that `object` holds (a functional group item, or the data set).
+    pub fn update(&mut self, object: &InMemDicomObject, path: &Path) -> Result<(), VolumeError> {
+        let slope = single_float(object, tags::RESCALE_SLOPE, "RescaleSlope", path)?;
+        let intercept = single_float(object, tags::RESCALE_INTERCEPT, "RescaleIntercept", path)?;
+        if slope == Some(0.0) {
+            return Err(VolumeError::header("RescaleSlope", "must not be zero", path));
+        }
+        self.rescale.slope = slope.unwrap_or(self.rescale.slope);
+        self.rescale.intercept = intercept.unwrap_or(self.rescale.intercept);
+        let spacing = match floats::<2>(object, tags::PIXEL_SPACING, "PixelSpacing", path)? {
+            Some(spacing) => Some(spacing),
+            None => floats::<2>(object, tags::IMAGER_PIXEL_SPACING, "ImagerPixelSpacing", path)?,
+        };
+        if let Some(spacing) = spacing {
+            if spacing.iter().any(|s| *s <= 0.0) {
+                return Err(VolumeError::header(
+                    "PixelSpacing",
+                    format!("{} \\ {} mm: both must be positive", spacing[0], spacing[1]),
+                    path,
+                ));
+            }
+            self.pixel_spacing_mm = Some(spacing);
+        }
+        let thickness = match single_float(object, tags::SPACING_BETWEEN_SLICES, "SpacingBetweenSlices", path)? {
+            Some(spacing) if spacing > 0.0 => Some(spacing),
+            _ => single_float(object, tags::SLICE_THICKNESS, "SliceThickness", path)?
+                .filter(|thickness| *thickness > 0.0),
+        };
+        self.slice_thickness_mm = thickness.or(self.slice_thickness_mm);
+        if let Some(cosines) = floats::<6>(object, tags::IMAGE_ORIENTATION_PATIENT, "ImageOrientationPatient", path)? {
+            self.orientation = Some(normalised_orientation(cosines, path)?);
+        }
+        if let Some(position) = floats::<3>(object, tags::IMAGE_POSITION_PATIENT, "ImagePositionPatient", path)? {
+            self.position_mm = Some(position);
+        }
+        Ok(())
+    }
+}
+
+/// Refuses a transfer syntax this build cannot decode, with the syntax's name.
 fn check_transfer_syntax(uid: &str, path: &Path) -> Result<(), VolumeError> {
-    if NATIVE_TRANSFER_SYNTAXES.contains(&uid) {
+    if readable_transfer_syntax(uid) {
         return Ok(());
     }
     let name = match uid {
@@ -193,31 +274,26 @@ fn check_transfer_syntax(uid: &str, path: &Path) -> Result<(), VolumeError> {
         "1.2.840.10008.1.2.4.90" => "JPEG 2000 lossless",
         "1.2.840.10008.1.2.4.91" => "JPEG 2000",
         "1.2.840.10008.1.2.5" => "RLE Lossless",
-        _ => "not a native pixel encoding",
+        "1.2.840.10008.1.2.4.201" | "1.2.840.10008.1.2.4.202" | "1.2.840.10008.1.2.4.203" => "HTJ2K",
+        "1.2.840.10008.1.2.4.110" | "1.2.840.10008.1.2.4.111" | "1.2.840.10008.1.2.4.112" => "JPEG XL",
+        "1.2.840.10008.1.2.4.100" | "1.2.840.10008.1.2.4.101" | "1.2.840.10008.1.2.4.102" => "MPEG video",
+        _ => "unknown to this reader",
     };
     Err(VolumeError::Unsupported {
-        what: "DICOM transfer syntax (convert the series to uncompressed, e.g. `gdcmconv --raw`)",
+        what: "DICOM transfer syntax (convert the series, e.g. `gdcmconv --raw` or dcmtk's `dcmdjpeg`)",
         value: format!("{uid} ({name})"),
         path: path.to_path_buf(),
     })
 }
 
-/// Volumes are scalar: one grey sample per pixel, one frame per file.
-fn check_grey_single_frame(object: &DefaultDicomObject, path: &Path) -> Result<(), VolumeError> {
+/// Volumes are scalar: one grey sample per pixel.
+fn check_grey(object: &DefaultDicomObject, path: &Path) -> Result<(), VolumeError> {
     let samples = unsigned(object, tags::SAMPLES_PER_PIXEL, "SamplesPerPixel", path)?.unwrap_or(1);
     let photometric = text(object, tags::PHOTOMETRIC_INTERPRETATION);
     if samples != 1 || !(photometric.is_empty() || photometric.starts_with("MONOCHROME")) {
         return Err(VolumeError::Unsupported {
             what: "DICOM colour image (only greyscale, SamplesPerPixel 1, can be a volume)",
             value: format!("SamplesPerPixel {samples}, PhotometricInterpretation {photometric}"),
-            path: path.to_path_buf(),
-        });
-    }
-    let frames = text(object, tags::NUMBER_OF_FRAMES).parse::<u32>().unwrap_or(1);
-    if frames > 1 {
-        return Err(VolumeError::Unsupported {
-            what: "multi-frame DICOM image (NumberOfFrames; only one image per file is read)",
-            value: frames.to_string(),
             path: path.to_path_buf(),
         });
     }
@@ -283,7 +359,7 @@ fn normalised_orientation(cosines: [f64; 6], path: &Path) -> Result<[f64; 6], Vo
 }
 
 /// A text attribute, trimmed; empty when absent or not text.
-fn text(object: &DefaultDicomObject, tag: Tag) -> String {
+pub(super) fn text(object: &InMemDicomObject, tag: Tag) -> String {
     object
         .get(tag)
         .and_then(|element| element.to_str().ok())
@@ -292,12 +368,7 @@ fn text(object: &DefaultDicomObject, tag: Tag) -> String {
 }
 
 /// An unsigned integer attribute (US, or IS text); `None` when absent or empty.
-fn unsigned(
-    object: &DefaultDicomObject,
-    tag: Tag,
-    field: &'static str,
-    path: &Path,
-) -> Result<Option<u32>, VolumeError> {
+fn unsigned(object: &InMemDicomObject, tag: Tag, field: &'static str, path: &Path) -> Result<Option<u32>, VolumeError> {
     let Some(element) = object.get(tag) else {
         return Ok(None);
     };
@@ -309,7 +380,7 @@ fn unsigned(
 
 /// A decimal-string attribute with exactly `N` finite values; `None` when absent or empty.
 fn floats<const N: usize>(
-    object: &DefaultDicomObject,
+    object: &InMemDicomObject,
     tag: Tag,
     field: &'static str,
     path: &Path,
@@ -332,7 +403,7 @@ fn floats<const N: usize>(
 }
 
 fn single_float(
-    object: &DefaultDicomObject,
+    object: &InMemDicomObject,
     tag: Tag,
     field: &'static str,
     path: &Path,

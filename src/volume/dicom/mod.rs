@@ -1,4 +1,4 @@
-//! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT): issue 2, item 3;
+//! DICOM series to a [`Volume`] in physical units (Hounsfield units for CT);
 //! `interfaces.md` (inputs: "a DICOM series (a folder, or a DICOMDIR)").
 //!
 //! Entry points: [`read_series`], or [`list_source`] then [`read_source`] (the import cache
@@ -15,8 +15,15 @@
 //!
 //! Choosing (`series.rs`): with [`DicomOptions::series_uid`] unset, several readable image
 //! series are an error listing each (UID, description, slice count); nothing is picked
-//! silently. Series this reader cannot decode (colour, compressed, multi-frame) are skipped
-//! with a warning when exactly one readable series remains, and are the error when none does.
+//! silently. Series this reader cannot decode (colour, a transfer syntax without a decoder,
+//! multi-frame without per-frame positions) are skipped with a warning when exactly one
+//! readable series remains, and are the error when none does. [`list_series`] lists them all
+//! (for a series picker) without reading pixel data.
+//!
+//! Pixel data (`pixels.rs`): native, deflated (`deflated.rs`), and the compressed syntaxes
+//! whose decoders dicom-rs's transfer syntax registry holds in this build: JPEG baseline,
+//! extended and lossless, JPEG-LS, JPEG 2000 and RLE ([`readable_transfer_syntax`]). An
+//! enhanced multi-frame CT or MR file gives one slice per frame (`frames.rs`).
 //!
 //! Geometry (`geometry.rs`): slices are ordered along the slice normal; a regular stack (even
 //! gaps within 1 %, no in-plane shift) is copied as it is, an irregular one (gantry tilt,
@@ -36,12 +43,16 @@
 //! before dicom-object parses it, and a slice's PixelData must be exactly as long as its
 //! Rows, Columns and BitsAllocated need ([`pixels`]).
 //!
-//! Never: decompresses JPEG/RLE pixel data (refused with the transfer syntax named), reads
-//! colour or multi-frame images, or writes files (the import cache is the caller's).
+//! Never: reads colour images or multi-frame images whose frames it cannot place, or writes
+//! files (the import cache is the caller's).
 
 mod bounds;
+mod codestream;
+mod deflated;
+mod frames;
 mod geometry;
 mod header;
+mod listing;
 #[cfg(test)]
 mod missing_tests;
 mod pixels;
@@ -57,7 +68,9 @@ mod tests;
 use super::limits::{self, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, orientation};
 use geometry::StackGeometry;
+pub use header::readable_transfer_syntax;
 use header::{FileKind, SliceHeader};
+pub use listing::{InstanceIdentity, PatientIdentity, PatientShown, SeriesSummary, list_series, read_identity};
 use pixels::DecodedSlice;
 use rayon::prelude::*;
 pub use series::{DicomSource, MOST_FOLDER_DEPTH, list_source};
@@ -106,6 +119,22 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
     read_source(path, &list_source(path, &limits)?, options, &limits)
 }
 
+/// A series checked exactly as [`read_source`] reads it (every slice decoded, gaps and
+/// geometry checked), without keeping its voxels: memory stays at a few slices whatever the
+/// series' length.
+#[derive(Debug)]
+pub struct SeriesCheck {
+    /// The dimensions the volume would have.
+    pub dims: [usize; 3],
+    pub warnings: Vec<String>,
+    pub series_uid: String,
+    pub description: String,
+    /// Modality of the series' first slice, empty when absent.
+    pub modality: String,
+    /// The files used, in slice order, each once.
+    pub files: Vec<PathBuf>,
+}
+
 /// Reads one DICOM series from the files `source` lists for `path` (see [`list_source`]).
 pub fn read_source(
     path: &Path,
@@ -113,6 +142,31 @@ pub fn read_source(
     options: &DicomOptions,
     limits: &ReadLimits,
 ) -> Result<DicomImport, VolumeError> {
+    let (volume, check) = assemble(path, source, options, limits, true)?;
+    let volume =
+        volume.ok_or_else(|| VolumeError::Dicom { problem: "no volume assembled".into(), path: path.to_path_buf() })?;
+    let SeriesCheck { warnings, series_uid, description, files, .. } = check;
+    Ok(DicomImport { volume, warnings, series_uid, description, files })
+}
+
+/// Checks one DICOM series as [`read_source`] would read it (see [`SeriesCheck`]).
+pub fn check_source(
+    path: &Path,
+    source: &DicomSource,
+    options: &DicomOptions,
+    limits: &ReadLimits,
+) -> Result<SeriesCheck, VolumeError> {
+    Ok(assemble(path, source, options, limits, false)?.1)
+}
+
+/// Reads or checks a series: with `keep_values` the volume is built, else only its size.
+fn assemble(
+    path: &Path,
+    source: &DicomSource,
+    options: &DicomOptions,
+    limits: &ReadLimits,
+    keep_values: bool,
+) -> Result<(Option<Volume>, SeriesCheck), VolumeError> {
     let mut warnings = Vec::new();
     // Why a slice may be missing: files or folders that could not be read, undecodable
     // slices, gaps with room for a slice.
@@ -120,8 +174,8 @@ pub fn read_source(
     let found = match (&source.folder, source.files.as_slice()) {
         (Some(folder), files) => read_folder_headers(files, folder, path, limits)?,
         (None, [file]) => match header::read_header(file, limits)? {
-            FileKind::Image(header) => {
-                FoundImages { readable: vec![*header], unsupported: Vec::new(), unreadable: Vec::new() }
+            FileKind::Image(headers) => {
+                FoundImages { readable: headers, unsupported: Vec::new(), unreadable: Vec::new() }
             }
             FileKind::Unsupported { error, .. } => return Err(error),
             FileKind::NotImage => {
@@ -139,22 +193,36 @@ pub fn read_source(
     let (series_uid, headers) =
         choose_series(FoundImages { unreadable: Vec::new(), ..found }, options, path, &mut warnings)?;
     let description = headers[0].series_description.clone();
+    let modality = headers[0].modality.clone();
     let (headers, geometry) = geometry::order_slices(headers, &mut warnings)?;
     let plane = (geometry.rows as u64) * (geometry.columns as u64);
     bounds::check_decoded_voxels(plane.saturating_mul(2 * headers.len() as u64), VoxelType::F32, limits, path)?;
-    let decoded: Vec<Result<DecodedSlice, VolumeError>> =
-        headers.par_iter().map(|header| pixels::read_slice(header, limits)).collect();
+    let decoded = decode_slices(&headers, limits, keep_values);
     let keep: Vec<bool> = decoded.iter().map(Result::is_ok).collect();
     let mut slices = Vec::with_capacity(decoded.len());
+    // A file that cannot be decoded is one hole however many frames it holds (its frames share
+    // one error); the first error of each such file.
+    let mut failed: Vec<(PathBuf, VolumeError)> = Vec::new();
     for (header, result) in headers.iter().zip(decoded) {
         match result {
             Ok(slice) => slices.push(slice),
             Err(error) if headers.len() == 1 => return Err(error),
-            Err(error) => holes.push(format!("slice {} cannot be decoded ({error})", header.path.display())),
+            Err(error) => {
+                if !failed.iter().any(|(file, _)| *file == header.path) {
+                    holes.push(format!("slice {} cannot be decoded ({error})", header.path.display()));
+                    failed.push((header.path.clone(), error));
+                }
+            }
         }
     }
     if slices.is_empty() {
-        return Err(VolumeError::SeriesGap { problem: holes.join("; "), path: path.to_path_buf() });
+        // One file (a multi-frame one) and nothing else wrong: its own error.
+        if let ([(_, _)], 1) = (failed.as_slice(), holes.len())
+            && let Some((_, error)) = failed.pop()
+        {
+            return Err(error);
+        }
+        return Err(VolumeError::SeriesGap { problem: summarise(&holes), path: path.to_path_buf() });
     }
     let geometry = geometry.keeping(&keep);
     let headers: Vec<SliceHeader> = headers.into_iter().zip(&keep).filter(|(_, k)| **k).map(|(h, _)| h).collect();
@@ -178,14 +246,27 @@ pub fn read_source(
             path: path.to_path_buf(),
         });
     }
-    let files: Vec<PathBuf> = headers.iter().map(|h| h.path.clone()).collect();
+    let mut seen = std::collections::HashSet::new();
+    let files: Vec<PathBuf> = headers.iter().filter(|h| seen.insert(&h.path)).map(|h| h.path.clone()).collect();
+    let mut check = SeriesCheck { dims: [0; 3], warnings: Vec::new(), series_uid, description, modality, files };
     let volume = if regularity.is_regular() {
-        let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
-        volume.orientation = series_orientation(&headers[0], None, path);
-        volume
+        check.dims = [geometry.columns, geometry.rows, geometry.slice_count()];
+        if keep_values {
+            let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
+            volume.orientation = series_orientation(&headers[0], None, path);
+            Some(volume)
+        } else {
+            None
+        }
     } else {
-        let (mut volume, grid) = resample_slices(&slices, &geometry, options, limits, path)?;
-        volume.orientation = series_orientation(&headers[0], Some(grid.origin_mm), path);
+        let (volume, grid) = if keep_values {
+            let (mut volume, grid) = resample_slices(&slices, &geometry, options, limits, path)?;
+            volume.orientation = series_orientation(&headers[0], Some(grid.origin_mm), path);
+            (Some(volume), grid)
+        } else {
+            (None, resample_grid(&geometry, options, path)?)
+        };
+        check.dims = grid.dims;
         warnings.push(format!(
             "{}: resampled onto {:.3} x {:.3} x {:.3} mm ({} x {} x {} voxels) along the image rows, columns and slice normal",
             regularity.describe(),
@@ -198,7 +279,62 @@ pub fn read_source(
         ));
         volume
     };
-    Ok(DicomImport { volume, warnings, series_uid, description, files })
+    check.warnings = warnings;
+    Ok((volume, check))
+}
+
+/// Decodes every slice, each file once (all its frames together), files in parallel; the
+/// results are in the order of `headers`. Every frame of a file that fails gets its error.
+/// Without `keep_values` each slice keeps only its range (its values are dropped at once).
+fn decode_slices(
+    headers: &[SliceHeader],
+    limits: &ReadLimits,
+    keep_values: bool,
+) -> Vec<Result<DecodedSlice, VolumeError>> {
+    let mut by_file: std::collections::BTreeMap<&Path, Vec<usize>> = std::collections::BTreeMap::new();
+    for (index, header) in headers.iter().enumerate() {
+        by_file.entry(header.path.as_path()).or_default().push(index);
+    }
+    let files: Vec<(&Path, Vec<usize>)> = by_file.into_iter().collect();
+    type FileSlices = (Vec<usize>, Result<Vec<DecodedSlice>, VolumeError>);
+    let decoded: Vec<FileSlices> = files
+        .into_par_iter()
+        .map(|(_, indices)| {
+            let frames: Vec<&SliceHeader> = indices.iter().map(|&index| &headers[index]).collect();
+            let mut result = pixels::read_frames(&frames, limits);
+            if !keep_values && let Ok(slices) = &mut result {
+                slices.iter_mut().for_each(|slice| slice.values = Vec::new());
+            }
+            (indices, result)
+        })
+        .collect();
+    let mut slices: Vec<Option<Result<DecodedSlice, VolumeError>>> = headers.iter().map(|_| None).collect();
+    for (indices, result) in decoded {
+        match result {
+            Ok(frames) => {
+                for (index, slice) in indices.into_iter().zip(frames) {
+                    slices[index] = Some(Ok(slice));
+                }
+            }
+            Err(error) => {
+                let problem = error.to_string();
+                let mut error = Some(error);
+                for index in indices {
+                    slices[index] = Some(Err(error.take().unwrap_or_else(|| VolumeError::Dicom {
+                        problem: problem.clone(),
+                        path: headers[index].path.clone(),
+                    })));
+                }
+            }
+        }
+    }
+    slices
+        .into_iter()
+        .zip(headers)
+        .map(|(slice, header)| {
+            slice.unwrap_or_else(|| Err(VolumeError::MissingField { field: "PixelData", path: header.path.clone() }))
+        })
+        .collect()
 }
 
 /// The first three reasons, and how many more.
@@ -312,6 +448,19 @@ fn float_volume(
     )
 }
 
+/// The regular grid an irregular stack is resampled onto.
+fn resample_grid(
+    geometry: &StackGeometry,
+    options: &DicomOptions,
+    source: &Path,
+) -> Result<resample::ResampleGrid, VolumeError> {
+    let (slice_spacing_mm, exact_span) = match options.slice_spacing_mm {
+        Some(spacing) => (spacing, false),
+        None => (geometry.automatic_slice_spacing_mm(), true),
+    };
+    resample::plan_grid(geometry, slice_spacing_mm, exact_span, source)
+}
+
 /// An irregular stack, resampled; returns the volume and the grid it was sampled on.
 fn resample_slices(
     slices: &[DecodedSlice],
@@ -320,11 +469,7 @@ fn resample_slices(
     limits: &ReadLimits,
     source: &Path,
 ) -> Result<(Volume, resample::ResampleGrid), VolumeError> {
-    let (slice_spacing_mm, exact_span) = match options.slice_spacing_mm {
-        Some(spacing) => (spacing, false),
-        None => (geometry.automatic_slice_spacing_mm(), true),
-    };
-    let grid = resample::plan_grid(geometry, slice_spacing_mm, exact_span, source)?;
+    let grid = resample_grid(geometry, options, source)?;
     let voxels = grid.dims.iter().fold(1u64, |n, &d| n.saturating_mul(d as u64));
     bounds::check_decoded_voxels(voxels, VoxelType::F32, limits, source)?;
     let pad = slices.iter().map(|s| s.min).fold(f32::INFINITY, f32::min);

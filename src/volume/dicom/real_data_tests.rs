@@ -115,12 +115,14 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     let volume = &import.volume;
     let mut acquired = Vec::new();
     for path in &import.files {
-        let FileKind::Image(header) = header::read_header(path, &crate::volume::limits::ReadLimits::default()).unwrap()
+        let FileKind::Image(mut headers) =
+            header::read_header(path, &crate::volume::limits::ReadLimits::default()).unwrap()
         else {
             panic!("{} is an image", path.display());
         };
+        let header = headers.remove(0);
         let slice = pixels::read_slice(&header, &crate::volume::limits::ReadLimits::default()).unwrap();
-        acquired.push((*header, slice));
+        acquired.push((header, slice));
     }
     let o = acquired[0].0.orientation.unwrap();
     let (r, c) = ([o[0], o[1], o[2]], [o[3], o[4], o[5]]);
@@ -178,7 +180,7 @@ fn ge_resampled_planes_match_the_acquired_slices_in_space() {
     assert_eq!(on_slice_planes, 18, "planes 0-13 (4 mm part), 15, 22, 29 and 36 (the last slice)");
 }
 
-/// The budget: the 28 x 512 x 512 series import in well under a second. A
+/// The import budget: the 28 x 512 x 512 series import in well under a second. A
 /// measurement, meaningful only in release on an idle machine:
 /// `cargo test --release --lib dicom::real_data_tests::import_time -- --ignored --nocapture`.
 #[test]

@@ -93,7 +93,7 @@ pub(super) fn read_folder_headers(
     let mut not_images = 0usize;
     for result in results {
         match result {
-            Ok(FileKind::Image(header)) => found.readable.push(*header),
+            Ok(FileKind::Image(headers)) => found.readable.extend(headers),
             Ok(FileKind::Unsupported { series_uid, series_description, error }) => {
                 found.unsupported.push((series_uid, series_description, error))
             }

@@ -1,0 +1,130 @@
+use super::*;
+use crate::volume::PatientOrientation;
+
+/// A path through `points` (fractions of a picture shown `picture_px` large), drawn evenly
+/// over `milliseconds`, with every segment cut into 10 steps as a finger would report it.
+fn drawn(points: &[[f32; 2]], picture_px: [f32; 2], milliseconds: f64) -> FingerPath {
+    let mut dense = vec![points[0]];
+    for pair in points.windows(2) {
+        for step in 1..=10 {
+            let t = step as f32 / 10.0;
+            dense.push([pair[0][0] + (pair[1][0] - pair[0][0]) * t, pair[0][1] + (pair[1][1] - pair[0][1]) * t]);
+        }
+    }
+    let mut path = FingerPath::new(picture_px, dense[0], 1000.0);
+    let steps = (dense.len() - 1).max(1) as f64;
+    for (k, &point) in dense.iter().enumerate().skip(1) {
+        path.add(point, 1000.0 + milliseconds * k as f64 / steps);
+    }
+    path
+}
+
+fn stored(axis: Axis) -> SliceLayout {
+    SliceLayout::new(None, axis)
+}
+
+#[test]
+fn a_loop_becomes_a_lasso_in_voxel_coordinates() {
+    let square = drawn(&[[0.25, 0.25], [0.75, 0.25], [0.75, 0.75], [0.25, 0.75], [0.25, 0.25]], [400.0, 160.0], 900.0);
+    let PathMeaning::Lasso(lasso) = square.meaning([100, 40, 10], &stored(Axis::Z), 3) else {
+        panic!("not a lasso: {:?}", square.meaning([100, 40, 10], &stored(Axis::Z), 3));
+    };
+    assert_eq!((lasso.axis, lasso.slice), (Axis::Z, 3));
+    assert_eq!(lasso.points[0], [24.5, 9.5]);
+    assert!(lasso.points.contains(&[74.5, 29.5]));
+    // Half the width and half the height of a 100 x 40 slice: 50 x 20 voxels.
+    assert_eq!(lasso.selected_voxels([100, 40, 10]).len(), 50 * 20);
+}
+
+#[test]
+fn the_flat_band_is_a_loop_whichever_way_and_however_fast_it_is_drawn() {
+    // Around the skull's lower edge on a coronal slice: right, down a little, back left, up.
+    let band = [[0.2, 0.70], [0.8, 0.70], [0.8, 0.76], [0.2, 0.76], [0.2, 0.70]];
+    let reversed: Vec<[f32; 2]> = band.iter().rev().copied().collect();
+    // Started on the right and left a little open, as a hurried finger does.
+    let leftwards = [[0.8, 0.70], [0.2, 0.70], [0.2, 0.76], [0.78, 0.76]];
+    let dims = [200, 180, 100];
+    for (name, points) in [("band", band.to_vec()), ("reversed", reversed), ("leftwards", leftwards.to_vec())] {
+        for milliseconds in [150.0, 2000.0] {
+            let path = drawn(&points, [500.0, 250.0], milliseconds);
+            match path.meaning(dims, &stored(Axis::Y), 90) {
+                PathMeaning::Lasso(lasso) => assert!(!lasso.selected_voxels(dims).is_empty()),
+                other => panic!("{name} in {milliseconds} ms: {other:?}"),
+            }
+        }
+    }
+}
+
+#[test]
+fn a_quick_straight_sideways_stroke_is_a_swipe_with_a_direction() {
+    let dims = [64, 64, 64];
+    let left = drawn(&[[0.8, 0.5], [0.5, 0.52], [0.2, 0.5]], [300.0, 300.0], 120.0);
+    assert_eq!(left.meaning(dims, &stored(Axis::X), 1), PathMeaning::Swipe(1));
+    let right = drawn(&[[0.2, 0.5], [0.6, 0.48]], [300.0, 300.0], 150.0);
+    assert_eq!(right.meaning(dims, &stored(Axis::X), 1), PathMeaning::Swipe(-1));
+}
+
+#[test]
+fn anything_else_is_unclear_and_says_why() {
+    let dims = [64, 64, 64];
+    let layout = stored(Axis::Z);
+    let meaning =
+        |points: &[[f32; 2]], milliseconds: f64| drawn(points, [300.0, 300.0], milliseconds).meaning(dims, &layout, 0);
+    assert_eq!(meaning(&[[0.5, 0.5], [0.51, 0.5]], 50.0), PathMeaning::Unclear(Unclear::Tap));
+    // Straight and sideways but slow: a drag, not a swipe, and not a loop.
+    assert_eq!(meaning(&[[0.2, 0.5], [0.8, 0.5]], 2000.0), PathMeaning::Unclear(Unclear::Open));
+    // Quick and straight but vertical; a bent open stroke (an L).
+    assert_eq!(meaning(&[[0.5, 0.2], [0.5, 0.8]], 100.0), PathMeaning::Unclear(Unclear::Open));
+    assert_eq!(meaning(&[[0.2, 0.2], [0.2, 0.8], [0.8, 0.8]], 150.0), PathMeaning::Unclear(Unclear::Open));
+    // Back and forth along a line: closed, but nothing inside.
+    assert_eq!(meaning(&[[0.2, 0.5], [0.8, 0.5], [0.21, 0.5]], 300.0), PathMeaning::Unclear(Unclear::NoArea));
+    // A loop between voxel centres (a 2-voxel slice shown 300 px large): no voxel inside.
+    let between = drawn(&[[0.3, 0.3], [0.7, 0.3], [0.7, 0.7], [0.3, 0.7], [0.3, 0.3]], [300.0, 300.0], 500.0);
+    assert_eq!(between.meaning([2, 2, 1], &layout, 0), PathMeaning::Unclear(Unclear::TooSmall));
+    let square = drawn(&[[0.2, 0.2], [0.6, 0.2], [0.6, 0.6], [0.2, 0.6], [0.2, 0.2]], [300.0, 300.0], 500.0);
+    assert_eq!(square.meaning(dims, &layout, 64), PathMeaning::Unclear(Unclear::NoSlice));
+    for unclear in [Unclear::Tap, Unclear::Open, Unclear::NoArea, Unclear::TooSmall, Unclear::NoSlice] {
+        assert!(unclear.message().starts_with("Draw a closed loop around the structure"));
+    }
+}
+
+#[test]
+fn a_lasso_drawn_on_a_flipped_and_turned_panel_selects_the_voxels_under_the_finger() {
+    // A sagittally stored MRI: x toward anterior, y toward inferior, z toward the left. Every
+    // panel is turned or flipped on screen.
+    let orientation = PatientOrientation::new([[0.0, -1.0, 0.0], [0.0, 0.0, -1.0], [1.0, 0.0, 0.0]], None).unwrap();
+    let dims = [12, 16, 20];
+    for axis in Axis::ALL {
+        let layout = SliceLayout::new(Some(&orientation), axis);
+        assert!(layout.across_reversed || layout.down_reversed || layout.transposed(), "{axis}: {layout:?}");
+        let [width, height] = layout.screen_size(dims);
+        // Screen pixels 2..=5 across and 3..=8 down: a rectangle with edges between centres,
+        // drawn on the picture shown 10 px per voxel.
+        let (u0, u1, v0, v1) = (1.5f32, 5.5f32, 2.5f32, 8.5f32);
+        let fraction = |u: f32, v: f32| [(u + 0.5) / width as f32, (v + 0.5) / height as f32];
+        let corners = [fraction(u0, v0), fraction(u1, v0), fraction(u1, v1), fraction(u0, v1), fraction(u0, v0)];
+        let path = drawn(&corners, [10.0 * width as f32, 10.0 * height as f32], 800.0);
+        let PathMeaning::Lasso(lasso) = path.meaning(dims, &layout, 4) else { panic!("{axis}: not a lasso") };
+        let mut expected: Vec<usize> = (2..=5)
+            .flat_map(|u| (3..=8).map(move |v| [u as f64, v as f64]))
+            .map(|screen| {
+                let voxel = layout.voxel_from_screen(screen, dims, 4).map(|c| c.round() as usize);
+                voxel[0] + dims[0] * (voxel[1] + dims[1] * voxel[2])
+            })
+            .collect();
+        expected.sort_unstable();
+        assert_eq!(lasso.selected_voxels(dims), expected, "{axis}");
+    }
+}
+
+#[test]
+fn paths_are_bounded_and_ignore_non_finite_points() {
+    let mut path = FingerPath::new([1000.0, 1000.0], [f32::NAN, 0.5], 0.0);
+    assert!(path.points.is_empty());
+    for k in 0..3 * MAX_PATH_POINTS {
+        path.add([(k % 100) as f32 / 100.0, (k / 100) as f32 / 1000.0], k as f64);
+    }
+    assert_eq!(path.points.len(), MAX_PATH_POINTS);
+    assert!(path.svg_commands().starts_with("M 0.0 0.0 L 10.0 0.0"));
+    assert!(path.svg_commands().ends_with('Z'));
+}
