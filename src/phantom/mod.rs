@@ -32,14 +32,13 @@
 //! module uses `slices` and `strokes`, as a demo session does).
 //!
 //! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
-//! MRI brain, 8-bit MRI shells).
-//!
-//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
-//! MRI brain, 8-bit MRI shells).
+//! MRI brain, 8-bit MRI shells), and [`bodies`] two with bodies cut by the volume's faces
+//! (16-bit CT torso, 8-bit MRI head).
 //!
 //! Never: reads files, or pretends to be real anatomy beyond a test's needs.
 
 pub mod anatomy;
+pub mod bodies;
 pub(crate) mod lassos;
 pub mod procedural;
 #[cfg(test)]
