@@ -76,6 +76,8 @@ fn classify_prints_the_json_line_and_writes_the_labels() {
         assert!(line["seconds"][key].as_f64().is_some(), "seconds.{key} missing");
     }
     assert_eq!(line["voxels"], 192 * 128 * 96);
+    // interfaces.md: without --classifier, the paper's SN-SVM.
+    assert_eq!(line["classifier"], "snsvm");
     let labels = volasso::volume::open(&out, &Default::default()).unwrap();
     assert_eq!(labels.dims, [192, 128, 96]);
     assert_eq!(labels.voxel_type, volasso::VoxelType::U8);

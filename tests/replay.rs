@@ -95,6 +95,15 @@ fn an_enlarged_slice_takes_a_loop_around_a_small_structure() {
     replay_on("enlarge-loop.touch", "cranium_ct_256x256x108_int16.raw", &["1024x600", "1280x800"]);
 }
 
+/// Loops around structures at a head's edge take in the air outside: the air must stay
+/// background and each class keep its own lassoed voxels (the scripts' `expect` lines), on a
+/// 16-bit clinical CT and on the 8-bit Visible Male head.
+#[test]
+fn loops_that_take_in_air_leave_the_air_background() {
+    replay_on("cranium-skull-lasso.touch", "cranium_ct_256x256x108_int16.raw", &["1280x800"]);
+    replay_on("vismale-scalp-lasso.touch", "vismale_128x256x256_uint8.raw", &["1280x800"]);
+}
+
 /// 10,000 random type-B events in 60 s with up to 10 fingers, off-screen positions, garbage
 /// codes and SYN_DROPPED in the middle of gestures, then a script that needs a working UI.
 #[test]

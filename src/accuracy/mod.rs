@@ -1,17 +1,23 @@
-//! The accuracy harness: how well each classification method recovers known
-//! materials from the lassos a simulated user draws.
+//! The accuracy harness: how well each classification method recovers known materials from
+//! the lassos a simulated user draws.
 //!
-//! A [`Case`] is a procedural phantom with ground truth (8- and 16-bit, CT- and MRI-like: the
-//! demo foot, [`crate::phantom::procedural`]); a [`Method`] is a feature set and classifier. For
-//! each case, seed and method, [`evaluate`] draws lassos ([`user::draw_training`]: every truth
-//! class lassoed, class id k + 1 for truth k), trains through the public pipeline
-//! ([`segmentation::train`], [`segmentation::label_volume`]) and reports per-class and macro
-//! Dice and the time from training to labels. Voxels left at label 0 (below the background
-//! threshold) count as truth class 0, which is the darkest background in every phantom.
+//! A [`Case`] is a procedural phantom with ground truth at one seed (8- and 16-bit, CT- and
+//! MRI-like, thin vessels and large organs, air around bodies and bodies cut by the volume's
+//! faces: the demo foot, [`crate::phantom::procedural`], [`crate::phantom::bodies`]); a
+//! [`Method`] is a feature set and classifier; a [`Hand`] is how precisely the simulated user
+//! draws: cleanly inside each structure, or leaking over its border by a finger's width. For
+//! each case, hand and method, [`evaluate`] draws lassos ([`user::draw_training`]), trains
+//! through the public pipeline ([`segmentation::train`], [`segmentation::label_volume`]) and
+//! reports per-class and macro Dice and the time from training to labels.
 //!
-//! Cases are split into those the defaults were tuned on ([`CaseRole::Tune`]) and held-out
-//! ones ([`CaseRole::Check`]): other phantoms, and the tuning phantoms with noise and lasso
-//! seeds never used while tuning.
+//! Every truth class is lassoed, air included (class id k + 1 for truth k), unless the user
+//! model says the air is left alone (then truth k >= 1 is class id k, and the air must come out
+//! as background, label 0). Voxels left at label 0 count as truth class 0, the darkest
+//! background in every phantom.
+//!
+//! Cases are split by seed ([`Case::role`]): seeds 1 to 4 are [`CaseRole::Tune`] (free to look
+//! at while choosing constants), seeds 5 and above are [`CaseRole::Check`] (they decide the
+//! defaults and are not looked at while tuning).
 //!
 //! Never: changes what the pipeline does, or reads files.
 
@@ -20,8 +26,9 @@ pub mod user;
 
 use crate::classify::ForestParams;
 use crate::features::FeatureSet;
-use crate::phantom::{self, Phantom, procedural};
+use crate::phantom::{self, Phantom, bodies, procedural};
 use crate::segmentation::{self, ClassifierKind, SegmentationError, SegmentationOptions};
+use crate::strokes::TrainingSet;
 use crate::volume::VolumeError;
 use std::sync::atomic::AtomicBool;
 use std::time::Instant;
@@ -38,11 +45,21 @@ pub enum PhantomKind {
     Brain,
     /// 8-bit MRI: background, rind, flesh, membrane, core, seeds.
     Shells,
+    /// 16-bit CT: air, soft tissue, liver, vessels, bone, lungs; the body cut by the faces.
+    Torso,
+    /// 8-bit MRI with a strong bias: background, scalp, skull, CSF, brain, a neck cut by a face.
+    Head,
 }
 
 impl PhantomKind {
-    pub const ALL: [PhantomKind; 4] =
-        [PhantomKind::Foot, PhantomKind::Vessels, PhantomKind::Brain, PhantomKind::Shells];
+    pub const ALL: [PhantomKind; 6] = [
+        PhantomKind::Foot,
+        PhantomKind::Vessels,
+        PhantomKind::Brain,
+        PhantomKind::Shells,
+        PhantomKind::Torso,
+        PhantomKind::Head,
+    ];
 
     pub fn name(self) -> &'static str {
         match self {
@@ -50,6 +67,8 @@ impl PhantomKind {
             PhantomKind::Vessels => "vessels8",
             PhantomKind::Brain => "brain16",
             PhantomKind::Shells => "shells8",
+            PhantomKind::Torso => "torso16",
+            PhantomKind::Head => "head8",
         }
     }
 
@@ -68,6 +87,10 @@ impl PhantomKind {
             (PhantomKind::Brain, true) => [66, 78, 60],
             (PhantomKind::Shells, false) => [112, 112, 96],
             (PhantomKind::Shells, true) => [56, 56, 48],
+            (PhantomKind::Torso, false) => [160, 128, 96],
+            (PhantomKind::Torso, true) => [80, 64, 48],
+            (PhantomKind::Head, false) => [120, 144, 136],
+            (PhantomKind::Head, true) => [60, 72, 68],
         }
     }
 
@@ -77,6 +100,8 @@ impl PhantomKind {
             PhantomKind::Vessels => procedural::vessels_ct(dims, seed),
             PhantomKind::Brain => procedural::brain_mri(dims, seed),
             PhantomKind::Shells => procedural::shells_mri(dims, seed),
+            PhantomKind::Torso => bodies::torso_ct(dims, seed),
+            PhantomKind::Head => bodies::head_mri(dims, seed),
         }
     }
 }
@@ -96,11 +121,48 @@ pub struct Case {
 }
 
 impl Case {
-    /// Tuning used the foot and the vessels at seeds 1 to 4; everything else is held out.
+    /// Seeds 1 to 4 (and 0) are for tuning; seeds 5 and above check (module doc).
     pub fn role(&self) -> CaseRole {
-        match (self.kind, self.seed) {
-            (PhantomKind::Foot | PhantomKind::Vessels, 1..=4) => CaseRole::Tune,
-            _ => CaseRole::Check,
+        if self.seed <= LAST_TUNING_SEED { CaseRole::Tune } else { CaseRole::Check }
+    }
+}
+
+/// The last seed of the tuning cases.
+pub const LAST_TUNING_SEED: u64 = 4;
+
+/// How precisely the simulated user draws.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Hand {
+    /// Lassos stay two pixels inside each structure ([`UserModel::default`]).
+    Clean,
+    /// Loops drawn around a structure at a finger's precision: they reach up to
+    /// [`LEAK_PIXELS`] beyond its border, into its neighbours and the air.
+    Leaky,
+}
+
+/// How far a leaky lasso reaches beyond a structure's border: a fingertip's wobble on a
+/// 256-voxel slice is one to two voxels.
+pub const LEAK_PIXELS: u32 = 2;
+
+impl Hand {
+    pub const ALL: [Hand; 2] = [Hand::Clean, Hand::Leaky];
+
+    pub fn name(self) -> &'static str {
+        match self {
+            Hand::Clean => "clean",
+            Hand::Leaky => "leaky",
+        }
+    }
+
+    pub fn from_name(name: &str) -> Option<Hand> {
+        Hand::ALL.into_iter().find(|hand| hand.name() == name)
+    }
+
+    /// `base` drawn by this hand.
+    pub fn user(self, base: &UserModel) -> UserModel {
+        match self {
+            Hand::Clean => UserModel { sloppy_pixels: 0, ..*base },
+            Hand::Leaky => UserModel { sloppy_pixels: LEAK_PIXELS, ..*base },
         }
     }
 }
@@ -108,8 +170,11 @@ impl Case {
 /// A feature set and classifier to compare.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Method {
-    /// The paper: SN-SVM (eta = 0.3) on the 5-D features.
+    /// The paper: SN-SVM (eta = 0.3) on the 5-D features, each pair of classes standardised on
+    /// its own ([`SegmentationOptions::paper`]).
     SnSvmPaper5,
+    /// The same with one standardisation for all classes.
+    SnSvmPaper5Global,
     /// Plain RBF SVM on the 5-D features.
     SvmPaper5,
     /// Random forest on the 5-D features.
@@ -122,13 +187,17 @@ pub enum Method {
     ForestMultiscale,
     /// Random forest on the fine multi-scale features.
     ForestMultiscaleFine,
-    /// `SegmentationOptions::default()`, whatever it is.
+    /// `SegmentationOptions::default()`, whatever it is (the paper's method with a majority
+    /// pass after labelling).
     Default,
+    /// The default without its majority pass: the classifier's vote voxel by voxel.
+    DefaultVoxelwise,
 }
 
 impl Method {
-    pub const ALL: [Method; 8] = [
+    pub const ALL: [Method; 10] = [
         Method::SnSvmPaper5,
+        Method::SnSvmPaper5Global,
         Method::SvmPaper5,
         Method::ForestPaper5,
         Method::SvmMultiscale,
@@ -136,11 +205,13 @@ impl Method {
         Method::ForestMultiscale,
         Method::ForestMultiscaleFine,
         Method::Default,
+        Method::DefaultVoxelwise,
     ];
 
     pub fn name(self) -> &'static str {
         match self {
             Method::SnSvmPaper5 => "snsvm-paper5",
+            Method::SnSvmPaper5Global => "snsvm-global",
             Method::SvmPaper5 => "svm-paper5",
             Method::ForestPaper5 => "forest-paper5",
             Method::SvmMultiscale => "svm-multiscale",
@@ -148,6 +219,7 @@ impl Method {
             Method::ForestMultiscale => "forest-multiscale",
             Method::ForestMultiscaleFine => "forest-fine",
             Method::Default => "default",
+            Method::DefaultVoxelwise => "default-voxelwise",
         }
     }
 
@@ -160,15 +232,21 @@ impl Method {
             feature_set,
             classifier_kind: ClassifierKind::SnSvm,
             classifier: crate::classify::SnSvmParams { eta, ..crate::classify::SnSvmParams::default() },
+            coherence: segmentation::Coherence::None,
             ..SegmentationOptions::default()
         };
         let forest = |feature_set| SegmentationOptions {
             feature_set,
             classifier_kind: ClassifierKind::Forest(ForestParams::default()),
+            coherence: segmentation::Coherence::None,
             ..SegmentationOptions::default()
         };
         match self {
             Method::SnSvmPaper5 => SegmentationOptions::paper(),
+            Method::SnSvmPaper5Global => SegmentationOptions {
+                standardisation: segmentation::Standardisation::Global,
+                ..SegmentationOptions::paper()
+            },
             Method::SvmPaper5 => svm(FeatureSet::Paper5, 0.0),
             Method::ForestPaper5 => forest(FeatureSet::Paper5),
             Method::SvmMultiscale => svm(FeatureSet::Multiscale, 0.0),
@@ -176,6 +254,9 @@ impl Method {
             Method::ForestMultiscale => forest(FeatureSet::Multiscale),
             Method::ForestMultiscaleFine => forest(FeatureSet::MultiscaleFine),
             Method::Default => SegmentationOptions::default(),
+            Method::DefaultVoxelwise => {
+                SegmentationOptions { coherence: segmentation::Coherence::None, ..SegmentationOptions::default() }
+            }
         }
     }
 }
@@ -184,6 +265,7 @@ impl Method {
 #[derive(Clone, Debug)]
 pub struct Outcome {
     pub case: Case,
+    pub hand: Hand,
     pub method: Method,
     pub class_names: Vec<&'static str>,
     /// Dice per truth class.
@@ -209,13 +291,17 @@ pub enum AccuracyError {
     Segmentation { method: &'static str, phantom: &'static str, seed: u64, source: SegmentationError },
 }
 
-/// Runs every method on every case; `quick` uses the small phantoms. Cases run one after
-/// another (each method is itself parallel), so timings are comparable.
+/// Runs every method on every case with every hand; `quick` uses the small phantoms. Cases
+/// run one after another (each method is itself parallel), so timings are comparable.
+/// `on_training` sees each phantom and the lassos drawn on it before the methods run (to
+/// export them); `on_outcome` sees each result as it comes.
 pub fn evaluate(
     cases: &[Case],
     methods: &[Method],
+    hands: &[Hand],
     user: &UserModel,
     quick: bool,
+    mut on_training: impl FnMut(&Case, Hand, &Phantom, &TrainingSet),
     mut on_outcome: impl FnMut(&Outcome),
 ) -> Result<Vec<Outcome>, AccuracyError> {
     let mut outcomes = Vec::new();
@@ -224,39 +310,59 @@ pub fn evaluate(
             .kind
             .generate(case.kind.dims(quick), case.seed)
             .map_err(|source| AccuracyError::Phantom { phantom: case.kind.name(), source })?;
-        let training = draw_training(&phantom, user, crate::rng::hash64(case.seed, 0x0001_A550));
         // Computed once per volume, as when a volume is opened: every method's time then
         // leaves it out alike.
         phantom.volume.otsu_threshold();
-        for &method in methods {
-            let error = |source| AccuracyError::Segmentation {
-                method: method.name(),
-                phantom: case.kind.name(),
-                seed: case.seed,
-                source,
-            };
-            let options = method.options();
-            let started = Instant::now();
-            let segmenter = segmentation::train(&phantom.volume, &training, &options).map_err(error)?;
-            let cancel = AtomicBool::new(false);
-            let labels = segmentation::label_volume(&phantom.volume, &segmenter, options.refinement, &|_| {}, &cancel)
-                .map_err(error)?;
-            let seconds = started.elapsed().as_secs_f64();
-            // Label k is truth class k - 1; unclassified voxels are background.
-            let predicted: Vec<u8> = labels.labels.iter().map(|&l| l.saturating_sub(1)).collect();
-            let dice =
-                (0..phantom.class_names.len() as u8).map(|c| phantom::dice(&phantom.truth, &predicted, c)).collect();
-            let outcome = Outcome {
-                case: *case,
-                method,
-                class_names: phantom.class_names.clone(),
-                dice,
-                training_voxels: training.classes.iter().map(|c| c.voxels.len()).collect(),
-                seconds,
-            };
-            on_outcome(&outcome);
-            outcomes.push(outcome);
+        for &hand in hands {
+            let user = hand.user(user);
+            let training = draw_training(&phantom, &user, crate::rng::hash64(case.seed, 0x0001_A550));
+            on_training(case, hand, &phantom, &training);
+            for &method in methods {
+                let outcome = run_method(&phantom, &training, &user, *case, hand, method)?;
+                on_outcome(&outcome);
+                outcomes.push(outcome);
+            }
         }
     }
     Ok(outcomes)
+}
+
+/// Truth class of each label: with the air lassoed, label k is truth k - 1 and label 0 (not
+/// classified) is the air too; without, label k is truth k.
+pub fn truth_of_label(label: u8, user: &UserModel) -> u8 {
+    if user.lasso_background { label.saturating_sub(1) } else { label }
+}
+
+fn run_method(
+    phantom: &Phantom,
+    training: &TrainingSet,
+    user: &UserModel,
+    case: Case,
+    hand: Hand,
+    method: Method,
+) -> Result<Outcome, AccuracyError> {
+    let error = |source| AccuracyError::Segmentation {
+        method: method.name(),
+        phantom: case.kind.name(),
+        seed: case.seed,
+        source,
+    };
+    let options = method.options();
+    let started = Instant::now();
+    let segmenter = segmentation::train(&phantom.volume, training, &options).map_err(error)?;
+    let cancel = AtomicBool::new(false);
+    let labels =
+        segmentation::label_volume(&phantom.volume, &segmenter, options.refinement, &|_| {}, &cancel).map_err(error)?;
+    let seconds = started.elapsed().as_secs_f64();
+    let predicted: Vec<u8> = labels.labels.iter().map(|&l| truth_of_label(l, user)).collect();
+    let dice = (0..phantom.class_names.len() as u8).map(|c| phantom::dice(&phantom.truth, &predicted, c)).collect();
+    Ok(Outcome {
+        case,
+        hand,
+        method,
+        class_names: phantom.class_names.clone(),
+        dice,
+        training_voxels: training.classes.iter().map(|c| c.voxels.len()).collect(),
+        seconds,
+    })
 }

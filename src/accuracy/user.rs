@@ -32,6 +32,8 @@ pub struct UserModel {
     pub sloppy_pixels: u32,
     /// Top-entropy slices per axis to draw on.
     pub slices_per_axis: usize,
+    /// Whether truth class 0 (the air or background around the body) is lassoed as a class.
+    pub lasso_background: bool,
 }
 
 impl Default for UserModel {
@@ -42,11 +44,13 @@ impl Default for UserModel {
             erosion_pixels: 2,
             sloppy_pixels: 0,
             slices_per_axis: 1,
+            lasso_background: true,
         }
     }
 }
 
-/// The training set the simulated user draws on `phantom` (class id k + 1 = truth class k).
+/// The training set the simulated user draws on `phantom`: class id k + 1 = truth class k, or
+/// with the background left alone, class id k = truth class k >= 1.
 pub fn draw_training(phantom: &Phantom, user: &UserModel, seed: u64) -> TrainingSet {
     let entropies = slice_entropies(&phantom.volume);
     let dims = phantom.volume.dims;
@@ -62,10 +66,11 @@ pub fn draw_training(phantom: &Phantom, user: &UserModel, seed: u64) -> Training
     }
     let mut rng = SplitMix64::new(seed);
     let class_count = phantom.class_names.len();
+    let first_class = u8::from(!user.lasso_background);
     let mut owner: HashMap<usize, (u8, u32)> = HashMap::new();
     let mut contested: Vec<usize> = Vec::new();
     let per_lasso = user.voxel_budget_per_class.div_ceil(user.lassos_per_class.max(1));
-    for class in 0..class_count as u8 {
+    for class in first_class..class_count as u8 {
         for lasso in 0..user.lassos_per_class {
             // Axes in turn, starting somewhere random, skipping slices without the class; a
             // class on none of them is looked for on the z slice that shows most of it.
@@ -98,8 +103,7 @@ pub fn draw_training(phantom: &Phantom, user: &UserModel, seed: u64) -> Training
     }
     contested.sort_unstable();
     contested.dedup();
-    let mut classes: Vec<ClassSamples> = phantom
-        .class_names
+    let mut classes: Vec<ClassSamples> = phantom.class_names[first_class as usize..]
         .iter()
         .map(|name| ClassSamples {
             name: name.to_string(),
@@ -113,7 +117,7 @@ pub fn draw_training(phantom: &Phantom, user: &UserModel, seed: u64) -> Training
         owner.into_iter().map(|(voxel, (class, lasso))| (voxel, class, lasso)).collect();
     owned.sort_unstable();
     for (voxel, class, lasso) in owned {
-        let samples = &mut classes[class as usize];
+        let samples = &mut classes[(class - first_class) as usize];
         samples.voxels.push(voxel);
         samples.stroke_of_voxel.push(lasso);
         samples.stroke_voxel_counts[lasso as usize] += 1;

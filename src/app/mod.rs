@@ -58,6 +58,7 @@ use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
+use std::sync::Arc;
 use std::time::Duration;
 use ui::AppWindow;
 
@@ -357,6 +358,15 @@ impl App {
             && !state.ctl.renderer.busy()
             && !state.painter.busy()
             && !state.view_dirty
+    }
+
+    /// The open volume, the label volume shown and the lassos it was trained on (replay
+    /// scripts' label expectations); `None` before the first classification.
+    pub fn classification(&self) -> Option<(Arc<crate::volume::Volume>, Arc<Vec<u8>>, StrokesFile)> {
+        let state = self.state.borrow();
+        let work = state.work.as_ref()?;
+        let classified = work.classified.as_ref()?;
+        Some((work.loaded.volume.clone(), classified.labels.clone(), work.requested.clone()?))
     }
 
     /// A two-finger gesture on the 3-D view: `zoom` multiplies the zoom, `pan_pixels` moves the

@@ -107,6 +107,13 @@ pub enum ClassifierChoice {
     Forest,
 }
 
+/// The spatial step `classify` ends with.
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum CoherenceChoice {
+    None,
+    Majority,
+}
+
 /// Which voxel features `classify` computes.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum FeatureChoice {
@@ -141,12 +148,11 @@ pub struct ClassifyArgs {
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,
-    /// The classifier; without it, the measured-best default (`volasso accuracy`): a random
-    /// forest on the fine multi-scale features. `snsvm` and `svm` use the paper's 5-D features
-    /// unless `--features` says otherwise.
+    /// The classifier; without it, the paper's SN-SVM on its 5-D features. `forest` uses the
+    /// fine multi-scale features unless `--features` says otherwise.
     #[arg(long, value_enum)]
     pub classifier: Option<ClassifierChoice>,
-    /// The voxel features (default: `paper5` for snsvm and svm, else `multiscale-fine`).
+    /// The voxel features (default: `paper5`, and `multiscale-fine` for the forest).
     #[arg(long, value_enum)]
     pub features: Option<FeatureChoice>,
     /// Random forest: number of trees.
@@ -155,8 +161,9 @@ pub struct ClassifyArgs {
     /// Training voxels kept per class (stratified over its strokes).
     #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N")]
     pub cap: usize,
-    /// Background threshold: `auto` (Otsu, never above a lassoed voxel), `none`, or a value;
-    /// voxels below it get label 0 and are not evaluated.
+    /// Background: `auto` (the air joined to the volume's faces and everything below Otsu's
+    /// threshold, unless a class reaches there; air a lasso took in is not trained on),
+    /// `none`, or a value: voxels below it get label 0 and are not evaluated.
     #[arg(long, default_value = "auto", value_parser = parse_background, value_name = "auto|none|VALUE")]
     pub background: crate::segmentation::Background,
     /// Also write the paper's pre-classified RGBA volume (4 x uint8 per voxel) as NRRD.
@@ -165,6 +172,10 @@ pub struct ClassifyArgs {
     /// Evaluate the classifier on every foreground voxel (no coarse-to-fine refinement).
     #[arg(long)]
     pub exact: bool,
+    /// The spatial step after classification: `majority` (a voxel that disagrees with its
+    /// face neighbours takes its 3x3x3 neighbourhood's majority label) or `none`.
+    #[arg(long, value_enum, default_value = "majority")]
+    pub coherence: CoherenceChoice,
     /// RBF kernel width g in exp(-g |x - y|^2) on standardised features.
     #[arg(long, value_name = "G")]
     pub kernel_width: Option<f64>,

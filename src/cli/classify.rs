@@ -19,12 +19,14 @@
 //! benchmark (`benches/README.md`).
 
 use super::CliError;
-use super::args::{ClassifierChoice, ClassifyArgs};
+use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};
 use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
-use crate::segmentation::{self, ClassifierKind, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter};
+use crate::segmentation::{
+    self, ClassifierKind, Coherence, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter,
+};
 use crate::strokes::{StrokesFile, TrainingSet};
 use crate::transfer::{self, ClassTable, HueTemplate, TransferError, class_table_path};
 use crate::volume::{ByteOrder, Volume, VoxelType, nrrd};
@@ -182,7 +184,7 @@ pub(super) fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
     let (classifier_kind, default_features) = match args.classifier {
         None => (defaults.classifier_kind, defaults.feature_set),
         Some(ClassifierChoice::Snsvm | ClassifierChoice::Svm) => (ClassifierKind::SnSvm, FeatureSet::Paper5),
-        Some(ClassifierChoice::Forest) => (ClassifierKind::Forest(ForestParams::default()), defaults.feature_set),
+        Some(ClassifierChoice::Forest) => (ClassifierKind::Forest(ForestParams::default()), FeatureSet::MultiscaleFine),
     };
     let classifier_kind = match (classifier_kind, args.trees) {
         (ClassifierKind::Forest(params), Some(trees)) => {
@@ -209,6 +211,10 @@ pub(super) fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
         max_training_per_class: args.cap,
         background: args.background,
         refinement: if args.exact { Refinement::Exact } else { Refinement::CoarseToFine },
+        coherence: match args.coherence {
+            CoherenceChoice::None => Coherence::None,
+            CoherenceChoice::Majority => Coherence::Majority,
+        },
         ..defaults
     }
 }

@@ -19,7 +19,7 @@ use crate::touch::contacts::ContactTracker;
 use crate::touch::event::{DeviceInfo, RawEvent};
 use crate::touch::format::EventsText;
 use crate::touch::mapping::ScreenMapping;
-use crate::touch::script::{self, ElementLocator, Rect, ScriptAction};
+use crate::touch::script::{self, ElementLocator, Rect, ScriptAction, expectations};
 use crate::transfer::RgbImage;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
@@ -231,6 +231,10 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
         }
         "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
         "letters" => expect_letters(harness, value),
+        key if expectations::KEYS.contains(&key) => {
+            let (volume, labels, strokes) = harness.app().classification().ok_or("nothing is classified yet")?;
+            expectations::check(key, value, &volume, &labels, &strokes)
+        }
         _ => {
             let found = harness.app().query(key).ok_or(format!("unknown expectation key '{key}'"))?;
             if found == value { Ok(()) } else { Err(format!("{key} is '{found}', expected '{value}'")) }

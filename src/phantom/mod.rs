@@ -32,10 +32,8 @@
 //! module uses `slices` and `strokes`, as a demo session does).
 //!
 //! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
-//! MRI brain, 8-bit MRI shells).
-//!
-//! [`procedural`] adds the accuracy harness's other phantoms (8-bit CT with vessels, 16-bit
-//! MRI brain, 8-bit MRI shells).
+//! MRI brain, 8-bit MRI shells), and [`bodies`] two with bodies cut by the volume's faces
+//! (16-bit CT torso, 8-bit MRI head).
 //!
 //! [`source`] names where a volume comes from (a path, or this demo as "demo") and opens it.
 //!
@@ -43,6 +41,7 @@
 //! anatomy beyond a test's needs.
 
 pub mod anatomy;
+pub mod bodies;
 pub(crate) mod lassos;
 pub mod procedural;
 pub mod source;

@@ -23,23 +23,25 @@ use rayon::prelude::*;
 use std::path::Path;
 
 /// How one phantom turns truth into values.
-struct Recipe<'a> {
-    name: &'static str,
-    class_names: &'a [&'static str],
-    field_of_view_mm: [f64; 3],
-    voxel_type: VoxelType,
+pub(super) struct Recipe<'a> {
+    pub name: &'static str,
+    pub class_names: &'a [&'static str],
+    pub field_of_view_mm: [f64; 3],
+    /// U8 and U16 are magnitude images (noise folded at 0); I16 is CT in Hounsfield units
+    /// (clamped to -1024..3071, the bias field acting on the value above air).
+    pub voxel_type: VoxelType,
     /// Per tissue (what `tissue_at` returns): its class, mean value and texture deviation
     /// (before bias, blur and noise).
-    tissues: &'a [(u8, f32, f32)],
+    pub tissues: &'a [(u8, f32, f32)],
     /// Relative amplitude of the smooth multiplicative bias field.
-    bias: f32,
+    pub bias: f32,
     /// Noise deviation after blur.
-    noise: f32,
+    pub noise: f32,
     /// Passes of the 1/8 [1 6 1] blur per axis.
-    blur_passes: usize,
+    pub blur_passes: usize,
 }
 
-fn generate(
+pub(super) fn generate(
     recipe: &Recipe,
     dims: [usize; 3],
     seed: u64,
@@ -60,7 +62,11 @@ fn generate(
             let (class, mean, texture) = recipe.tissues[tissue_at(p)];
             let bias = 1.0 + recipe.bias * bias_field(p, recipe.field_of_view_mm);
             classes[k] = class;
-            slice[k] = bias * (mean + texture * gaussian_from_bits(hash64(texture_seed, (z * plane + k) as u64)));
+            let value = mean + texture * gaussian_from_bits(hash64(texture_seed, (z * plane + k) as u64));
+            slice[k] = match recipe.voxel_type {
+                VoxelType::I16 => AIR_HU + bias * (value - AIR_HU),
+                _ => bias * value,
+            };
         }
     });
     for _ in 0..recipe.blur_passes {
@@ -73,16 +79,23 @@ fn generate(
     let mut bytes = vec![0u8; voxel_count * size];
     let (low, high) = match recipe.voxel_type {
         VoxelType::U8 => (0.0, 255.0),
+        VoxelType::I16 => (-1024.0, 3071.0),
         _ => (0.0, 65535.0),
     };
     bytes.par_chunks_mut(plane * size).zip(values.par_chunks(plane)).enumerate().for_each(|(z, (out, slice))| {
         for (k, &value) in slice.iter().enumerate() {
-            // Magnitude images (MRI) and clipped CT both keep noise non-negative at the floor.
-            let noisy = (value + recipe.noise * gaussian_from_bits(hash64(noise_seed, (z * plane + k) as u64))).abs();
-            let stored = noisy.round().clamp(low, high);
+            let noisy = value + recipe.noise * gaussian_from_bits(hash64(noise_seed, (z * plane + k) as u64));
             match recipe.voxel_type {
-                VoxelType::U8 => out[k] = stored as u8,
-                _ => out[2 * k..2 * k + 2].copy_from_slice(&(stored as u16).to_le_bytes()),
+                // Hounsfield units, clipped as scanners clip them.
+                VoxelType::I16 => {
+                    let stored = noisy.round().clamp(low, high) as i16;
+                    out[2 * k..2 * k + 2].copy_from_slice(&stored.to_le_bytes());
+                }
+                // Magnitude images (MRI) and clipped 8-bit CT keep noise non-negative at the floor.
+                VoxelType::U8 => out[k] = noisy.abs().round().clamp(low, high) as u8,
+                _ => {
+                    out[2 * k..2 * k + 2].copy_from_slice(&(noisy.abs().round().clamp(low, high) as u16).to_le_bytes())
+                }
             }
         }
     });
@@ -97,6 +110,9 @@ fn generate(
     )?;
     Ok(Phantom { volume, truth, class_names: recipe.class_names.to_vec() })
 }
+
+/// Air in Hounsfield units: the value a CT bias field leaves alone.
+const AIR_HU: f32 = -1000.0;
 
 /// A smooth field in about [-1, 1] over the field of view (a few low-frequency waves).
 fn bias_field(p: [f64; 3], field_of_view_mm: [f64; 3]) -> f32 {
@@ -128,7 +144,7 @@ fn blur_axis(values: &mut [f32], dims: [usize; 3], axis: usize) {
 
 /// Distance in the plane across `axis` from `p` to a curve that runs along `axis` with its
 /// centre at `centre(t)` (t = p[axis]); a tube when compared with a radius.
-fn distance_to_curve(p: [f64; 3], axis: usize, centre: impl Fn(f64) -> [f64; 2]) -> f64 {
+pub(super) fn distance_to_curve(p: [f64; 3], axis: usize, centre: impl Fn(f64) -> [f64; 2]) -> f64 {
     let [a, b] = match axis {
         0 => [1, 2],
         1 => [0, 2],

@@ -13,18 +13,23 @@
 //! structures that the coarse grid straddles). Elsewhere the voxel takes its neighbours'
 //! common label. [`Refinement::Exact`] evaluates every foreground voxel.
 //!
-//! The classifier is a [`ClassifierKind`]: the paper's SN-SVM (`SegmentationOptions::paper()`,
-//! on the 5-D features) or a random forest. The default is the forest on
-//! [`FeatureSet::MultiscaleFine`], which `volasso accuracy` measures best and which fits the
-//! latency budget (see [`SegmentationOptions::default`]).
+//! The classifier is a [`ClassifierKind`]: the paper's SN-SVM on the 5-D features (the
+//! default, [`SegmentationOptions::default`]) or a random forest ([`SegmentationOptions::forest`]).
+//!
+//! Before training, the background rule ([`background`]) drops the air a lasso took in and
+//! decides which voxels are background: below a threshold, or in the air joined to the
+//! volume's faces ([`face_air`]).
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
 mod background;
 mod coarse_grid;
+pub mod coherence;
+pub mod face_air;
+pub mod pairwise;
 mod refine;
 
-pub use background::Background;
+pub use background::{Background, BackgroundPlan};
 
 use crate::classify::{
     self, ClassifyError, Forest, ForestParams, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport,
@@ -66,6 +71,10 @@ pub struct SegmentationOptions {
     /// RBF width is replaced by the data's when `kernel_width` is [`KernelWidth::Automatic`].
     pub classifier: SnSvmParams,
     pub kernel_width: KernelWidth,
+    /// How the SN-SVM's features are standardised.
+    pub standardisation: Standardisation,
+    /// The spatial step after classification.
+    pub coherence: Coherence,
     /// Training voxels kept per class (stratified over the class's strokes).
     pub max_training_per_class: usize,
     pub background: Background,
@@ -78,31 +87,37 @@ pub struct SegmentationOptions {
 }
 
 impl SegmentationOptions {
-    /// The paper's method: SN-SVM on the 5-D features (`--classifier snsvm --features paper5`),
-    /// the reference the accuracy harness compares against.
+    /// The paper's method: SN-SVM on the 5-D features (`--classifier snsvm --features paper5`).
     pub fn paper() -> SegmentationOptions {
         SegmentationOptions {
             feature_set: FeatureSet::Paper5,
             classifier_kind: ClassifierKind::SnSvm,
-            ..SegmentationOptions::default()
+            ..Self::default()
+        }
+    }
+
+    /// A random forest on the fine multi-scale features (`--classifier forest`).
+    pub fn forest() -> SegmentationOptions {
+        SegmentationOptions {
+            feature_set: FeatureSet::MultiscaleFine,
+            classifier_kind: ClassifierKind::Forest(ForestParams::default()),
+            ..Self::default()
         }
     }
 }
 
 impl Default for SegmentationOptions {
     fn default() -> Self {
-        // A random forest on the fine multi-scale features: measured with `volasso accuracy`
-        // (benches/README.md) it scores best on the held-out cases (mean macro Dice 0.806,
-        // against 0.742 for the paper's SN-SVM and 0.726 for a forest on the 5-D features, and
-        // above the plain SVM on every held-out case), and it fits the time budget (a tenth of
-        // the paper's Table I times) on the three benchmark volumes, 13.6x below SVC on the
-        // lobster's voxels. The paper's method stays `SegmentationOptions::paper()`
-        // (`--classifier snsvm`).
+        // The paper's SN-SVM on its 5-D features. `volasso accuracy` and benches/README.md
+        // give the figures: on phantoms nobody tuned for it generalises better than the forest
+        // on the multi-scale features, which had been chosen on the project's own phantoms.
         SegmentationOptions {
-            feature_set: FeatureSet::MultiscaleFine,
-            classifier_kind: ClassifierKind::Forest(ForestParams::default()),
+            feature_set: FeatureSet::Paper5,
+            classifier_kind: ClassifierKind::SnSvm,
             classifier: SnSvmParams::default(),
             kernel_width: KernelWidth::Automatic,
+            standardisation: Standardisation::PerPair,
+            coherence: Coherence::Majority,
             max_training_per_class: DEFAULT_TRAINING_CAP,
             background: Background::Automatic,
             refinement: Refinement::CoarseToFine,
@@ -122,6 +137,25 @@ pub enum KernelWidth {
     Automatic,
     /// The width in `SegmentationOptions::classifier` as given.
     AsGiven,
+}
+
+/// How the SN-SVM's features are standardised (a forest is indifferent).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Standardisation {
+    /// Each pair of classes on its own training voxels, as the paper's code does
+    /// ([`pairwise`]); the automatic RBF width is the pair's own.
+    PerPair,
+    /// One standardisation and one RBF width for all classes.
+    Global,
+}
+
+/// The spatial step after classification.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Coherence {
+    /// Labels as the classifier gave them.
+    None,
+    /// One pass of [`coherence::majority_pass`].
+    Majority,
 }
 
 /// Which voxels the classifier evaluates.
@@ -169,16 +203,25 @@ pub struct TrainingSummary {
     pub contested_voxels: usize,
     /// Voxels below this value are background; `None` when every voxel is classified.
     pub background_threshold: Option<f64>,
-    /// Time spent on the training voxels' features (and standardising them).
+    /// Voxels of this region (the air joined to the volume's faces) are background too.
+    pub background_region: Option<std::sync::Arc<face_air::FaceRegion>>,
+    /// Training voxels the background rule dropped per class (air a lasso took in).
+    pub dropped_as_air_per_class: Vec<usize>,
+    /// A class was drawn in the air around the body, so the air is classified.
+    pub air_is_a_class: bool,
+    /// Time spent on the training voxels: the background rule, their features (and
+    /// standardising them).
     pub features_seconds: f64,
-    /// Time spent training the classifier (and choosing the background threshold).
+    /// Time spent training the classifier.
     pub train_seconds: f64,
 }
 
 /// A trained classifier.
 pub enum TrainedClassifier {
-    /// Classifies standardised feature vectors.
+    /// Classifies feature vectors standardised over all classes.
     SnSvm(Box<Model>),
+    /// One SN-SVM per pair of classes, each on its own standardisation.
+    SnSvmPerPair(Box<pairwise::PairwiseSnSvm>),
     /// Classifies raw feature vectors: trained on standardised ones, its thresholds were moved
     /// into raw units ([`Standardiser::raw_threshold`]), which gives the same labels without
     /// standardising every voxel's features.
@@ -187,7 +230,13 @@ pub enum TrainedClassifier {
 
 /// A trained classifier with everything needed to classify a volume.
 pub struct Segmenter {
+    /// The lassoed voxels (after the background rule, before the cap) with their class ids:
+    /// [`label_volume`] gives them their class whatever the classifier says (the user said
+    /// what they are).
+    pub lassoed: Vec<(usize, u8)>,
     pub feature_set: FeatureSet,
+    /// The spatial step [`label_volume`] ends with.
+    pub coherence: Coherence,
     pub standardiser: Standardiser,
     pub classifier: TrainedClassifier,
     pub summary: TrainingSummary,
@@ -197,11 +246,42 @@ impl Segmenter {
     /// Class ids of a block of raw feature vectors (row-major, `out.len() x dim`), into `out`;
     /// `features` is scratch (standardised in place where the classifier needs it).
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
+        let dim = self.feature_set.dim();
+        // Runs of equal vectors (air in an 8-bit scan, saturated regions) are classified once:
+        // the kernel sums are the whole cost of prediction.
+        let repeats =
+            features.chunks_exact(dim).zip(features.chunks_exact(dim).skip(1)).filter(|(a, b)| a == b).count();
+        if repeats * 4 < out.len() {
+            return self.classify_distinct(features, out);
+        }
+        let mut distinct: Vec<f32> = Vec::with_capacity(features.len() - repeats * dim);
+        let mut run_lengths: Vec<usize> = Vec::with_capacity(out.len() - repeats);
+        for vector in features.chunks_exact(dim) {
+            match run_lengths.last_mut() {
+                Some(length) if distinct[distinct.len() - dim..] == *vector => *length += 1,
+                _ => {
+                    distinct.extend_from_slice(vector);
+                    run_lengths.push(1);
+                }
+            }
+        }
+        let mut labels = vec![0u8; run_lengths.len()];
+        self.classify_distinct(&mut distinct, &mut labels)?;
+        let mut start = 0;
+        for (&label, &length) in labels.iter().zip(&run_lengths) {
+            out[start..start + length].fill(label);
+            start += length;
+        }
+        Ok(())
+    }
+
+    fn classify_distinct(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
         match &self.classifier {
             TrainedClassifier::SnSvm(model) => {
                 self.standardiser.apply_in_place(features)?;
                 model.predict_block(features, out)?;
             }
+            TrainedClassifier::SnSvmPerPair(model) => model.classify_block(features, out)?,
             TrainedClassifier::Forest(forest) => forest.predict_block(features, out)?,
         }
         Ok(())
@@ -211,6 +291,7 @@ impl Segmenter {
     pub fn report(&self) -> Option<&TrainReport> {
         match &self.classifier {
             TrainedClassifier::SnSvm(model) => Some(model.report()),
+            TrainedClassifier::SnSvmPerPair(model) => Some(&model.report),
             TrainedClassifier::Forest(_) => None,
         }
     }
@@ -224,10 +305,12 @@ pub fn train(
 ) -> Result<Segmenter, SegmentationError> {
     volume.check_still_mapped()?;
     training.check_every_class_has_voxels()?;
-    let capped = training.capped(options.max_training_per_class, options.seed);
+    let started = Instant::now();
+    let (cleaned, background) = background::plan(volume, training, options.background);
+    cleaned.check_every_class_has_voxels()?;
+    let capped = cleaned.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();
     let dim = options.feature_set.dim();
-    let started = Instant::now();
     let raw_features = features_of_voxels(volume, options.feature_set, &voxels)?;
     if let Some(position) = raw_features.iter().position(|v| !v.is_finite()) {
         let sample = position / dim;
@@ -244,6 +327,22 @@ pub fn train(
     let class_ids: Vec<u8> = (1..=capped.classes.len() as u8).collect();
     let mut classifier = options.classifier;
     let trained = match options.classifier_kind {
+        ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
+            let model = pairwise::PairwiseSnSvm::train(
+                &raw_features,
+                dim,
+                &labels,
+                &class_ids,
+                &classifier,
+                options.kernel_width,
+                options.prune_relative,
+            )?;
+            // The first pair's parameters stand for the model's (two classes: the only pair).
+            if let Some(first) = model.pairs.first() {
+                classifier = first.params;
+            }
+            TrainedClassifier::SnSvmPerPair(Box::new(model))
+        }
         ClassifierKind::SnSvm => {
             if options.kernel_width == KernelWidth::Automatic {
                 classifier.kernel = Kernel::Rbf { width: median_heuristic_width(&values, dim) };
@@ -262,8 +361,6 @@ pub fn train(
             )
         }
     };
-    let lowest_training_value = raw_features.chunks_exact(dim).map(|f| f[0] as f64).fold(f64::INFINITY, f64::min);
-    let background_threshold = options.background.threshold(volume, lowest_training_value);
     let summary = TrainingSummary {
         classifier,
         classifier_kind: options.classifier_kind,
@@ -271,15 +368,33 @@ pub fn train(
         dropped_per_class: capped.classes.iter().map(|c| c.dropped_by_cap).collect(),
         cap_per_class: options.max_training_per_class,
         contested_voxels: capped.contested_voxels,
-        background_threshold,
+        background_threshold: background.threshold,
+        background_region: background.face_air,
+        dropped_as_air_per_class: background.dropped_per_class,
+        air_is_a_class: background.air_is_a_class,
         features_seconds,
         train_seconds: started.elapsed().as_secs_f64(),
     };
-    Ok(Segmenter { feature_set: options.feature_set, standardiser, classifier: trained, summary })
+    let lassoed = cleaned
+        .classes
+        .iter()
+        .zip(1u8..)
+        .flat_map(|(class, id)| class.voxels.iter().map(move |&voxel| (voxel, id)))
+        .collect();
+    Ok(Segmenter {
+        lassoed,
+        feature_set: options.feature_set,
+        coherence: options.coherence,
+        standardiser,
+        classifier: trained,
+        summary,
+    })
 }
 
-/// g = 1 / (2 median of squared distances between training vectors), over up to 4096 pairs
-/// chosen deterministically; 0.5 (snsvm.md's default) when the median is 0.
+/// g = 1 / (2 median of squared distances between distinct training vectors), over up to 4096
+/// pairs chosen deterministically; 0.5 (snsvm.md's default) when every vector is the same.
+/// Pairs of equal vectors are left out: a lasso in the air of an 8-bit scan holds hundreds of
+/// identical vectors, whose zero distances would make the median tiny and the kernel a spike.
 pub fn median_heuristic_width(values: &[f64], dim: usize) -> f64 {
     let count = values.len() / dim.max(1);
     if count < 2 {
@@ -292,7 +407,11 @@ pub fn median_heuristic_width(values: &[f64], dim: usize) -> f64 {
             let (a, b) = (&values[i * dim..(i + 1) * dim], &values[j * dim..(j + 1) * dim]);
             a.iter().zip(b).map(|(x, y)| (x - y) * (x - y)).sum::<f64>()
         })
+        .filter(|&distance| distance > 0.0)
         .collect();
+    if distances.is_empty() {
+        return 0.5;
+    }
     let middle = distances.len() / 2;
     let (_, median, _) = distances.select_nth_unstable_by(middle, f64::total_cmp);
     if *median > 0.0 { 0.5 / *median } else { 0.5 }

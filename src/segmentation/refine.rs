@@ -190,6 +190,27 @@ fn label_volume_in(
         job.evaluated.load(Ordering::Relaxed),
         started.elapsed()
     );
+    let mut classified = classified;
+    if let Some(region) = &segmenter.summary.background_region {
+        // Dark voxels inside the body are classified; the air joined to the faces is not.
+        for index in region.voxels.iter() {
+            if labels[index] != 0 {
+                labels[index] = 0;
+                classified -= 1;
+            }
+        }
+    }
+    if segmenter.coherence == super::Coherence::Majority {
+        let started = std::time::Instant::now();
+        let changed = super::coherence::majority_pass(&mut labels, volume.dims);
+        log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
+    }
+    for &(voxel, class) in &segmenter.lassoed {
+        if let Some(label) = labels.get_mut(voxel) {
+            classified += usize::from(*label == 0);
+            *label = class;
+        }
+    }
     Ok(LabelVolume {
         dims: volume.dims,
         labels,
@@ -413,12 +434,14 @@ mod tests {
     fn exact_labels_are_the_classes_of_every_foreground_voxels_features() {
         // The slab readers decode only the rows near foreground; whatever they skip, exact
         // labelling must give each foreground voxel the class of its own features, computed
-        // here voxel by voxel from the volume, and leave the rest background.
+        // here voxel by voxel from the volume, and leave the rest background; the lassoed
+        // voxels keep their class.
         let phantom = crate::phantom::demo_foot_with([40, 30, 21], 5).unwrap();
         let strokes = crate::phantom::lassos_inside(&phantom, &[1, 2], 3, 2.0);
         let training = crate::strokes::TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
         let volume = &phantom.volume;
-        for options in [SegmentationOptions::paper(), SegmentationOptions::default()] {
+        for options in [SegmentationOptions::paper(), SegmentationOptions::forest()] {
+            let options = SegmentationOptions { coherence: crate::segmentation::Coherence::None, ..options };
             let segmenter = train(volume, &training, &options).unwrap();
             let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY);
             let labels =
@@ -432,6 +455,9 @@ mod tests {
             let mut expected_labels = vec![0u8; volume.voxel_count()];
             for (&index, &label) in foreground.iter().zip(&expected) {
                 expected_labels[index] = label;
+            }
+            for &(voxel, class) in &segmenter.lassoed {
+                expected_labels[voxel] = class;
             }
             assert!(labels.labels == expected_labels, "{:?}", options.feature_set);
             assert_eq!(labels.classified_voxels, foreground.len());

@@ -163,6 +163,28 @@ impl ClassSamples {
         }
     }
 
+    /// The class with only the voxels where `keep` (one flag per voxel) holds; the strokes'
+    /// counts follow, the cap's count is kept.
+    pub fn retaining(&self, keep: &[bool]) -> ClassSamples {
+        let (voxels, stroke_of_voxel): (Vec<usize>, Vec<u32>) = self
+            .voxels
+            .iter()
+            .zip(&self.stroke_of_voxel)
+            .zip(keep)
+            .filter(|(_, keep)| **keep)
+            .map(|((&voxel, &stroke), _)| (voxel, stroke))
+            .unzip();
+        let mut retained = ClassSamples {
+            name: self.name.clone(),
+            voxels,
+            stroke_of_voxel,
+            stroke_voxel_counts: vec![0; self.stroke_voxel_counts.len()],
+            dropped_by_cap: self.dropped_by_cap,
+        };
+        retained.count_per_stroke();
+        retained
+    }
+
     fn capped(&self, max_per_class: usize, seed: u64) -> ClassSamples {
         let total = self.voxels.len();
         if total <= max_per_class {

@@ -19,7 +19,8 @@
 //! [P]`, `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`, `pinch ELEMENT SCALE`, `pan
 //! ELEMENT DX,DY` (fractions of the element's size), `rotate ELEMENT DEGREES` (clockwise);
 //! and `wait DURATION` (`500ms`, `2s`), `wait-idle`, `screenshot NAME`, `expect KEY VALUE`
-//! (generic: the runner knows the keys), `# comments`.
+//! (generic: the runner knows the keys; [`expectations`] measures the label volume for
+//! `face-air-classified-below` and `lasso-voxels-kept`), `# comments`.
 //!
 //! [`parse`] only checks syntax; elements are resolved at run time through the UI's
 //! [`ElementLocator`], and [`touch_events`] turns one [`TouchCommand`] into the raw evdev events
@@ -32,6 +33,7 @@
 //! [`ContactTracker`]: super::ContactTracker
 //! [`ScreenMapping`]: super::ScreenMapping
 
+pub mod expectations;
 mod parse;
 mod synthesis;
 
