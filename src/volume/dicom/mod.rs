@@ -87,10 +87,12 @@ pub enum Resample {
     Refuse,
 }
 
+/// How to read a DICOM series: which one, and what to do with irregular slice spacing.
 #[derive(Clone, Debug, Default)]
 pub struct DicomOptions {
     /// The SeriesInstanceUID to read when the path holds several image series.
     pub series_uid: Option<String>,
+    /// What to do with a tilted gantry or uneven slice spacing.
     pub resample: Resample,
     /// Slice spacing of a resampled grid; regular series keep their own spacing.
     pub slice_spacing_mm: Option<f64>,
@@ -107,7 +109,9 @@ pub struct DicomImport {
     pub volume: Volume,
     /// What was tolerated or changed (resampling, skipped files), one sentence each.
     pub warnings: Vec<String>,
+    /// SeriesInstanceUID of the series read.
     pub series_uid: String,
+    /// SeriesDescription, empty when absent.
     pub description: String,
     /// The files used, in slice order.
     pub files: Vec<PathBuf>,
@@ -126,8 +130,11 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
 pub struct SeriesCheck {
     /// The dimensions the volume would have.
     pub dims: [usize; 3],
+    /// What reading it would tolerate or change, one sentence each.
     pub warnings: Vec<String>,
+    /// SeriesInstanceUID of the series checked.
     pub series_uid: String,
+    /// SeriesDescription, empty when absent.
     pub description: String,
     /// Modality of the series' first slice, empty when absent.
     pub modality: String,
