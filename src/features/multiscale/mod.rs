@@ -70,6 +70,7 @@ impl Scales {
         }
     }
 
+    /// Features per voxel: 9 for [`Scales::Fine`], 17 for [`Scales::Full`].
     pub fn dim(self) -> usize {
         match self {
             Scales::Fine => FINE_NAMES.len(),
@@ -77,6 +78,7 @@ impl Scales {
         }
     }
 
+    /// Short names of the features, in vector order ([`FINE_NAMES`] or [`MULTISCALE_NAMES`]).
     pub fn names(self) -> &'static [&'static str] {
         match self {
             Scales::Fine => &FINE_NAMES,
@@ -90,6 +92,7 @@ impl Scales {
     }
 }
 
+/// Names of the 9 features of [`Scales::Fine`], in vector order (`s` is the smoothing sigma in voxels).
 pub const FINE_NAMES: [&str; 9] = [
     "intensity",
     "smoothed s0.8",
@@ -115,6 +118,7 @@ const MIN_BLOCKS: usize = 12;
 /// 14, 4 planes worse).
 const MIN_BALANCED_DEPTH: usize = 8;
 
+/// Names of the 17 features of [`Scales::Full`], in vector order (`s` is the smoothing sigma in voxels).
 pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
     "intensity",
     "smoothed s0.8",
@@ -187,6 +191,7 @@ thread_local! {
 }
 
 impl MultiscaleBlock {
+    /// An empty block for `volume` at `scales`, reusing this thread's spare buffers; `compute` fills it.
     pub fn new(volume: &Volume, scales: Scales) -> MultiscaleBlock {
         let buffers = SPARE_BUFFERS.with(|spare| spare.borrow_mut().take()).unwrap_or_default();
         MultiscaleBlock {
