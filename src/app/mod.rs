@@ -6,7 +6,7 @@
 //! slice pictures itself.
 //!
 //! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
-//! [`State`]; a 16 ms poll timer collects finished work (`loading.rs` applies what the loader
+//! `State`; a 16 ms poll timer collects finished work (`loading.rs` applies what the loader
 //! reports); `refresh.rs` pushes state into the `Session` global.
 //!
 //! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and

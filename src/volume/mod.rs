@@ -6,7 +6,7 @@
 //! z (`interfaces.md`). Values are read on demand and converted to `f32`/`f64` there, so a 16-bit
 //! big-endian file at an odd offset is as usable as a native `u8` one, and nothing is copied.
 //!
-//! Entry point: [`open`] (any supported file or folder, see [`open::OpenOptions`]).
+//! Entry point: [`open()`] (any supported file or folder, see [`open::OpenOptions`]).
 //! Readers live beside this file, one per format; [`cache`] turns compressed files and DICOM
 //! series into mappable NRRD files once.
 //!
@@ -341,7 +341,7 @@ impl Volume {
         }
     }
 
-    /// Physical `f32` values of z-slice `z` (dims[0] * dims[1] values).
+    /// Physical `f32` values of z-slice `z` (`dims[0] * dims[1]` values).
     pub fn read_z_slice_f32(&self, z: usize, out: &mut [f32]) {
         let plane = self.dims[0] * self.dims[1];
         self.read_f32(z * plane, &mut out[..plane]);

@@ -1,5 +1,5 @@
 //! Opening any supported volume: picks the reader from the path (folder, extension, magic
-//! bytes) and routes decoded data through the import [`cache`](super::cache).
+//! bytes) and routes decoded data through the import [`cache`].
 //!
 //! Entry point: [`open`]. Formats (`interfaces.md`): NRRD (`.nrrd`, `.nhdr`), MetaImage
 //! (`.mha`, `.mhd`), NIfTI-1 (`.nii`, `.hdr`, `.nii.gz`), DICOM (a folder, a DICOMDIR, a

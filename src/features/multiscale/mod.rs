@@ -140,7 +140,7 @@ pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
 ];
 
 /// Z planes per whole-volume block for a volume of `dims`: what the memory budget allows, but
-/// few enough that the volume has at least [`MIN_BLOCKS`] of them.
+/// few enough that the volume has at least `MIN_BLOCKS` (12) of them.
 pub fn block_depth(dims: [usize; 3]) -> usize {
     let plane_bytes = (dims[0] * dims[1]).max(1) * 4;
     let planes = BLOCK_BUDGET_BYTES / plane_bytes;
@@ -287,7 +287,7 @@ impl MultiscaleBlock {
     }
 
     /// The features of the absolute voxels `voxels`, which must lie in the core, into `out`
-    /// (row-major, `Scales::dim` values per voxel), [`LANES`] voxels side by side; in 256-bit
+    /// (row-major, `Scales::dim` values per voxel), `LANES` voxels side by side; in 256-bit
     /// registers where the CPU has them (the same bits, see [`crate::cpu`]).
     pub fn features_of(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
         #[cfg(target_arch = "x86_64")]

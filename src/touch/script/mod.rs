@@ -21,7 +21,7 @@
 //! and `wait DURATION` (`500ms`, `2s`), `wait-idle`, `screenshot NAME`, `expect KEY VALUE`
 //! (generic: the runner knows the keys), `# comments`.
 //!
-//! [`parse`] only checks syntax; elements are resolved at run time through the UI's
+//! `parse` only checks syntax; elements are resolved at run time through the UI's
 //! [`ElementLocator`], and [`touch_events`] turns one [`TouchCommand`] into the raw evdev events
 //! a finger would make, which the runner feeds through the same [`ContactTracker`] as a real
 //! device (built with the identity [`ScreenMapping`] for the locator's screen size).

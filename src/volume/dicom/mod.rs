@@ -34,14 +34,14 @@
 //! patient orientation records these axes and that origin in LPS ([`super::orientation`]).
 //!
 //! Missing slices: a series is refused with [`VolumeError::SeriesGap`] when a slice may be
-//! missing: a gap with room for a slice ([`geometry`]'s rule: at least 1.9 times the series'
+//! missing: a gap with room for a slice (`geometry`'s rule: at least 1.9 times the series'
 //! spacing), a slice whose pixels cannot be decoded, a DICOM file that cannot be read, or a
 //! folder that cannot be searched. With [`DicomOptions::allow_gaps`] it is opened anyway,
 //! resampled across the hole, and the warnings (which the volume carries) say why.
 //!
-//! Every file is read through [`bounds`]: its element lengths are checked against its size
+//! Every file is read through `bounds`: its element lengths are checked against its size
 //! before dicom-object parses it, and a slice's PixelData must be exactly as long as its
-//! Rows, Columns and BitsAllocated need ([`pixels`]).
+//! Rows, Columns and BitsAllocated need (`pixels`).
 //!
 //! Never: reads colour images or multi-frame images whose frames it cannot place, or writes
 //! files (the import cache is the caller's).
