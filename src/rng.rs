@@ -52,6 +52,7 @@ pub struct SplitMix64 {
 }
 
 impl SplitMix64 {
+    /// A stream starting from `seed`; the same seed gives the same numbers.
     pub fn new(seed: u64) -> SplitMix64 {
         SplitMix64 { state: seed }
     }

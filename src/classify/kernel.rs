@@ -11,9 +11,17 @@ use faer::Mat;
 #[derive(Debug, Clone, Copy, PartialEq)]
 pub enum Kernel {
     /// k(x, y) = exp(-width ||x - y||^2).
-    Rbf { width: f64 },
+    Rbf {
+        /// The factor on the squared distance; larger values make the kernel more local.
+        width: f64,
+    },
     /// k(x, y) = (x.y + offset)^degree.
-    Polynomial { degree: u32, offset: f64 },
+    Polynomial {
+        /// The exponent.
+        degree: u32,
+        /// The constant added to the dot product.
+        offset: f64,
+    },
 }
 
 pub(crate) fn squared_distance(x: &[f64], y: &[f64]) -> f64 {

@@ -44,7 +44,9 @@ pub use snsvm::PenaltySpectra;
 /// Training feature vectors: n rows of `dim` values, row-major, already standardised.
 #[derive(Debug, Clone, PartialEq)]
 pub struct SampleMatrix {
+    /// Feature dimension (values per row).
     pub dim: usize,
+    /// The n × `dim` values, one sample after another.
     pub values: Vec<f64>,
 }
 

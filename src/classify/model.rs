@@ -143,6 +143,7 @@ impl Model {
         self.dim
     }
 
+    /// The kernel the model was trained with.
     pub fn kernel(&self) -> Kernel {
         self.kernel
     }
@@ -177,6 +178,7 @@ impl Model {
         &self.biases
     }
 
+    /// How training went, per pair.
     pub fn report(&self) -> &TrainReport {
         &self.report
     }

@@ -21,18 +21,24 @@ pub const MAX_POINTS_PER_PAIR: usize = 8000;
 /// Two classes of one binary problem; f > 0 votes for `first` (the smaller id).
 #[derive(Debug, Clone, Copy, PartialEq, Eq)]
 pub struct ClassPair {
+    /// The smaller class id; a positive decision value votes for it.
     pub first: u8,
+    /// The larger class id.
     pub second: u8,
 }
 
 /// How one pair's training went.
 #[derive(Debug, Clone, PartialEq)]
 pub struct PairReport {
+    /// The two classes of this binary problem.
     pub pair: ClassPair,
     /// N = n_first + n_second.
     pub points: usize,
+    /// Training points with a non-zero dual coefficient (α > 0).
     pub support_vectors: usize,
+    /// Support vectors strictly inside the box (0 < α < C).
     pub free_support_vectors: usize,
+    /// SMO iterations run.
     pub iterations: usize,
     /// SMO stopped at the iteration cap before reaching the tolerance.
     pub hit_cap: bool,
@@ -40,12 +46,14 @@ pub struct PairReport {
     pub objective: f64,
     /// w0.
     pub bias: f64,
+    /// The spectral scales and β found while building this pair's penalty.
     pub spectra: PenaltySpectra,
 }
 
 /// How training went, per pair.
 #[derive(Debug, Clone, PartialEq)]
 pub struct TrainReport {
+    /// One report per class pair, in the model's pair order.
     pub pairs: Vec<PairReport>,
     /// Samples handed in.
     pub samples: usize,

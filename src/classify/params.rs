@@ -110,6 +110,7 @@ impl SnSvmParams {
 pub struct SnSvmValidParams(SnSvmParams);
 
 impl SnSvmValidParams {
+    /// The checked parameters.
     pub fn get(&self) -> &SnSvmParams {
         &self.0
     }

@@ -105,18 +105,53 @@ impl FeatureSet {
 /// The one error type of the feature stage.
 #[derive(Debug, thiserror::Error, PartialEq)]
 pub enum FeatureError {
+    /// A voxel index is at or past the number of voxels.
     #[error("voxel index {index} is outside the volume of {voxel_count} voxels")]
-    VoxelOutOfRange { index: usize, voxel_count: usize },
+    VoxelOutOfRange {
+        /// The index asked for.
+        index: usize,
+        /// Voxels in the volume.
+        voxel_count: usize,
+    },
+    /// A z slab reaches past the volume's last plane, or is reversed.
     #[error("slab z {z_start}..{z_end} is outside the volume's {size_z} z slices")]
-    SlabOutOfRange { z_start: usize, z_end: usize, size_z: usize },
+    SlabOutOfRange {
+        /// First plane of the slab.
+        z_start: usize,
+        /// One past its last plane.
+        z_end: usize,
+        /// Planes in the volume.
+        size_z: usize,
+    },
+    /// A standardiser was to be fitted on no vectors.
     #[error("no training vectors to fit a standardiser on")]
     NoVectors,
+    /// The values do not divide into whole feature vectors.
     #[error("{length} values are not a whole number of {dim}-feature vectors")]
-    Ragged { length: usize, dim: usize },
+    Ragged {
+        /// Number of values given.
+        length: usize,
+        /// Features per vector.
+        dim: usize,
+    },
+    /// A training feature is NaN or infinite.
     #[error("feature {feature} of training vector {vector} is not a finite number ({value})")]
-    NonFinite { vector: usize, feature: usize, value: f32 },
+    NonFinite {
+        /// Index of the vector.
+        vector: usize,
+        /// Index of the feature within it.
+        feature: usize,
+        /// The value found.
+        value: f32,
+    },
+    /// Vectors of another dimension than the standardiser was fitted on.
     #[error("the standardiser was fitted on {fitted}-feature vectors but got {found}-feature ones")]
-    DimensionMismatch { fitted: usize, found: usize },
+    DimensionMismatch {
+        /// Features per vector at fitting.
+        fitted: usize,
+        /// Features per vector given now.
+        found: usize,
+    },
 }
 
 /// Paper5 features of voxel `index` (x-fastest). Panics when `index >= volume.voxel_count()`,

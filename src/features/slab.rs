@@ -39,6 +39,7 @@ pub struct FeatureSlabReader<'v> {
 }
 
 impl<'v> FeatureSlabReader<'v> {
+    /// A reader of `volume`'s `feature_set` features, reusing this thread's spare plane buffers.
     pub fn new(volume: &'v Volume, feature_set: FeatureSet) -> FeatureSlabReader<'v> {
         let [size_x, size_y, _] = volume.dims;
         let neighbours = |size: usize| -> Vec<[usize; 2]> {
@@ -68,6 +69,7 @@ impl<'v> FeatureSlabReader<'v> {
         self
     }
 
+    /// The feature set it computes.
     pub fn feature_set(&self) -> FeatureSet {
         self.feature_set
     }

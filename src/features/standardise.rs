@@ -8,10 +8,13 @@ use super::FeatureError;
 /// a feature that is constant in training gets deviation 1, so it passes through centred).
 #[derive(Clone, Debug, PartialEq)]
 pub struct Standardiser {
+    /// Mean of each feature over the training vectors.
     pub mean: Vec<f64>,
+    /// Population standard deviation of each feature (1 where the feature is constant).
     pub std: Vec<f64>,
-    /// The smallest and largest training value of each feature (before standardising).
+    /// The smallest training value of each feature (before standardising).
     pub training_low: Vec<f64>,
+    /// The largest training value of each feature (before standardising).
     pub training_high: Vec<f64>,
 }
 

@@ -53,10 +53,22 @@ pub struct ReceiveOptions {
 /// Why the receiver could not start.
 #[derive(Debug, thiserror::Error)]
 pub enum ReceiveError {
+    /// The data folder cannot be created or written.
     #[error("cannot prepare the data folder: {source}, in {}", path.display())]
-    DataDir { source: std::io::Error, path: PathBuf },
+    DataDir {
+        /// The underlying I/O error.
+        source: std::io::Error,
+        /// The data folder.
+        path: PathBuf,
+    },
+    /// An AE title breaks DICOM's rules for one.
     #[error("AE title {title:?} {problem}")]
-    AeTitle { title: String, problem: &'static str },
+    AeTitle {
+        /// The title as given.
+        title: String,
+        /// The rule it breaks.
+        problem: &'static str,
+    },
 }
 
 /// The transfer syntaxes offered to senders, preferred first: the uncompressed ones, then

@@ -53,22 +53,42 @@ pub enum SeriesReport {
     Stored {
         /// The folder's name inside the data folder.
         name: String,
+        /// Where the series was published.
         path: PathBuf,
+        /// SeriesInstanceUID of the series.
         series_uid: String,
+        /// Modality of the series (`CT`, `MR`...), empty when absent.
         modality: String,
+        /// SeriesDescription, empty when absent.
         description: String,
         /// Image files in the stored series (this and earlier associations).
         images: usize,
         /// Images this association sent.
         received: usize,
+        /// Voxels of the volume along x, y, z.
         dims: [usize; 3],
         /// True when an earlier version of the series was replaced.
         replaced: bool,
+        /// AE title of the sender.
         calling_ae: String,
+        /// What importing the series tolerated or changed, one sentence each.
         warnings: Vec<String>,
     },
     /// The series does not import cleanly yet (a missing slice, say): kept aside, unpublished.
-    Incomplete { name: String, series_uid: String, images: usize, received: usize, calling_ae: String, reason: String },
+    Incomplete {
+        /// The folder name the series will be published under.
+        name: String,
+        /// SeriesInstanceUID of the series.
+        series_uid: String,
+        /// Image files held for the series so far (this and earlier associations).
+        images: usize,
+        /// Images this association sent.
+        received: usize,
+        /// AE title of the sender.
+        calling_ae: String,
+        /// Why it does not import yet.
+        reason: String,
+    },
 }
 
 /// The data folder and the lock that makes publishing one series at a time.

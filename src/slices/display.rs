@@ -16,7 +16,9 @@ use rayon::prelude::*;
 /// A linear grey mapping: `center - width/2` is black, `center + width/2` white.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct DisplayWindow {
+    /// The value shown as mid grey, in the volume's physical unit (HU for CT).
     pub center: f64,
+    /// The range of values from black to white, in the same unit.
     pub width: f64,
 }
 
@@ -133,8 +135,11 @@ pub fn looks_like_ct(volume: &Volume) -> bool {
 /// An 8-bit grey image, row-major (`pixels[j * width + i]`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct GreyImage {
+    /// Image width in pixels.
     pub width: usize,
+    /// Image height in pixels.
     pub height: usize,
+    /// `width × height` grey levels, 0 black to 255 white, row by row.
     pub pixels: Vec<u8>,
 }
 

@@ -22,7 +22,9 @@ pub const ENTROPY_BINS: usize = 256;
 /// Maps values to one of [`ENTROPY_BINS`] equal bins over `[min, max]`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct EntropyBinning {
+    /// The value at the low edge of the first bin.
     pub min: f64,
+    /// The value at the high edge of the last bin.
     pub max: f64,
     bins_per_unit: f64,
 }
@@ -69,6 +71,7 @@ pub fn entropy_nats(counts: &[u32]) -> f64 {
 /// The slices of one axis with their entropies, ranked.
 #[derive(Clone, Debug, PartialEq)]
 pub struct RankedSlices {
+    /// The axis normal to the ranked slices.
     pub axis: Axis,
     /// Entropy of slice `k` in nats, indexed by slice.
     pub entropies_nats: Vec<f64>,
@@ -130,13 +133,18 @@ impl RankedSlices {
 /// Ranked slices of all three axes.
 #[derive(Clone, Debug, PartialEq)]
 pub struct SliceEntropies {
+    /// Slices normal to x.
     pub x: RankedSlices,
+    /// Slices normal to y.
     pub y: RankedSlices,
+    /// Slices normal to z.
     pub z: RankedSlices,
+    /// The value bins shared by every slice's histogram.
     pub binning: EntropyBinning,
 }
 
 impl SliceEntropies {
+    /// The ranked slices normal to `axis`.
     pub fn axis(&self, axis: Axis) -> &RankedSlices {
         match axis {
             Axis::X => &self.x,

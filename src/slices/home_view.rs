@@ -26,7 +26,9 @@ const SUPERIOR_WEIGHT: f64 = 2.0;
 /// An orbit camera's home angles (see the module doc).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct HomeView {
+    /// The orbit camera's azimuth in degrees, counter-clockwise about +z seen from above.
     pub azimuth_degrees: f32,
+    /// The orbit camera's elevation in degrees above the xy plane.
     pub elevation_degrees: f32,
     /// The camera's up direction in the world (voxel) frame at these angles, unit length.
     pub up_in_world: [f32; 3],

@@ -33,8 +33,11 @@ use crate::volume::{PatientDirection, PatientOrientation};
 /// The three standard planes.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PlaneKind {
+    /// Transverse: normal to the head-foot axis, seen from the feet.
     Axial,
+    /// Normal to the front-back axis, seen from the front.
     Coronal,
+    /// Normal to the left-right axis, seen from the patient's left.
     Sagittal,
 }
 
@@ -73,9 +76,13 @@ impl PlaneKind {
 /// The patient letters at a panel's four edges (DICOM letters, e.g. "R" on the left).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct EdgeLetters {
+    /// Letter of the direction at the panel's left edge.
     pub left: &'static str,
+    /// Letter at the right edge.
     pub right: &'static str,
+    /// Letter at the top edge.
     pub top: &'static str,
+    /// Letter at the bottom edge.
     pub bottom: &'static str,
 }
 
@@ -86,13 +93,13 @@ pub struct SliceLayout {
     pub axis: Axis,
     /// The plane the slices are nearest to; `None` when the orientation is unknown.
     pub plane: Option<PlaneKind>,
-    /// The voxel axis (0, 1, 2 for x, y, z) that runs left to right on screen, and whether
-    /// its index decreases from left to right.
+    /// The voxel axis (0, 1, 2 for x, y, z) that runs left to right on screen.
     pub across_axis: usize,
+    /// True when that axis's index decreases from left to right.
     pub across_reversed: bool,
-    /// The voxel axis that runs top to bottom on screen, and whether its index decreases
-    /// downwards.
+    /// The voxel axis that runs top to bottom on screen.
     pub down_axis: usize,
+    /// True when that axis's index decreases downwards.
     pub down_reversed: bool,
     /// The letters at the panel's edges; `None` when the orientation is unknown.
     pub edge_letters: Option<EdgeLetters>,

@@ -38,12 +38,16 @@ use serde::{Deserialize, Serialize};
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Serialize, Deserialize)]
 #[serde(rename_all = "lowercase")]
 pub enum Axis {
+    /// The volume's x axis (the fastest-varying index in storage).
     X,
+    /// The volume's y axis.
     Y,
+    /// The volume's z axis (the slice axis of a stacked scan).
     Z,
 }
 
 impl Axis {
+    /// The three axes in x, y, z order.
     pub const ALL: [Axis; 3] = [Axis::X, Axis::Y, Axis::Z];
 
     /// 0, 1, 2 for x, y, z: the position of this axis in `dims` and `spacing_mm`.
@@ -88,10 +92,13 @@ impl std::fmt::Display for Axis {
 /// How one slice of a volume with `dims` lies in the volume.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct SliceGeometry {
+    /// The axis normal to the slice.
     pub axis: Axis,
+    /// The slice's index along `axis`.
     pub slice: usize,
-    /// Image width and height in pixels (voxels along the two image axes).
+    /// Image width in pixels (voxels along the image's first axis).
     pub width: usize,
+    /// Image height in pixels (voxels along the image's second axis).
     pub height: usize,
     /// Volume index of pixel (0, 0), and the index steps of one pixel along i and along j.
     origin_index: usize,
@@ -136,7 +143,15 @@ impl SliceGeometry {
 #[derive(Debug, thiserror::Error)]
 pub enum SliceError {
     #[error("slice {slice} along {axis} is outside the volume, which has {slice_count} slices along {axis}")]
-    SliceOutOfRange { axis: Axis, slice: usize, slice_count: usize },
+    /// A slice index is at or past the number of slices along its axis.
+    SliceOutOfRange {
+        /// The axis normal to the slice.
+        axis: Axis,
+        /// The index asked for.
+        slice: usize,
+        /// Number of slices along that axis.
+        slice_count: usize,
+    },
 }
 
 /// Number of slices along `axis`.

@@ -13,6 +13,7 @@ pub const FORMAT: &str = "volasso-strokes/1";
 /// A strokes file: classes with their lassos. Class id k is `classes[k - 1]`.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct StrokesFile {
+    /// The classes in id order: class id k is `classes[k - 1]`.
     pub classes: Vec<ClassStrokes>,
 }
 

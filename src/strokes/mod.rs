@@ -39,7 +39,9 @@ pub struct Lasso {
 /// One class of a strokes file: its name and lassos.
 #[derive(Clone, Debug, PartialEq, Serialize)]
 pub struct ClassStrokes {
+    /// The class's name as the user gave it (for example "bone").
     pub name: String,
+    /// The lassos drawn for this class.
     pub strokes: Vec<Lasso>,
 }
 
@@ -47,34 +49,111 @@ pub struct ClassStrokes {
 /// and the stroke's 0-based position in that class say so.
 #[derive(Debug, thiserror::Error)]
 pub enum StrokesError {
+    /// The strokes file cannot be read or written.
     #[error("cannot access the strokes file: {source}, in {}", path.display())]
-    Io { source: std::io::Error, path: PathBuf },
+    Io {
+        /// The underlying I/O error.
+        source: std::io::Error,
+        /// The strokes file.
+        path: PathBuf,
+    },
+    /// The file is not JSON of the strokes file's shape.
     #[error("not a valid strokes file: {source}")]
-    Json { source: serde_json::Error },
+    Json {
+        /// The parser's error, with line and column.
+        source: serde_json::Error,
+    },
+    /// The `format` field names another format or version.
     #[error("the format is '{found}' but '{}' was expected", FORMAT)]
-    WrongFormat { found: String },
+    WrongFormat {
+        /// The `format` the file declares.
+        found: String,
+    },
+    /// A stroke's axis is not "x", "y" or "z".
     #[error("stroke {stroke} of class '{class}' has axis '{found}'; it must be \"x\", \"y\" or \"z\"")]
-    BadAxis { class: String, stroke: usize, found: String },
+    BadAxis {
+        /// Name of the stroke's class.
+        class: String,
+        /// 0-based position of the stroke in its class.
+        stroke: usize,
+        /// The axis the file gives.
+        found: String,
+    },
+    /// A stroke's slice index is negative.
     #[error("stroke {stroke} of class '{class}' has the negative slice index {slice}")]
-    NegativeSlice { class: String, stroke: usize, slice: i64 },
+    NegativeSlice {
+        /// Name of the stroke's class.
+        class: String,
+        /// 0-based position of the stroke in its class.
+        stroke: usize,
+        /// The slice index the file gives.
+        slice: i64,
+    },
+    /// A stroke lies on a slice past the volume's last along its axis.
     #[error(
         "stroke {stroke} of class '{class}' is on slice {slice} along {axis}, but the volume has {slice_count} slices along {axis}"
     )]
-    SliceOutOfRange { class: String, stroke: usize, axis: Axis, slice: usize, slice_count: usize },
+    SliceOutOfRange {
+        /// Name of the stroke's class.
+        class: String,
+        /// 0-based position of the stroke in its class.
+        stroke: usize,
+        /// The axis normal to the stroke's slice.
+        axis: Axis,
+        /// The stroke's slice index.
+        slice: usize,
+        /// Slices along that axis in the volume.
+        slice_count: usize,
+    },
+    /// A lasso point has a NaN or infinite coordinate.
     #[error("point {point} of stroke {stroke} of class '{class}' is not a finite number")]
-    NonFinitePoint { class: String, stroke: usize, point: usize },
+    NonFinitePoint {
+        /// Name of the stroke's class.
+        class: String,
+        /// 0-based position of the stroke in its class.
+        stroke: usize,
+        /// 0-based position of the point in the stroke.
+        point: usize,
+    },
+    /// A class's lassos enclose no voxel of the volume.
     #[error("the lassos of class {class_id} '{class}' select no voxel inside the volume")]
-    EmptyClass { class: String, class_id: usize },
+    EmptyClass {
+        /// The class's name.
+        class: String,
+        /// The class's id (1-based).
+        class_id: usize,
+    },
+    /// Every voxel a class's lassos select is also selected by another class.
     #[error(
         "the lassos of class {class_id} '{class}' select only voxels that class {other_id} '{other}' also selects (voxels of two classes are left out of training)"
     )]
-    Overlapped { class: String, class_id: usize, other: String, other_id: usize },
+    Overlapped {
+        /// The class's name.
+        class: String,
+        /// The class's id (1-based).
+        class_id: usize,
+        /// The other class's name.
+        other: String,
+        /// The other class's id.
+        other_id: usize,
+    },
+    /// The file defines no class.
     #[error("the strokes file defines no class")]
     NoClasses,
+    /// The file defines more classes than a `u8` label volume can number.
     #[error("{count} classes is more than the 255 a label volume can hold")]
-    TooManyClasses { count: usize },
+    TooManyClasses {
+        /// Number of classes defined.
+        count: usize,
+    },
+    /// An error found in a named strokes file.
     #[error("{source}, in {}", path.display())]
-    WithPath { path: PathBuf, source: Box<StrokesError> },
+    WithPath {
+        /// The strokes file.
+        path: PathBuf,
+        /// What is wrong with it.
+        source: Box<StrokesError>,
+    },
 }
 
 impl StrokesError {

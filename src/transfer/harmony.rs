@@ -41,7 +41,9 @@ const SLAB_DEPTH_Z: usize = 4;
 /// A box of voxels, `lo..=hi` on every axis (voxel coordinates, inclusive).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Serialize, Deserialize)]
 pub struct ClipBox {
+    /// The box's lowest voxel coordinate along x, y, z.
     pub lo: [usize; 3],
+    /// The box's highest voxel coordinate along x, y, z (included).
     pub hi: [usize; 3],
 }
 
@@ -67,8 +69,11 @@ impl ClipBox {
 /// gradient magnitude.
 #[derive(Clone, Copy, Debug, PartialEq, Default)]
 pub struct ClassStatistics {
+    /// Voxels labelled with the class.
     pub voxel_count: u64,
+    /// Sum of the voxels' normalised x, y, z positions (each axis in [0, 1]).
     pub position_sum: [f64; 3],
+    /// Sum of the squares of those positions, per axis.
     pub position_square_sum: [f64; 3],
     /// The largest gradient magnitude (value units per mm); 0 for an empty class.
     pub gradient_max: f32,

@@ -26,8 +26,11 @@ pub const DEFAULT_OVERLAY_ALPHA: f32 = 0.45;
 /// An 8-bit RGB image, row-major (`pixels[3 * (j * width + i)..][..3]`).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct RgbImage {
+    /// Image width in pixels.
     pub width: usize,
+    /// Image height in pixels.
     pub height: usize,
+    /// `3 × width × height` bytes: red, green, blue of each pixel, row by row.
     pub pixels: Vec<u8>,
 }
 

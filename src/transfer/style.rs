@@ -24,6 +24,7 @@ pub struct ClassStyle {
     pub gradient_max: f32,
     /// User emphasis: multiplies the opacity (1 = as computed; 0 hides the class).
     pub emphasis: f32,
+    /// False hides the class: its voxels render fully transparent.
     pub visible: bool,
 }
 

@@ -33,22 +33,31 @@ pub enum TemplateType {
     /// One narrow sector (18 degrees); named lowercase `i` in the literature and in files.
     #[serde(rename = "i")]
     NarrowI,
+    /// One sector of 93.6 degrees.
     V,
+    /// A narrow sector (18 degrees) and a wide one (79.2 degrees) 90 degrees away.
     L,
+    /// Two narrow sectors (18 degrees) opposite each other.
     I,
+    /// One half of the hue wheel (180 degrees).
     T,
+    /// A wide sector (93.6 degrees) and a narrow one (18 degrees) opposite it.
     Y,
+    /// Two wide sectors (93.6 degrees) opposite each other.
     X,
 }
 
 /// One sector of a template: its centre's offset from the template's rotation, and its width.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Sector {
+    /// Angle of the sector's centre from the template's rotation, in degrees.
     pub centre_offset_degrees: f32,
+    /// The sector's angular width in degrees.
     pub width_degrees: f32,
 }
 
 impl TemplateType {
+    /// Every template type, narrow `i` first.
     pub const ALL: [TemplateType; 7] = [
         TemplateType::NarrowI,
         TemplateType::V,
@@ -109,11 +118,14 @@ impl TemplateType {
 /// A template turned by `rotation_degrees` (any real; only its value modulo 360 matters).
 #[derive(Clone, Copy, Debug, PartialEq, Serialize, Deserialize)]
 pub struct HueTemplate {
+    /// The template's sectors.
     pub template: TemplateType,
+    /// Hue angle in degrees the template is turned by.
     pub rotation_degrees: f32,
 }
 
 impl HueTemplate {
+    /// The template `template` turned by `rotation_degrees`.
     pub fn new(template: TemplateType, rotation_degrees: f32) -> HueTemplate {
         HueTemplate { template, rotation_degrees }
     }

@@ -3,44 +3,173 @@
 
 use std::path::PathBuf;
 
+/// Why a volume could not be opened, read or written.
 #[derive(Debug, thiserror::Error)]
 pub enum VolumeError {
+    /// Reading the file failed at the operating system.
     #[error("cannot read {}: {source}", path.display())]
-    Io { source: std::io::Error, path: PathBuf },
+    Io {
+        /// The underlying I/O error.
+        source: std::io::Error,
+        /// The file it happened on.
+        path: PathBuf,
+    },
+    /// A header field is present but its value is malformed or out of range.
     #[error("header field '{field}' is invalid: {problem}, in {}", path.display())]
-    Header { field: String, problem: String, path: PathBuf },
+    Header {
+        /// The header field's name as the file spells it.
+        field: String,
+        /// What is wrong with its value.
+        problem: String,
+        /// The header file.
+        path: PathBuf,
+    },
+    /// The header lacks a field the format requires.
     #[error("header lacks the required field '{field}', in {}", path.display())]
-    MissingField { field: &'static str, path: PathBuf },
+    MissingField {
+        /// The missing field's name.
+        field: &'static str,
+        /// The header file.
+        path: PathBuf,
+    },
+    /// The file uses a feature volasso does not read (a voxel type, encoding, transfer syntax...).
     #[error("unsupported {what} '{value}', in {}", path.display())]
-    Unsupported { what: &'static str, value: String, path: PathBuf },
+    Unsupported {
+        /// What kind of feature it is (for example "encoding").
+        what: &'static str,
+        /// The value the file declares.
+        value: String,
+        /// The file.
+        path: PathBuf,
+    },
+    /// The declared voxel counts are zero, not three-dimensional or overflow memory sizes.
     #[error("dimensions {}x{}x{} are invalid: {problem}, in {}", dims[0], dims[1], dims[2], path.display())]
-    BadDimensions { dims: [u64; 3], problem: &'static str, path: PathBuf },
+    BadDimensions {
+        /// Voxel counts along x, y, z as declared.
+        dims: [u64; 3],
+        /// Why they are unusable.
+        problem: &'static str,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A voxel spacing is zero, negative, NaN or infinite.
     #[error("voxel spacing {value} along axis {axis} is not a positive finite number, in {}", path.display())]
-    BadSpacing { axis: usize, value: f64, path: PathBuf },
+    BadSpacing {
+        /// The axis (0 = x, 1 = y, 2 = z).
+        axis: usize,
+        /// The declared spacing along it.
+        value: f64,
+        /// The file.
+        path: PathBuf,
+    },
+    /// The voxel data is shorter than the header declares (a truncated or lying file).
     #[error("the header promises {expected} bytes of voxel data but {found} are there (truncated or lying file), in {}", path.display())]
-    DataSize { expected: usize, found: usize, path: PathBuf },
+    DataSize {
+        /// Bytes of voxel data the header declares.
+        expected: usize,
+        /// Bytes actually present.
+        found: usize,
+        /// The data file.
+        path: PathBuf,
+    },
+    /// The gzip or zlib stream is corrupt or ends early.
     #[error("gzip data is corrupt or truncated ({source}), in {}", path.display())]
-    Decompress { source: std::io::Error, path: PathBuf },
+    Decompress {
+        /// The decoder's error.
+        source: std::io::Error,
+        /// The compressed file.
+        path: PathBuf,
+    },
+    /// Neither the file name nor its first bytes say which format it is.
     #[error("cannot tell the format of {}: {hint}", path.display())]
-    UnknownFormat { hint: String, path: PathBuf },
+    UnknownFormat {
+        /// What was looked at and what to do about it.
+        hint: String,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A DICOM file or series cannot be read as one volume.
     #[error("DICOM: {problem}, in {}", path.display())]
-    Dicom { problem: String, path: PathBuf },
+    Dicom {
+        /// What is wrong, in words.
+        problem: String,
+        /// The DICOM file or folder.
+        path: PathBuf,
+    },
+    /// The decoded voxels would need more memory than the ceiling allows.
     #[error("the volume needs {bytes} bytes in memory, above the ceiling of {ceiling} bytes for decoded data, in {}", path.display())]
-    TooLarge { bytes: u64, ceiling: u64, path: PathBuf },
+    TooLarge {
+        /// Bytes the decoded voxels need.
+        bytes: u64,
+        /// The largest decoded size allowed, in bytes.
+        ceiling: u64,
+        /// The file.
+        path: PathBuf,
+    },
+    /// The allocation for the voxel data failed.
     #[error("cannot allocate {bytes} bytes for the voxel data (not enough memory), in {}", path.display())]
-    OutOfMemory { bytes: u64, path: PathBuf },
+    OutOfMemory {
+        /// Bytes that could not be allocated.
+        bytes: u64,
+        /// The file.
+        path: PathBuf,
+    },
+    /// The encoded data is too small to decode to the size the header declares.
     #[error("the header promises {expected} bytes of voxel data but {available} bytes of {encoding} data can hold at most {most} (a lying header), in {}", path.display())]
-    CannotHold { expected: u64, encoding: &'static str, available: u64, most: u64, path: PathBuf },
+    CannotHold {
+        /// Bytes of decoded voxel data the header declares.
+        expected: u64,
+        /// The data's encoding ("compressed" or "ASCII").
+        encoding: &'static str,
+        /// Bytes of encoded data in the file.
+        available: u64,
+        /// The most decoded bytes that much encoded data can yield.
+        most: u64,
+        /// The file.
+        path: PathBuf,
+    },
+    /// The data holds more bytes than the header declares (wrong sizes or voxel type).
     #[error("the data holds more than the {expected} bytes the header promises (its sizes or type are wrong), in {}", path.display())]
-    ExtraData { expected: u64, path: PathBuf },
+    ExtraData {
+        /// Bytes of voxel data the header declares.
+        expected: u64,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A detached header names a data file outside its own folder, and that was not allowed.
     #[error("the data file {} lies outside the header's folder {} (pass --allow-external-data to read it anyway), in {}", data_file.display(), folder.display(), path.display())]
-    ExternalData { data_file: PathBuf, folder: PathBuf, path: PathBuf },
+    ExternalData {
+        /// The data file the header names, resolved.
+        data_file: PathBuf,
+        /// The header's folder.
+        folder: PathBuf,
+        /// The header file.
+        path: PathBuf,
+    },
+    /// The path is a device, pipe, socket or other non-regular file.
     #[error("not a regular file (devices, pipes and sockets are never read as volumes): {}", path.display())]
-    NotRegularFile { path: PathBuf },
+    NotRegularFile {
+        /// The path.
+        path: PathBuf,
+    },
+    /// A DICOM series misses a slice, and resampling across gaps was not allowed.
     #[error("DICOM series with a missing slice: {problem}; not opened, since the volume would have a hole (pass --allow-gaps to resample across it), in {}", path.display())]
-    SeriesGap { problem: String, path: PathBuf },
+    SeriesGap {
+        /// Where the gap is, in words.
+        problem: String,
+        /// The series' folder.
+        path: PathBuf,
+    },
+    /// The file was truncated by someone else after it was memory-mapped.
     #[error("the file shrank to {found} bytes after it was mapped ({expected} are needed); open it again, in {}", path.display())]
-    Shrunk { expected: u64, found: u64, path: PathBuf },
+    Shrunk {
+        /// Bytes the mapping needs.
+        expected: u64,
+        /// Bytes the file holds now.
+        found: u64,
+        /// The file.
+        path: PathBuf,
+    },
 }
 
 impl VolumeError {

@@ -31,7 +31,7 @@ pub const DEFLATE_MOST_EXPANSION: u64 = 1032;
 /// The largest default ceiling on decoded bytes: 16 GiB.
 pub const DEFAULT_CEILING_CAP_BYTES: u64 = 16 << 30;
 
-/// What readers may do; built from [`super::OpenOptions`] by [`super::open`].
+/// What readers may do; built from [`super::OpenOptions`] by [`super::open()`].
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct ReadLimits {
     /// The most bytes a compressed or text encoding may decode into memory.

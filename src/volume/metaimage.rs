@@ -18,10 +18,15 @@ use std::path::{Path, PathBuf};
 /// A parsed MetaImage header.
 #[derive(Clone, Debug, PartialEq)]
 pub struct MetaImageHeader {
+    /// Voxels along x, y, z (`DimSize`).
     pub dims: [usize; 3],
+    /// Voxel spacing along x, y, z in millimetres (`ElementSpacing`).
     pub spacing_mm: [f64; 3],
+    /// Scalar type of each voxel (`ElementType`).
     pub voxel_type: VoxelType,
+    /// Byte order of multi-byte voxels (`BinaryDataByteOrderMSB`).
     pub byte_order: ByteOrder,
+    /// True when the data is zlib-compressed (`CompressedData`).
     pub compressed: bool,
     /// `None` for `LOCAL` (data follows the header in the same file).
     pub data_file: Option<PathBuf>,
@@ -185,7 +190,9 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
 
 /// What reading a MetaImage produced; `decoded` marks compressed data the caller should cache.
 pub struct MetaImageRead {
+    /// The volume read.
     pub volume: Volume,
+    /// True when the data was decompressed into memory rather than mapped.
     pub decoded: bool,
 }
 

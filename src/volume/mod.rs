@@ -6,7 +6,7 @@
 //! z (`interfaces.md`). Values are read on demand and converted to `f32`/`f64` there, so a 16-bit
 //! big-endian file at an odd offset is as usable as a native `u8` one, and nothing is copied.
 //!
-//! Entry point: [`open`] (any supported file or folder, see [`open::OpenOptions`]).
+//! Entry point: [`open()`] (any supported file or folder, see [`open::OpenOptions`]).
 //! Readers live beside this file, one per format; [`cache`] turns compressed files and DICOM
 //! series into mappable NRRD files once.
 //!
@@ -41,13 +41,21 @@ use std::path::{Path, PathBuf};
 /// The scalar type of one voxel, as stored.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum VoxelType {
+    /// Unsigned 8-bit integer (`uint8`).
     U8,
+    /// Signed 8-bit integer (`int8`).
     I8,
+    /// Unsigned 16-bit integer (`uint16`).
     U16,
+    /// Signed 16-bit integer (`int16`), the usual CT type.
     I16,
+    /// Unsigned 32-bit integer (`uint32`).
     U32,
+    /// Signed 32-bit integer (`int32`).
     I32,
+    /// IEEE 754 single-precision float (`float32`).
     F32,
+    /// IEEE 754 double-precision float (`float64`).
     F64,
 }
 
@@ -102,7 +110,9 @@ impl VoxelType {
 /// Byte order of multi-byte voxels in storage.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum ByteOrder {
+    /// Least significant byte first.
     Little,
+    /// Most significant byte first.
     Big,
 }
 
@@ -110,13 +120,17 @@ pub enum ByteOrder {
 /// rescale). `value = stored * slope + intercept`.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ValueScale {
+    /// Factor applied to each stored value.
     pub slope: f64,
+    /// Offset added after the factor, in the physical unit (Hounsfield units for CT).
     pub intercept: f64,
 }
 
 impl ValueScale {
+    /// The scale that leaves stored values as they are (slope 1, intercept 0).
     pub const IDENTITY: ValueScale = ValueScale { slope: 1.0, intercept: 0.0 };
 
+    /// True when the scale leaves stored values unchanged.
     pub fn is_identity(&self) -> bool {
         self.slope == 1.0 && self.intercept == 0.0
     }
@@ -125,8 +139,11 @@ impl ValueScale {
 /// The smallest and largest finite value, and how many voxels were not finite (NaN, inf).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ValueRange {
+    /// Smallest finite value, after scaling.
     pub min: f64,
+    /// Largest finite value, after scaling.
     pub max: f64,
+    /// Number of voxels holding NaN or an infinity (skipped by `min` and `max`).
     pub non_finite_voxels: u64,
 }
 
@@ -138,7 +155,9 @@ pub struct Volume {
     pub dims: [usize; 3],
     /// Distance between voxel centres along x, y, z, in millimetres (or the file's unit).
     pub spacing_mm: [f64; 3],
+    /// Scalar type of each stored voxel.
     pub voxel_type: VoxelType,
+    /// Byte order of the stored voxels.
     pub byte_order: ByteOrder,
     /// Applied to every stored value on read.
     pub scale: ValueScale,
@@ -322,7 +341,7 @@ impl Volume {
         }
     }
 
-    /// Physical `f32` values of z-slice `z` (dims[0] * dims[1] values).
+    /// Physical `f32` values of z-slice `z` (`dims[0] * dims[1]` values).
     pub fn read_z_slice_f32(&self, z: usize, out: &mut [f32]) {
         let plane = self.dims[0] * self.dims[1];
         self.read_f32(z * plane, &mut out[..plane]);

@@ -22,10 +22,15 @@ pub const HEADER_BYTES: usize = 348;
 /// A parsed NIfTI-1 header.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NiftiHeader {
+    /// Voxels along x, y, z (`dim[1..=3]`).
     pub dims: [usize; 3],
+    /// Voxel spacing along x, y, z in millimetres (`pixdim[1..=3]`).
     pub spacing_mm: [f64; 3],
+    /// Scalar type of each voxel (`datatype`).
     pub voxel_type: VoxelType,
+    /// Byte order of the header and data, told by which order reads `sizeof_hdr` as 348.
     pub byte_order: ByteOrder,
+    /// `scl_slope` and `scl_inter`, the map from stored to physical values.
     pub scale: ValueScale,
     /// Byte offset of the data in the `.nii`, or in the `.img` for a pair.
     pub data_offset: u64,
@@ -179,7 +184,9 @@ impl FieldReader<'_> {
 
 /// What reading a NIfTI file produced; `decoded` marks gzip data the caller should cache.
 pub struct NiftiRead {
+    /// The volume read.
     pub volume: Volume,
+    /// True when gzip data was decompressed into memory rather than mapped.
     pub decoded: bool,
 }
 

@@ -20,23 +20,32 @@ use std::path::{Path, PathBuf};
 /// How the voxel data is encoded.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum NrrdEncoding {
+    /// Uncompressed binary data (`raw`).
     Raw,
+    /// Gzip-compressed binary data (`gzip` or `gz`).
     Gzip,
+    /// Whitespace-separated decimal text (`ascii`, `text` or `txt`).
     Ascii,
 }
 
 /// A parsed NRRD header: what the data is and where it starts.
 #[derive(Clone, Debug, PartialEq)]
 pub struct NrrdHeader {
+    /// Scalar type of each voxel (`type`).
     pub voxel_type: VoxelType,
+    /// Voxels along x, y, z (`sizes`).
     pub dims: [usize; 3],
+    /// Voxel spacing along x, y, z in millimetres (`spacings` or `space directions`).
     pub spacing_mm: [f64; 3],
+    /// How the voxel data is encoded (`encoding`).
     pub encoding: NrrdEncoding,
+    /// Byte order of multi-byte voxels (`endian`).
     pub byte_order: ByteOrder,
     /// `data file`, relative to the header's folder; `None` when the data is attached.
     pub data_file: Option<PathBuf>,
     /// `byte skip`; `None` for `-1` (the data ends the file).
     pub byte_skip: Option<u64>,
+    /// `line skip`: text lines to skip in the data file before the data.
     pub line_skip: u64,
     /// Offset of the first byte after the blank line that ends the header (attached data
     /// starts here); `None` when no blank line was found (fine for a detached header).
@@ -319,7 +328,9 @@ fn truncate(text: &str) -> String {
 /// What reading a NRRD file produced: a volume (mapped for raw data), and whether its data had to
 /// be decoded (gzip), which is the caller's cue to cache it.
 pub struct NrrdRead {
+    /// The volume read.
     pub volume: Volume,
+    /// True when the data was decoded into memory (gzip or ASCII) rather than mapped.
     pub decoded: bool,
 }
 

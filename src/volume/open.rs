@@ -1,5 +1,5 @@
 //! Opening any supported volume: picks the reader from the path (folder, extension, magic
-//! bytes) and routes decoded data through the import [`cache`](super::cache).
+//! bytes) and routes decoded data through the import [`cache`].
 //!
 //! Entry point: [`open`]. Formats (`interfaces.md`): NRRD (`.nrrd`, `.nhdr`), MetaImage
 //! (`.mha`, `.mhd`), NIfTI-1 (`.nii`, `.hdr`, `.nii.gz`), DICOM (a folder, a DICOMDIR, a
@@ -21,9 +21,11 @@ use std::path::{Path, PathBuf};
 pub struct OpenOptions {
     /// Treat the file as headerless raw data with these dimensions (requires `voxel_type`).
     pub dims: Option<[usize; 3]>,
+    /// Treat the file as headerless raw data of this voxel type (requires `dims`).
     pub voxel_type: Option<super::VoxelType>,
     /// Overrides the spacing from the file (raw files have none: 1 mm is assumed).
     pub spacing_mm: Option<[f64; 3]>,
+    /// How to read a DICOM series.
     pub dicom: DicomOptions,
     /// Where imports are cached; `None` for [`cache::default_folder`].
     pub cache_dir: Option<PathBuf>,
@@ -48,10 +50,15 @@ impl OpenOptions {
 /// The formats [`open`] tells apart.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Format {
+    /// NRRD (`.nrrd`, `.nhdr`).
     Nrrd,
+    /// MetaImage (`.mha`, `.mhd`).
     MetaImage,
+    /// NIfTI-1 (`.nii`, `.nii.gz`, `.hdr`/`.img`).
     Nifti,
+    /// A DICOM file or a folder holding a DICOM series.
     Dicom,
+    /// Headerless raw voxels, named `name_XxYxZ_type.raw` or given dimensions and type.
     Raw,
 }
 

@@ -50,11 +50,17 @@ const MIN_DETERMINANT: f64 = 1e-2;
 /// A patient direction, named by DICOM's letter for it.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum PatientDirection {
+    /// Towards the patient's left (`L`).
     Left,
+    /// Towards the patient's right (`R`).
     Right,
+    /// Towards the patient's back (`P`).
     Posterior,
+    /// Towards the patient's front (`A`).
     Anterior,
+    /// Towards the patient's head (`S`).
     Superior,
+    /// Towards the patient's feet (`I`).
     Inferior,
 }
 

@@ -13,7 +13,9 @@ use std::path::Path;
 /// Dimensions and type a raw file's name promises.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct RawNaming {
+    /// Voxels along x, y, z (the `XxYxZ` part).
     pub dims: [usize; 3],
+    /// Scalar type of each voxel (the `type` part, an Open SciVis name).
     pub voxel_type: VoxelType,
 }
 

@@ -24,7 +24,18 @@ use std::path::{Path, PathBuf};
 #[derive(Debug)]
 pub enum VoxelBytes {
     /// `len` bytes at `offset` of a mapped file; `file` stays open to check its length.
-    Mapped { map: Mmap, offset: usize, len: usize, file: File, path: PathBuf },
+    Mapped {
+        /// The whole file, mapped read-only.
+        map: Mmap,
+        /// Byte offset of the first voxel in the file.
+        offset: usize,
+        /// Number of voxel bytes.
+        len: usize,
+        /// The open file behind the map.
+        file: File,
+        /// The file's path, for errors.
+        path: PathBuf,
+    },
     /// Bytes in RAM (generated volumes, small or decoded data).
     Owned(Vec<u8>),
 }
@@ -64,6 +75,7 @@ impl VoxelBytes {
         }
     }
 
+    /// The voxel bytes, in the file's order and byte order.
     pub fn as_slice(&self) -> &[u8] {
         match self {
             VoxelBytes::Mapped { map, offset, len, .. } => &map[*offset..*offset + *len],
@@ -71,14 +83,17 @@ impl VoxelBytes {
         }
     }
 
+    /// Number of voxel bytes.
     pub fn len(&self) -> usize {
         self.as_slice().len()
     }
 
+    /// True when there are no voxel bytes.
     pub fn is_empty(&self) -> bool {
         self.len() == 0
     }
 
+    /// True when the bytes are a memory map of a file rather than owned in RAM.
     pub fn is_mapped(&self) -> bool {
         matches!(self, VoxelBytes::Mapped { .. })
     }

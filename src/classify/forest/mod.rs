@@ -35,6 +35,7 @@ use tree::{Tree, TreeBuilder};
 /// harness (`volasso accuracy`).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ForestParams {
+    /// Number of trees grown.
     pub tree_count: usize,
     /// Nodes deeper than this become leaves (the root is depth 0).
     pub max_depth: usize,
@@ -44,6 +45,7 @@ pub struct ForestParams {
     pub features_per_split: Option<usize>,
     /// Draw every class equally often in the bootstraps.
     pub class_balanced: bool,
+    /// Seed of the bootstrap and feature draws; the same seed grows the same forest.
     pub seed: u64,
 }
 
@@ -170,6 +172,7 @@ impl Forest {
         Ok(Forest { dim, class_ids, trees, leaf_masks })
     }
 
+    /// Feature dimension the forest was trained on.
     pub fn dim(&self) -> usize {
         self.dim
     }
@@ -184,10 +187,12 @@ impl Forest {
         Forest { dim: self.dim, class_ids: self.class_ids.clone(), trees, leaf_masks }
     }
 
+    /// The classes it votes among, sorted ascending.
     pub fn class_ids(&self) -> &[u8] {
         &self.class_ids
     }
 
+    /// Number of trees.
     pub fn tree_count(&self) -> usize {
         self.trees.len()
     }

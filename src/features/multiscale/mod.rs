@@ -70,6 +70,7 @@ impl Scales {
         }
     }
 
+    /// Features per voxel: 9 for [`Scales::Fine`], 17 for [`Scales::Full`].
     pub fn dim(self) -> usize {
         match self {
             Scales::Fine => FINE_NAMES.len(),
@@ -77,6 +78,7 @@ impl Scales {
         }
     }
 
+    /// Short names of the features, in vector order ([`FINE_NAMES`] or [`MULTISCALE_NAMES`]).
     pub fn names(self) -> &'static [&'static str] {
         match self {
             Scales::Fine => &FINE_NAMES,
@@ -90,6 +92,7 @@ impl Scales {
     }
 }
 
+/// Names of the 9 features of [`Scales::Fine`], in vector order (`s` is the smoothing sigma in voxels).
 pub const FINE_NAMES: [&str; 9] = [
     "intensity",
     "smoothed s0.8",
@@ -115,6 +118,7 @@ const MIN_BLOCKS: usize = 12;
 /// 14, 4 planes worse).
 const MIN_BALANCED_DEPTH: usize = 8;
 
+/// Names of the 17 features of [`Scales::Full`], in vector order (`s` is the smoothing sigma in voxels).
 pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
     "intensity",
     "smoothed s0.8",
@@ -136,7 +140,7 @@ pub const MULTISCALE_NAMES: [&str; MULTISCALE_DIM] = [
 ];
 
 /// Z planes per whole-volume block for a volume of `dims`: what the memory budget allows, but
-/// few enough that the volume has at least [`MIN_BLOCKS`] of them.
+/// few enough that the volume has at least `MIN_BLOCKS` (12) of them.
 pub fn block_depth(dims: [usize; 3]) -> usize {
     let plane_bytes = (dims[0] * dims[1]).max(1) * 4;
     let planes = BLOCK_BUDGET_BYTES / plane_bytes;
@@ -187,6 +191,7 @@ thread_local! {
 }
 
 impl MultiscaleBlock {
+    /// An empty block for `volume` at `scales`, reusing this thread's spare buffers; `compute` fills it.
     pub fn new(volume: &Volume, scales: Scales) -> MultiscaleBlock {
         let buffers = SPARE_BUFFERS.with(|spare| spare.borrow_mut().take()).unwrap_or_default();
         MultiscaleBlock {
@@ -282,7 +287,7 @@ impl MultiscaleBlock {
     }
 
     /// The features of the absolute voxels `voxels`, which must lie in the core, into `out`
-    /// (row-major, `Scales::dim` values per voxel), [`LANES`] voxels side by side; in 256-bit
+    /// (row-major, `Scales::dim` values per voxel), `LANES` voxels side by side; in 256-bit
     /// registers where the CPU has them (the same bits, see [`crate::cpu`]).
     pub fn features_of(&self, voxels: &[[usize; 3]], out: &mut [f32]) {
         #[cfg(target_arch = "x86_64")]

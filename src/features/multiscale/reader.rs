@@ -80,6 +80,7 @@ pub struct MultiscaleSlabReader<'v> {
 }
 
 impl<'v> MultiscaleSlabReader<'v> {
+    /// A reader of `volume`'s features at `scales`, with blocks of [`super::block_depth`] planes.
     pub fn new(volume: &'v Volume, scales: Scales) -> MultiscaleSlabReader<'v> {
         MultiscaleSlabReader {
             volume,
@@ -143,6 +144,7 @@ impl<'v> MultiscaleSlabReader<'v> {
         self.block.features_of(&self.voxels, out);
     }
 
+    /// Z planes per block.
     pub fn depth(&self) -> usize {
         self.depth
     }

@@ -22,7 +22,7 @@
 //! (generic: the runner knows the keys; [`expectations`] measures the label volume for
 //! `face-air-classified-below` and `lasso-voxels-kept`), `# comments`.
 //!
-//! [`parse`] only checks syntax; elements are resolved at run time through the UI's
+//! `parse` only checks syntax; elements are resolved at run time through the UI's
 //! [`ElementLocator`], and [`touch_events`] turns one [`TouchCommand`] into the raw evdev events
 //! a finger would make, which the runner feeds through the same [`ContactTracker`] as a real
 //! device (built with the identity [`ScreenMapping`] for the locator's screen size).

@@ -34,7 +34,7 @@ const NATIVE_TRANSFER_SYNTAXES: [&str; 3] = [
 ];
 
 /// True when this reader decodes the pixel data of `uid`: a native syntax, Deflated Explicit VR
-/// Little Endian (inflated by [`super::deflated`]), or a syntax whose decoder dicom-rs's
+/// Little Endian (inflated by the `deflated` module), or a syntax whose decoder dicom-rs's
 /// registry holds in this build (JPEG baseline, extended and lossless, JPEG-LS, JPEG 2000, RLE).
 pub fn readable_transfer_syntax(uid: &str) -> bool {
     let uid = uid.trim_end_matches(['\0', ' ']);

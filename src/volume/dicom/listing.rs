@@ -30,7 +30,9 @@ pub enum PatientShown {
 /// PatientName and PatientID as the files hold them.
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct PatientIdentity {
+    /// PatientName (0010,0010), empty when absent.
     pub name: String,
+    /// PatientID (0010,0020), empty when absent.
     pub id: String,
 }
 
@@ -143,11 +145,17 @@ fn error_path(error: &VolumeError) -> PathBuf {
 /// its patient (never logged).
 #[derive(Clone, Debug, PartialEq, Eq)]
 pub struct InstanceIdentity {
+    /// SeriesInstanceUID (0020,000E), empty when absent.
     pub series_uid: String,
+    /// SOPInstanceUID (0008,0018): this instance's own UID.
     pub sop_instance_uid: String,
+    /// SOPClassUID (0008,0016): what kind of object it is (CT image, MR image, ...).
     pub sop_class_uid: String,
+    /// Modality (0008,0060), such as `CT` or `MR`; empty when absent.
     pub modality: String,
+    /// SeriesDescription (0008,103E), empty when absent.
     pub series_description: String,
+    /// The patient's name and ID (never logged).
     pub patient: PatientIdentity,
 }
 

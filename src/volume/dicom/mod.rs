@@ -34,14 +34,14 @@
 //! patient orientation records these axes and that origin in LPS ([`super::orientation`]).
 //!
 //! Missing slices: a series is refused with [`VolumeError::SeriesGap`] when a slice may be
-//! missing: a gap with room for a slice ([`geometry`]'s rule: at least 1.9 times the series'
+//! missing: a gap with room for a slice (`geometry`'s rule: at least 1.9 times the series'
 //! spacing), a slice whose pixels cannot be decoded, a DICOM file that cannot be read, or a
 //! folder that cannot be searched. With [`DicomOptions::allow_gaps`] it is opened anyway,
 //! resampled across the hole, and the warnings (which the volume carries) say why.
 //!
-//! Every file is read through [`bounds`]: its element lengths are checked against its size
+//! Every file is read through `bounds`: its element lengths are checked against its size
 //! before dicom-object parses it, and a slice's PixelData must be exactly as long as its
-//! Rows, Columns and BitsAllocated need ([`pixels`]).
+//! Rows, Columns and BitsAllocated need (`pixels`).
 //!
 //! Never: reads colour images or multi-frame images whose frames it cannot place, or writes
 //! files (the import cache is the caller's).
@@ -87,10 +87,12 @@ pub enum Resample {
     Refuse,
 }
 
+/// How to read a DICOM series: which one, and what to do with irregular slice spacing.
 #[derive(Clone, Debug, Default)]
 pub struct DicomOptions {
     /// The SeriesInstanceUID to read when the path holds several image series.
     pub series_uid: Option<String>,
+    /// What to do with a tilted gantry or uneven slice spacing.
     pub resample: Resample,
     /// Slice spacing of a resampled grid; regular series keep their own spacing.
     pub slice_spacing_mm: Option<f64>,
@@ -107,7 +109,9 @@ pub struct DicomImport {
     pub volume: Volume,
     /// What was tolerated or changed (resampling, skipped files), one sentence each.
     pub warnings: Vec<String>,
+    /// SeriesInstanceUID of the series read.
     pub series_uid: String,
+    /// SeriesDescription, empty when absent.
     pub description: String,
     /// The files used, in slice order.
     pub files: Vec<PathBuf>,
@@ -126,8 +130,11 @@ pub fn read_series(path: &Path, options: &DicomOptions) -> Result<DicomImport, V
 pub struct SeriesCheck {
     /// The dimensions the volume would have.
     pub dims: [usize; 3],
+    /// What reading it would tolerate or change, one sentence each.
     pub warnings: Vec<String>,
+    /// SeriesInstanceUID of the series checked.
     pub series_uid: String,
+    /// SeriesDescription, empty when absent.
     pub description: String,
     /// Modality of the series' first slice, empty when absent.
     pub modality: String,

@@ -32,7 +32,9 @@ pub fn from_dicom(
 /// The NIfTI-1 header fields that place the grid in the world (RAS+, millimetres).
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct NiftiTransform {
+    /// `qform_code`: what the quaternion transform maps to; 0 means unused.
     pub qform_code: i16,
+    /// `sform_code`: what the affine `srow_*` transform maps to; 0 means unused.
     pub sform_code: i16,
     /// `quatern_b`, `quatern_c`, `quatern_d`.
     pub quaternion_bcd: [f64; 3],
