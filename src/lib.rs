@@ -1,16 +1,49 @@
 //! volasso: image-centric direct volume rendering (Khan, Ksantini & Guan), on a touch kiosk.
 //!
-//! The pipeline is a chain of plain data types and pure functions, one module per stage of the
-//! paper:
+//! The pipeline is a chain of plain data types and functions, one module per stage of the
+//! paper (`docs/paper.md`):
 //!
 //! ```text
 //! volume (load, mmap) -> slices (entropy, §3.1) -> strokes (lassos, §3.2) -> features (§3.3)
-//!   -> classify (SN-SVM, §3.4) -> transfer (harmonic colour, §3.5) -> render (wgpu)
+//!   -> classify (SN-SVM, §3.4) -> segmentation (the whole volume) -> transfer (harmonic colour,
+//!   §3.5) -> render (wgpu)
 //! ```
 //!
-//! The command line (`cli`), the kiosk UI (`app`, `ui/*.slint`) and its platform and input
-//! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
-//! `accuracy` measures the pipeline against phantoms with known truth.
+//! [`pipeline`] runs it in one call, the one the command line, the kiosk and the accuracy
+//! harness share. A tour: the built-in demo foot, the lassos drawn on it for the benchmarks,
+//! classified and coloured, and one slice with its class colours written as a PNG.
+//!
+//! ```
+//! use volasso::{pipeline, phantom, slices, strokes::StrokesFile, transfer};
+//! use volasso::segmentation::SegmentationOptions;
+//!
+//! let volume = phantom::demo_foot().volume;
+//! let strokes = StrokesFile::read_for_volume("benches/strokes/demo-foot.strokes.json".as_ref(), volume.dims)?;
+//! let classified = pipeline::classify_strokes(
+//!     &volume,
+//!     &strokes,
+//!     &SegmentationOptions::default(), // the paper's SN-SVM
+//!     None,                            // the default hue template for the number of classes
+//!     pipeline::RunControl::batch(),
+//! )?;
+//! assert_eq!(classified.table.styles.len(), strokes.classes.len());
+//!
+//! let z = volume.dims[2] / 2;
+//! let window = slices::DisplayWindow::automatic(&volume);
+//! let picture = transfer::slice_overlay(
+//!     &volume, &classified.labels.labels, &classified.table.styles, slices::Axis::Z, z, window, 0.5,
+//! )?;
+//! let out = std::env::temp_dir().join("volasso-tour.png");
+//! transfer::write_png(&out, &picture)?;
+//! # std::fs::remove_file(&out)?;
+//! # Ok::<(), Box<dyn std::error::Error>>(())
+//! ```
+//!
+//! Programs that hold their scan as an array use [`pipeline::classify_array`] and
+//! [`Volume::stored_view`] (see `examples/classify_array.rs`). The command line and the kiosk
+//! (`cli`, `app`, `kiosk`, `touch`, `display`, `ui/*.slint`) call the pipeline and are not part
+//! of the library's documented surface; the pipeline never knows about them. `accuracy`
+//! measures the pipeline against phantoms with known truth.
 
 pub mod accuracy;
 #[doc(hidden)]
@@ -26,6 +59,7 @@ pub mod features;
 #[doc(hidden)]
 pub mod kiosk;
 pub mod phantom;
+pub mod pipeline;
 pub mod receive;
 pub mod render;
 pub mod rng;

@@ -22,6 +22,7 @@
 //!   voxels.
 //! * `dicom_receive`: `volasso receive` against dcmtk's storescu and echoscu (store, replace,
 //!   several series, a killed association, refusals).
+//! * `library`: the array entry of the pipeline labels as `volasso classify` does.
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
@@ -33,6 +34,7 @@ mod dicom_jpeg2000;
 mod dicom_receive;
 mod formats;
 mod hostile;
+mod library;
 mod malformed;
 mod mutations;
 mod rendering;

@@ -7,7 +7,7 @@
 //! [`Method`] is a feature set and classifier; a [`Hand`] is how precisely the simulated user
 //! draws: cleanly inside each structure, or leaking over its border by a finger's width. For
 //! each case, hand and method, [`evaluate`] draws lassos ([`user::draw_training`]), trains
-//! through the public pipeline ([`segmentation::train`], [`segmentation::label_volume`]) and
+//! through the public pipeline ([`pipeline::classify_training`]) and
 //! reports per-class and macro Dice and the time from training to labels.
 //!
 //! Every truth class is lassoed, air included (class id k + 1 for truth k), unless the user
@@ -27,10 +27,10 @@ pub mod user;
 use crate::classify::ForestParams;
 use crate::features::FeatureSet;
 use crate::phantom::{self, Phantom, bodies, procedural};
+use crate::pipeline::{self, RunControl};
 use crate::segmentation::{self, ClassifierKind, SegmentationError, SegmentationOptions};
 use crate::strokes::TrainingSet;
 use crate::volume::VolumeError;
-use std::sync::atomic::AtomicBool;
 use std::time::Instant;
 pub use user::{UserModel, draw_training};
 
@@ -349,10 +349,8 @@ fn run_method(
     };
     let options = method.options();
     let started = Instant::now();
-    let segmenter = segmentation::train(&phantom.volume, training, &options).map_err(error)?;
-    let cancel = AtomicBool::new(false);
-    let labels =
-        segmentation::label_volume(&phantom.volume, &segmenter, options.refinement, &|_| {}, &cancel).map_err(error)?;
+    let (_, labels) =
+        pipeline::classify_training(&phantom.volume, training, &options, RunControl::batch()).map_err(error)?;
     let seconds = started.elapsed().as_secs_f64();
     let predicted: Vec<u8> = labels.labels.iter().map(|&l| truth_of_label(l, user)).collect();
     let dice = (0..phantom.class_names.len() as u8).map(|c| phantom::dice(&phantom.truth, &predicted, c)).collect();

@@ -5,8 +5,9 @@
 //!
 //! Never: touches the UI; the app polls [`ClassificationJobs::poll`] from its event loop.
 
-use crate::segmentation::{self, SegmentationOptions};
-use crate::strokes::{StrokesFile, TrainingSet};
+use crate::pipeline::{self, RunControl};
+use crate::segmentation::SegmentationOptions;
+use crate::strokes::StrokesFile;
 use crate::transfer::{ClassTable, HueTemplate};
 use crate::volume::Volume;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -133,18 +134,15 @@ fn classify(
     cancel: &AtomicBool,
 ) -> Result<Classified, String> {
     let started = Instant::now();
-    let training = TrainingSet::from_strokes(strokes, volume.dims).map_err(|e| e.to_string())?;
-    let segmenter = segmentation::train(volume, &training, options).map_err(|e| e.to_string())?;
     // Training is about a tenth of the work; labelling reports the rest.
-    progress.store(100, Ordering::Relaxed);
     let report = |fraction: f32| progress.store(100 + (900.0 * fraction.clamp(0.0, 1.0)) as u32, Ordering::Relaxed);
-    let labelled = segmentation::label_volume(volume, &segmenter, options.refinement, &report, cancel)
-        .map_err(|e| e.to_string())?;
-    let table =
-        ClassTable::compute(volume, &labelled.labels, strokes.classes.len(), template).map_err(|e| e.to_string())?;
+    let control = RunControl { progress: &report, cancel };
+    let classified =
+        pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
+    let labelled = classified.labels;
     Ok(Classified {
         labels: Arc::new(labelled.labels),
-        table,
+        table: classified.table,
         seconds: started.elapsed().as_secs_f64(),
         classified_voxels: labelled.classified_voxels,
     })

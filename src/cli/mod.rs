@@ -80,6 +80,18 @@ pub fn main() -> ExitCode {
 }
 
 /// Runs one parsed command line.
+/// A pipeline error as the command line reports it: a strokes problem names the strokes file.
+fn pipeline_error(error: crate::pipeline::PipelineError, strokes: &std::path::Path) -> CliError {
+    use crate::pipeline::PipelineError;
+    match error {
+        PipelineError::Strokes(error) => error.with_path(strokes).into(),
+        PipelineError::Segmentation(error) => error.into(),
+        PipelineError::Transfer(error) => error.into(),
+        PipelineError::Volume(error) => error.into(),
+        error @ PipelineError::ScribbleShape { .. } => CliError::Usage(error.to_string()),
+    }
+}
+
 pub fn run(cli: Cli) -> Result<(), CliError> {
     match cli.command {
         Some(Command::Info(args)) => info::run(&args),

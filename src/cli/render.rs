@@ -5,12 +5,11 @@
 
 use super::CliError;
 use super::args::{RenderArgs, RenderModeChoice};
+use crate::pipeline::{self, RunControl};
 use crate::render::headless::{Scene, render_png};
 use crate::render::{Camera, RenderMode, RenderSettings, gpu};
-use crate::segmentation::{self, SegmentationOptions};
-use crate::strokes::{StrokesFile, TrainingSet};
-use crate::transfer::{ClassTable, HueTemplate};
-use std::sync::atomic::AtomicBool;
+use crate::segmentation::SegmentationOptions;
+use crate::strokes::StrokesFile;
 
 pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     for removed in crate::atomic_file::remove_stale_temporaries(&args.out) {
@@ -18,12 +17,11 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     }
     let volume = super::open_volume(&args.volume, &args.open)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
-    let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;
-    let options = SegmentationOptions::default();
-    let segmenter = segmentation::train(&volume, &training, &options)?;
-    let labels = segmentation::label_volume(&volume, &segmenter, options.refinement, &|_| {}, &AtomicBool::new(false))?;
+    let classified =
+        pipeline::classify_strokes(&volume, &strokes, &SegmentationOptions::default(), None, RunControl::batch())
+            .map_err(|error| super::pipeline_error(error, &args.strokes))?;
+    let (labels, table) = (classified.labels, classified.table);
     let class_count = strokes.classes.len();
-    let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
 
     let gpu = gpu::acquire()?;
     log::info!("rendering on {} ({:?})", gpu.adapter_info.name, gpu.adapter_info.backend);

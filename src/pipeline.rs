@@ -1,0 +1,233 @@
+//! The pipeline in one call: training voxels per class, trained and applied to the whole
+//! volume (§3.3-3.4), then coloured (§3.5). The command line (`classify`, `render`), the
+//! kiosk's classification worker and the accuracy harness all run it through here, so a
+//! change to the method reaches every one of them.
+//!
+//! [`classify_training`] takes a training set (from a strokes file, or drawn by the accuracy
+//! harness' simulated user) and gives the trained model and the label volume;
+//! [`classify_strokes`] starts from a strokes file and adds the class table;
+//! [`classify_array`] is the same for a program that holds its scan and its scribbles as
+//! `ndarray` arrays.
+//!
+//! Never: reads or writes files, or knows who called it (UI, CLI or harness).
+
+use std::path::Path;
+use std::sync::atomic::AtomicBool;
+
+use ndarray::{Array3, ArrayView3};
+
+use crate::segmentation::{self, LabelVolume, SegmentationError, SegmentationOptions, Segmenter};
+use crate::strokes::{ClassSamples, StrokesError, StrokesFile, TrainingSet};
+use crate::transfer::{ClassTable, HueTemplate, TransferError};
+use crate::volume::{Volume, VolumeError};
+
+/// Why the pipeline stopped; each variant keeps the stage's own error.
+#[derive(Debug, thiserror::Error)]
+pub enum PipelineError {
+    /// The strokes do not make a training set (no class, a class without voxels...).
+    #[error(transparent)]
+    Strokes(#[from] StrokesError),
+    /// Training or labelling failed, or was cancelled.
+    #[error(transparent)]
+    Segmentation(#[from] SegmentationError),
+    /// The class table could not be computed.
+    #[error(transparent)]
+    Transfer(#[from] TransferError),
+    /// The array could not be made into a volume (empty, bad spacing).
+    #[error(transparent)]
+    Volume(#[from] VolumeError),
+    /// The scribbles array has another shape than the intensities.
+    #[error("the scribbles are {scribbles:?} voxels (z, y, x) but the volume is {volume:?}")]
+    ScribbleShape {
+        /// Shape of the scribbles array.
+        scribbles: (usize, usize, usize),
+        /// Shape of the intensity array.
+        volume: (usize, usize, usize),
+    },
+}
+
+/// How a long run reports and stops: `progress` gets the fraction of labelling done (0..=1,
+/// from worker threads); setting `cancel` stops at the next slab with
+/// [`SegmentationError::Cancelled`].
+#[derive(Clone, Copy)]
+pub struct RunControl<'a> {
+    /// Called with the fraction of the labelling done.
+    pub progress: &'a (dyn Fn(f32) + Sync),
+    /// Set to stop the run.
+    pub cancel: &'a AtomicBool,
+}
+
+static NEVER_CANCELLED: AtomicBool = AtomicBool::new(false);
+
+impl RunControl<'static> {
+    /// No progress reports, never cancelled: a batch run.
+    pub fn batch() -> RunControl<'static> {
+        RunControl { progress: &|_| {}, cancel: &NEVER_CANCELLED }
+    }
+}
+
+/// Trains on `training` and labels every voxel of `volume`: the trained model (its summary
+/// says what was trained on and how long it took) and the label volume (0 background, k class
+/// k).
+pub fn classify_training(
+    volume: &Volume,
+    training: &TrainingSet,
+    options: &SegmentationOptions,
+    control: RunControl<'_>,
+) -> Result<(Segmenter, LabelVolume), SegmentationError> {
+    let segmenter = segmentation::train(volume, training, options)?;
+    let labels = segmentation::label_volume(volume, &segmenter, options.refinement, control.progress, control.cancel)?;
+    Ok((segmenter, labels))
+}
+
+/// What a classification gives: the model, the labels and their colours.
+pub struct Classified {
+    /// The trained classifier and its training summary.
+    pub segmenter: Segmenter,
+    /// The label of every voxel (x fastest): 0 background, k class k.
+    pub labels: LabelVolume,
+    /// Colour and opacity of each class (§3.5).
+    pub table: ClassTable,
+}
+
+/// The strokes' classes trained and applied to `volume`, coloured with `template` (`None`:
+/// the default template for the number of classes).
+pub fn classify_strokes(
+    volume: &Volume,
+    strokes: &StrokesFile,
+    options: &SegmentationOptions,
+    template: Option<HueTemplate>,
+    control: RunControl<'_>,
+) -> Result<Classified, PipelineError> {
+    let training = TrainingSet::from_strokes(strokes, volume.dims)?;
+    let (segmenter, labels) = classify_training(volume, &training, options, control)?;
+    let class_count = strokes.classes.len();
+    let template = template.unwrap_or_else(|| HueTemplate::default_for(class_count));
+    let table = ClassTable::compute(volume, &labels.labels, class_count, template)?;
+    Ok(Classified { segmenter, labels, table })
+}
+
+/// What [`classify_array`] gives.
+pub struct ArrayClassified {
+    /// The label of every voxel, indexed `[z, y, x]` like the input: 0 background, k class k.
+    pub labels: Array3<u8>,
+    /// Colour and opacity of each class (§3.5).
+    pub table: ClassTable,
+    /// The trained classifier and its training summary.
+    pub segmenter: Segmenter,
+}
+
+/// Classifies a scan held as an array. `values` are the intensities indexed `[z, y, x]`,
+/// `spacing_mm` the voxel size along x, y, z; `scribbles` has the same shape and marks the
+/// training voxels: 0 unmarked, k the k-th class (classes 1..=max, each must mark at least one
+/// voxel). The same call as [`classify_strokes`] after the scribbles are made a training set.
+pub fn classify_array(
+    values: ArrayView3<'_, f32>,
+    spacing_mm: [f64; 3],
+    scribbles: ArrayView3<'_, u8>,
+    options: &SegmentationOptions,
+) -> Result<ArrayClassified, PipelineError> {
+    if scribbles.dim() != values.dim() {
+        return Err(PipelineError::ScribbleShape { scribbles: scribbles.dim(), volume: values.dim() });
+    }
+    let volume = Volume::from_array(values, spacing_mm, Path::new("array"))?;
+    let training = training_from_scribbles(scribbles)?;
+    let (segmenter, labels) = classify_training(&volume, &training, options, RunControl::batch())?;
+    let class_count = training.classes.len();
+    let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
+    let (nz, ny, nx) = values.dim();
+    let labels = Array3::from_shape_vec((nz, ny, nx), labels.labels)
+        .map_err(|_| PipelineError::ScribbleShape { scribbles: (nz, ny, nx), volume: (nz, ny, nx) })?;
+    Ok(ArrayClassified { labels, table, segmenter })
+}
+
+/// The training set marked by a scribble array: class k's voxels are those marked k, in the
+/// volume's x-fastest index order, one "stroke" per class. Refuses no class at all and a class
+/// number below the highest that marks nothing.
+pub fn training_from_scribbles(scribbles: ArrayView3<'_, u8>) -> Result<TrainingSet, StrokesError> {
+    let class_count = scribbles.iter().copied().max().unwrap_or(0) as usize;
+    if class_count == 0 {
+        return Err(StrokesError::NoClasses);
+    }
+    let mut voxels: Vec<Vec<usize>> = vec![Vec::new(); class_count];
+    // `iter` walks in logical [z, y, x] order, the volume's x-fastest index order.
+    for (index, &mark) in scribbles.iter().enumerate() {
+        if mark > 0 {
+            voxels[mark as usize - 1].push(index);
+        }
+    }
+    let classes = voxels
+        .into_iter()
+        .enumerate()
+        .map(|(k, voxels)| ClassSamples {
+            name: format!("Class {}", k + 1),
+            stroke_of_voxel: vec![0; voxels.len()],
+            stroke_voxel_counts: vec![voxels.len()],
+            voxels,
+            dropped_by_cap: 0,
+        })
+        .collect();
+    let set = TrainingSet { classes, contested_voxels: 0 };
+    set.check_every_class_has_voxels()?;
+    Ok(set)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use ndarray::s;
+
+    /// Two blobs of different brightness in a dark box, one scribble inside each.
+    fn two_blobs() -> (Array3<f32>, Array3<u8>) {
+        let values = Array3::from_shape_fn((16, 20, 24), |(z, y, x)| {
+            let d = |c: [f32; 3]| {
+                ((z as f32 - c[0]).powi(2) + (y as f32 - c[1]).powi(2) + (x as f32 - c[2]).powi(2)).sqrt()
+            };
+            if d([8.0, 10.0, 7.0]) < 5.0 {
+                100.0
+            } else if d([8.0, 10.0, 17.0]) < 5.0 {
+                200.0
+            } else {
+                0.0
+            }
+        });
+        let mut scribbles = Array3::<u8>::zeros(values.dim());
+        scribbles.slice_mut(s![7..10, 9..12, 6..9]).fill(1);
+        scribbles.slice_mut(s![7..10, 9..12, 16..19]).fill(2);
+        (values, scribbles)
+    }
+
+    #[test]
+    fn scribbles_become_classes_in_index_order() {
+        let (_, scribbles) = two_blobs();
+        let set = training_from_scribbles(scribbles.view()).unwrap();
+        assert_eq!(set.classes.len(), 2);
+        assert_eq!(set.classes[0].voxels.len(), 27);
+        let first = set.classes[1].voxels[0];
+        assert_eq!((first / (20 * 24), (first / 24) % 20, first % 24), (7, 9, 16));
+        assert!(matches!(training_from_scribbles(Array3::<u8>::zeros((2, 2, 2)).view()), Err(StrokesError::NoClasses)));
+        let mut gap = Array3::<u8>::zeros((2, 2, 2));
+        gap[[0, 0, 0]] = 2;
+        assert!(training_from_scribbles(gap.view()).is_err(), "class 1 marks nothing");
+    }
+
+    #[test]
+    fn an_array_is_classified_into_its_blobs() {
+        let (values, scribbles) = two_blobs();
+        let result =
+            classify_array(values.view(), [1.0; 3], scribbles.view(), &SegmentationOptions::default()).unwrap();
+        assert_eq!(result.labels.dim(), values.dim());
+        assert_eq!(result.labels[[8, 10, 5]], 1, "inside the dim blob, away from its scribble");
+        assert_eq!(result.labels[[8, 10, 19]], 2, "inside the bright blob, away from its scribble");
+        assert_eq!(result.labels[[0, 0, 0]], 0, "the dark box is background");
+        assert_eq!(result.table.styles.len(), 2);
+    }
+
+    #[test]
+    fn scribbles_of_another_shape_are_refused() {
+        let (values, _) = two_blobs();
+        let scribbles = Array3::<u8>::ones((16, 20, 23));
+        let error = classify_array(values.view(), [1.0; 3], scribbles.view(), &SegmentationOptions::default());
+        assert!(matches!(error, Err(PipelineError::ScribbleShape { .. })));
+    }
+}
