@@ -12,6 +12,8 @@
 //! layers (`kiosk`, `touch`) call the pipeline; the pipeline never knows about them.
 //! `accuracy` measures the pipeline against phantoms with known truth.
 
+#![warn(missing_docs)]
+
 pub mod accuracy;
 #[doc(hidden)]
 pub mod app;
