@@ -45,6 +45,8 @@
 //! of the library's documented surface; the pipeline never knows about them. `accuracy`
 //! measures the pipeline against phantoms with known truth.
 
+#![warn(missing_docs)]
+
 pub mod accuracy;
 #[doc(hidden)]
 pub mod app;

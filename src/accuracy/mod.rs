@@ -52,6 +52,7 @@ pub enum PhantomKind {
 }
 
 impl PhantomKind {
+    /// Every phantom, in report order.
     pub const ALL: [PhantomKind; 6] = [
         PhantomKind::Foot,
         PhantomKind::Vessels,
@@ -61,6 +62,7 @@ impl PhantomKind {
         PhantomKind::Head,
     ];
 
+    /// The phantom's name in reports and on the command line (`foot16`, `head8`, ...).
     pub fn name(self) -> &'static str {
         match self {
             PhantomKind::Foot => "foot16",
@@ -72,6 +74,7 @@ impl PhantomKind {
         }
     }
 
+    /// The phantom of a [`name`](Self::name), if any.
     pub fn from_name(name: &str) -> Option<PhantomKind> {
         PhantomKind::ALL.into_iter().find(|kind| kind.name() == name)
     }
@@ -94,6 +97,7 @@ impl PhantomKind {
         }
     }
 
+    /// The phantom of `dims` voxels with its noise drawn from `seed`.
     pub fn generate(self, dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         match self {
             PhantomKind::Foot => phantom::demo_foot_with(dims, seed),
@@ -109,14 +113,18 @@ impl PhantomKind {
 /// Whether a case served to choose the defaults or only to check them.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum CaseRole {
+    /// Seed at most [`LAST_TUNING_SEED`]: the defaults were chosen on such cases.
     Tune,
+    /// A later seed: such cases never chose anything, they only check.
     Check,
 }
 
 /// One phantom at one seed (the seed drives both the phantom's noise and the lassos).
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct Case {
+    /// The phantom.
     pub kind: PhantomKind,
+    /// Seed of the phantom's noise and of the simulated lassos.
     pub seed: u64,
 }
 
@@ -145,8 +153,10 @@ pub enum Hand {
 pub const LEAK_PIXELS: u32 = 2;
 
 impl Hand {
+    /// Both hands, in report order.
     pub const ALL: [Hand; 2] = [Hand::Clean, Hand::Leaky];
 
+    /// The hand's name in reports and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             Hand::Clean => "clean",
@@ -154,6 +164,7 @@ impl Hand {
         }
     }
 
+    /// The hand of a [`name`](Self::name), if any.
     pub fn from_name(name: &str) -> Option<Hand> {
         Hand::ALL.into_iter().find(|hand| hand.name() == name)
     }
@@ -195,6 +206,7 @@ pub enum Method {
 }
 
 impl Method {
+    /// Every method, in report order.
     pub const ALL: [Method; 10] = [
         Method::SnSvmPaper5,
         Method::SnSvmPaper5Global,
@@ -208,6 +220,7 @@ impl Method {
         Method::DefaultVoxelwise,
     ];
 
+    /// The method's name in reports and on the command line.
     pub fn name(self) -> &'static str {
         match self {
             Method::SnSvmPaper5 => "snsvm-paper5",
@@ -223,10 +236,12 @@ impl Method {
         }
     }
 
+    /// The method of a [`name`](Self::name), if any.
     pub fn from_name(name: &str) -> Option<Method> {
         Method::ALL.into_iter().find(|m| m.name() == name)
     }
 
+    /// The segmentation options that run this method.
     pub fn options(self) -> SegmentationOptions {
         let svm = |feature_set, eta| SegmentationOptions {
             feature_set,
@@ -264,9 +279,13 @@ impl Method {
 /// One method's result on one case.
 #[derive(Clone, Debug)]
 pub struct Outcome {
+    /// The phantom and seed.
     pub case: Case,
+    /// How the lassos were drawn.
     pub hand: Hand,
+    /// The feature set and classifier.
     pub method: Method,
+    /// The phantom's truth classes, in label order.
     pub class_names: Vec<&'static str>,
     /// Dice per truth class.
     pub dice: Vec<f64>,
@@ -277,6 +296,7 @@ pub struct Outcome {
 }
 
 impl Outcome {
+    /// The mean of the per-class Dice scores (0 with no classes).
     pub fn macro_dice(&self) -> f64 {
         self.dice.iter().sum::<f64>() / self.dice.len().max(1) as f64
     }
@@ -285,10 +305,26 @@ impl Outcome {
 /// What can stop the harness.
 #[derive(Debug, thiserror::Error)]
 pub enum AccuracyError {
+    /// Generating a phantom failed.
     #[error("cannot generate phantom {phantom}: {source}")]
-    Phantom { phantom: &'static str, source: VolumeError },
+    Phantom {
+        /// The phantom's name.
+        phantom: &'static str,
+        /// Why.
+        source: VolumeError,
+    },
+    /// A method failed to train or label on a case.
     #[error("{method} on {phantom} seed {seed}: {source}")]
-    Segmentation { method: &'static str, phantom: &'static str, seed: u64, source: SegmentationError },
+    Segmentation {
+        /// The method's name.
+        method: &'static str,
+        /// The phantom's name.
+        phantom: &'static str,
+        /// The case's seed.
+        seed: u64,
+        /// Why.
+        source: SegmentationError,
+    },
 }
 
 /// Runs every method on every case with every hand; `quick` uses the small phantoms. Cases

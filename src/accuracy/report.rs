@@ -33,6 +33,7 @@ pub fn row(outcome: &Outcome) -> String {
     )
 }
 
+/// The table's column titles, aligned with [`row`].
 pub fn header() -> String {
     format!(
         "{:<9} {:>4} {:<5} {:<5} {:<17} {:>6} {:>10}  per-class Dice",

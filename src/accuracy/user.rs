@@ -23,6 +23,7 @@ use std::collections::{HashMap, VecDeque};
 /// How the simulated user draws.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct UserModel {
+    /// Lassos drawn for each class (on the most informative slices, axes in turn).
     pub lassos_per_class: usize,
     /// Voxels per class the lassos aim for together.
     pub voxel_budget_per_class: usize,

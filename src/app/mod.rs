@@ -6,7 +6,7 @@
 //! data between them and Slint and never waits for them, nor for the disk.
 //!
 //! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
-//! `State`; what the user does to the classes goes to the Slint-free [`Controller`]
+//! `State`; what the user does to the classes goes to the Slint-free `Controller`
 //! (controller.rs: the work, the template and the classification, autosave and 3-D view
 //! workers), which says what changed; a 16 ms poll timer collects finished work (`loading.rs`
 //! applies what the loader reports); `refresh.rs` alone pushes state into the `Session`

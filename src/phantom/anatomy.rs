@@ -19,27 +19,48 @@ const SKIN_BLEND_MM: f64 = 10.0;
 
 /// Tissue classes of the ground truth (index = class id; 0 is air).
 pub const CLASS_NAMES: [&str; 4] = ["air", "soft tissue", "bone", "joint"];
+/// Class id of air around the foot.
 pub const AIR: u8 = 0;
+/// Class id of fat and muscle.
 pub const SOFT_TISSUE: u8 = 1;
+/// Class id of cortex and marrow.
 pub const BONE: u8 = 2;
+/// Class id of the joint spaces between bones.
 pub const JOINT: u8 = 3;
 
 /// Hounsfield units before blur and noise.
+/// Air, in HU.
 pub const AIR_HU: f32 = -1000.0;
+/// Subcutaneous fat, in HU.
 pub const FAT_HU: f32 = -90.0;
+/// Muscle and the rest of the soft tissue, in HU.
 pub const MUSCLE_HU: f32 = 40.0;
+/// Joint space (cartilage and fluid), in HU.
 pub const JOINT_HU: f32 = 105.0;
 
 /// A primitive with an exact or near-exact signed distance.
 #[derive(Clone, Copy, Debug)]
 pub enum Shape {
     /// Points within `radius` of the segment `from`-`to`.
-    Capsule { from: [f64; 3], to: [f64; 3], radius: f64 },
+    Capsule {
+        /// One end of the segment, in mm.
+        from: [f64; 3],
+        /// The other end, in mm.
+        to: [f64; 3],
+        /// In mm.
+        radius: f64,
+    },
     /// Axis-aligned ellipsoid (distance approximated, exact on the axes).
-    Ellipsoid { centre: [f64; 3], radii: [f64; 3] },
+    Ellipsoid {
+        /// In mm.
+        centre: [f64; 3],
+        /// Semi-axes along x, y and z, in mm.
+        radii: [f64; 3],
+    },
 }
 
 impl Shape {
+    /// Distance from point `p` (mm) to the surface, in mm: negative inside.
     pub fn signed_distance_mm(&self, p: [f64; 3]) -> f64 {
         match *self {
             Shape::Capsule { from, to, radius } => {
@@ -78,10 +99,15 @@ impl Shape {
 /// A bone: its shape, cortex thickness and densities.
 #[derive(Clone, Copy, Debug)]
 pub struct Bone {
+    /// The bone's anatomical name.
     pub name: &'static str,
+    /// Its outer surface.
     pub shape: Shape,
+    /// Thickness of the cortical shell, in mm.
     pub cortex_mm: f64,
+    /// Density of the cortex, in HU.
     pub cortex_hu: f32,
+    /// Density of the marrow inside, in HU.
     pub marrow_hu: f32,
 }
 
@@ -160,6 +186,7 @@ const SKIN_MARGIN_MM: f64 = 1.25 * SKIN_BLEND_MM + FAT_THICKNESS_MM + 1.0;
 const BONE_MARGIN_MM: f64 = JOINT_GAP_MM + 2.0 * 2.6 + 1.0;
 
 impl RowShapes {
+    /// The shapes that can matter on the row at `y_mm`, `z_mm`.
     pub fn for_row(y_mm: f64, z_mm: f64) -> RowShapes {
         let meets = |shape: &Shape, margin: f64| {
             let (low, high) = shape.bounds_mm(margin);
@@ -179,6 +206,7 @@ impl RowShapes {
         }
     }
 
+    /// Whether the row misses the skin (all air).
     pub fn is_empty(&self) -> bool {
         self.skin.is_empty()
     }
@@ -287,11 +315,17 @@ fn soft_tissue(skin: f64) -> Tissue {
 /// What a point is made of.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub enum Tissue {
+    /// Outside the skin.
     Air,
+    /// Within [`FAT_THICKNESS_MM`] under the skin.
     Fat,
+    /// Deeper soft tissue.
     Muscle,
+    /// Inside a bone but near another: the joint space between them.
     Joint,
+    /// The cortical shell of the bone at this index in [`BONES`].
     Cortex(usize),
+    /// The marrow of the bone at this index in [`BONES`].
     Marrow(usize),
 }
 

@@ -16,6 +16,7 @@ pub const DEMO_VOLUME: &str = "demo";
 pub enum VolumeSource {
     /// The built-in CT foot phantom ([`super::demo_foot`]).
     Demo,
+    /// A path [`crate::volume::open()`] reads: a volume file or a DICOM series.
     Path(PathBuf),
 }
 

@@ -78,6 +78,7 @@ pub fn rgba_occupancy(dims: [usize; 3], rgba: &[u8]) -> Vec<u8> {
 /// For each brick, the set of labels found in it or its apron.
 #[derive(Clone, Debug, PartialEq)]
 pub struct LabelBricks {
+    /// Bricks along x, y and z (see [`brick_dims`]).
     pub brick_dims: [usize; 3],
     /// 256 bits per brick: bit k of word k / 32 is set when label k occurs.
     label_sets: Vec<[u32; CLASS_TABLE_SIZE / 32]>,

@@ -17,18 +17,24 @@ pub enum Projection {
     /// Parallel rays: sizes on screen do not depend on depth (what the image tests measure).
     Orthographic,
     /// Rays from one eye point, with this vertical field of view.
-    Perspective { fov_y_degrees: f32 },
+    Perspective {
+        /// The full vertical field of view, in degrees (clamped to 1-170).
+        fov_y_degrees: f32,
+    },
 }
 
 /// An orbit camera around the volume's centre.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Camera {
+    /// Turn about +z, counter-clockwise seen from above; 0 looks along +y.
     pub azimuth_degrees: f32,
+    /// Lift towards +z; 0 is level, 90 looks straight down.
     pub elevation_degrees: f32,
     /// 1 fits the bounding sphere of the volume's box; 2 shows it twice as large.
     pub zoom: f32,
     /// Offset of the orbit centre in the image plane, in mm along the image's right and up.
     pub pan_mm: [f32; 2],
+    /// Orthographic or perspective.
     pub projection: Projection,
 }
 
@@ -47,12 +53,17 @@ impl Default for Camera {
 /// Where the rays of one frame start and go, in world millimetres (see [`Camera::view_rays`]).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ViewRays {
+    /// The eye point (perspective) or a point on the plane rays start from (orthographic), in mm.
     pub eye_in_world: [f32; 3],
+    /// Unit vector along the image's +x.
     pub right_in_world: [f32; 3],
+    /// Unit vector along the image's up.
     pub up_in_world: [f32; 3],
+    /// Unit vector the camera looks along.
     pub forward_in_world: [f32; 3],
     /// Orthographic: half the image height in mm. Perspective: tan(fov_y / 2).
     pub view_half_height: f32,
+    /// True for a perspective projection, false for orthographic.
     pub perspective: bool,
     /// Image width over height.
     pub aspect: f32,

@@ -20,8 +20,11 @@ pub const MIN_TEXTURE_DIMENSION_3D: u32 = 512;
 /// A device and its queue, with a description of the adapter behind them.
 #[derive(Debug, Clone)]
 pub struct Gpu {
+    /// The adapter's name, vendor, driver and backend.
     pub adapter_info: wgpu::AdapterInfo,
+    /// The open device.
     pub device: wgpu::Device,
+    /// The device's command queue.
     pub queue: wgpu::Queue,
 }
 

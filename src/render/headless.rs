@@ -20,9 +20,11 @@ pub const OFFSCREEN_FORMAT: wgpu::TextureFormat = wgpu::TextureFormat::Rgba8Unor
 /// pre-classified RGBA volume.
 #[derive(Clone, Copy, Debug)]
 pub struct Scene<'a> {
+    /// The scalar volume.
     pub volume: &'a Volume,
     /// One label per voxel (0 background, k = `class_styles[k - 1]`).
     pub labels: &'a [u8],
+    /// Colour, opacity and visibility of each class, in class order.
     pub class_styles: &'a [ClassStyle],
     /// 4 bytes per voxel, straight alpha; when `None`, pre-classified rendering computes it
     /// from the labels and styles ([`preclassified_rgba`]).

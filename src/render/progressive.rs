@@ -46,7 +46,9 @@ const FIRST_PREVIEW_SCALE: f64 = 0.25;
 /// What to draw: the image size, the settings, and (for full frames) the bands.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FramePlan {
+    /// Width and height of the image, in pixels.
     pub size: [u32; 2],
+    /// The settings to draw with (a preview's wider sample distance included).
     pub settings: RenderSettings,
     /// Horizontal bands covering the frame, top first; one band for a preview.
     pub bands: Vec<PixelRegion>,
@@ -179,6 +181,7 @@ pub struct ProgressiveView {
 }
 
 impl ProgressiveView {
+    /// A view drawing on `device`, with a planner at the default budget and no targets yet.
     pub fn new(device: &wgpu::Device, queue: &wgpu::Queue) -> ProgressiveView {
         ProgressiveView {
             device: device.clone(),
@@ -190,10 +193,12 @@ impl ProgressiveView {
         }
     }
 
+    /// The cost model and budget.
     pub fn planner(&self) -> &FramePlanner {
         &self.planner
     }
 
+    /// The cost model, to record or seed measurements.
     pub fn planner_mut(&mut self) -> &mut FramePlanner {
         &mut self.planner
     }

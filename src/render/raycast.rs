@@ -26,9 +26,13 @@ pub const SHADER_SOURCE: &str = include_str!("../../shaders/raycast.wgsl");
 /// A rectangle of pixels of a frame, from its top-left corner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
 pub struct PixelRegion {
+    /// Left edge, in pixels from the frame's left.
     pub x: u32,
+    /// Top edge, in pixels from the frame's top.
     pub y: u32,
+    /// Width, in pixels.
     pub width: u32,
+    /// Height, in pixels.
     pub height: u32,
 }
 

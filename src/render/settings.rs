@@ -30,20 +30,27 @@ pub enum LabelInterpolation {
 /// The part of the volume drawn, in normalised volume coordinates ([0, 1] along each axis).
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct ClipBox {
+    /// The low corner, (x, y, z) in [0, 1].
     pub min: [f32; 3],
+    /// The high corner, (x, y, z) in [0, 1].
     pub max: [f32; 3],
 }
 
 impl ClipBox {
+    /// The whole volume, nothing clipped.
     pub const WHOLE: ClipBox = ClipBox { min: [0.0; 3], max: [1.0; 3] };
 }
 
 /// Blinn-Phong with a headlight, applied to the gradient's direction.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Lighting {
+    /// Share of the colour lit regardless of direction.
     pub ambient: f32,
+    /// Lambert term's weight.
     pub diffuse: f32,
+    /// Highlight's weight (white, added to the colour).
     pub specular: f32,
+    /// Blinn-Phong exponent: larger is a smaller, sharper highlight.
     pub shininess: f32,
 }
 
@@ -56,10 +63,13 @@ impl Default for Lighting {
 /// Everything about a frame except the camera and the data.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct RenderSettings {
+    /// Pre- or post-classified colours.
     pub mode: RenderMode,
+    /// How post-classification picks a sample's class.
     pub label_interpolation: LabelInterpolation,
     /// Gradient-based shading; off draws the classified colours unlit.
     pub shading: bool,
+    /// The shading's weights, used when `shading` is on.
     pub lighting: Lighting,
     /// Skip bricks that hold nothing visible (never changes the image, only the time).
     pub empty_space_skipping: bool,
@@ -71,6 +81,7 @@ pub struct RenderSettings {
     pub step_voxels: f32,
     /// Rays stop once their accumulated opacity reaches this (early ray termination).
     pub opaque_alpha: f32,
+    /// The part of the volume drawn.
     pub clip_box: ClipBox,
     /// Straight RGBA in [0, 1], composited behind the volume.
     pub background: [f32; 4],

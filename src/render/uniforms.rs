@@ -17,60 +17,92 @@ use crate::transfer::ClassStyle;
 /// Entries in the class table: one per 8-bit label, label 0 (background) included.
 pub const CLASS_TABLE_SIZE: usize = 256;
 
+/// `mode` value of [`RenderMode::Preclassified`].
 pub const MODE_PRECLASSIFIED: u32 = 0;
+/// `mode` value of [`RenderMode::Postclassified`].
 pub const MODE_POSTCLASSIFIED: u32 = 1;
+/// `flags` bit: gradient shading on.
 pub const FLAG_SHADING: u32 = 1;
+/// `flags` bit: skip empty bricks.
 pub const FLAG_EMPTY_SPACE_SKIPPING: u32 = 2;
+/// `flags` bit: jitter each ray's first sample.
 pub const FLAG_JITTER: u32 = 4;
+/// `flags` bit: the target is sRGB, so the shader hands it linear values.
 pub const FLAG_SRGB_OUTPUT: u32 = 8;
+/// `flags` bit: [`LabelInterpolation::Nearest`].
 pub const FLAG_NEAREST_LABEL: u32 = 16;
 
 /// Per-frame uniforms; WGSL twin `RenderUniforms`. Offsets in bytes on the right.
 #[repr(C)]
 #[derive(Clone, Copy, Debug, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct RenderUniforms {
+    /// [`ViewRays::eye_in_world`], mm.
     pub eye_in_world: [f32; 3], // 0
     /// Orthographic: half the image height in mm; perspective: tan(fov_y / 2).
     pub view_half_height: f32, // 12
+    /// [`ViewRays::right_in_world`].
     pub right_in_world: [f32; 3], // 16
-    pub aspect: f32,            // 28
-    pub up_in_world: [f32; 3],  // 32
+    /// Image width over height.
+    pub aspect: f32, // 28
+    /// [`ViewRays::up_in_world`].
+    pub up_in_world: [f32; 3], // 32
     /// 0 orthographic, 1 perspective.
     pub projection: u32, // 44
+    /// [`ViewRays::forward_in_world`].
     pub forward_in_world: [f32; 3], // 48
-    pub step_mm: f32,           // 60
-    pub extent_mm: [f32; 3],    // 64
+    /// Distance between samples along a ray, in mm.
+    pub step_mm: f32, // 60
+    /// The volume's box (`dims * spacing_mm`), in mm.
+    pub extent_mm: [f32; 3], // 64
     /// The distance at which a class's opacity is defined: the smallest voxel spacing.
     pub reference_step_mm: f32, // 76
-    pub dims: [f32; 3],         // 80
+    /// The volume's size in voxels, (x, y, z).
+    pub dims: [f32; 3], // 80
     /// Physical value = `value_min + texel * value_span` (texel in [0, 1]).
     pub value_min: f32, // 92
-    pub clip_min: [f32; 3],     // 96
-    pub value_span: f32,        // 108
-    pub clip_max: [f32; 3],     // 112
-    pub opaque_alpha: f32,      // 124
-    pub background: [f32; 4],   // 128
+    /// [`ClipBox::min`](super::ClipBox::min), normalised.
+    pub clip_min: [f32; 3], // 96
+    /// Physical value range a texel of 0 to 1 covers.
+    pub value_span: f32, // 108
+    /// [`ClipBox::max`](super::ClipBox::max), normalised.
+    pub clip_max: [f32; 3], // 112
+    /// Accumulated opacity at which a ray stops.
+    pub opaque_alpha: f32, // 124
+    /// Straight RGBA in [0, 1], composited behind the volume.
+    pub background: [f32; 4], // 128
     /// Ambient, diffuse, specular, shininess.
     pub lighting: [f32; 4], // 144
+    /// Width and height of the whole frame, in pixels.
     pub viewport_size: [f32; 2], // 160
-    pub mode: u32,              // 168
-    pub flags: u32,             // 172
-    pub brick_dims: [u32; 3],   // 176
-    pub jitter_seed: u32,       // 188
-    pub max_steps: u32,         // 192
-    pub padding: [u32; 3],      // 196, size 208
+    /// [`MODE_PRECLASSIFIED`] or [`MODE_POSTCLASSIFIED`].
+    pub mode: u32, // 168
+    /// `FLAG_*` bits.
+    pub flags: u32, // 172
+    /// Bricks along x, y and z.
+    pub brick_dims: [u32; 3], // 176
+    /// [`RenderSettings::jitter_seed`].
+    pub jitter_seed: u32, // 188
+    /// Bound on a ray's loop iterations (samples plus skipped bricks).
+    pub max_steps: u32, // 192
+    /// Zero; pads the struct to a multiple of 16 bytes.
+    pub padding: [u32; 3], // 196, size 208
 }
 
 /// What the frame's volume looks like to the shader.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FrameVolume {
+    /// Size in voxels, (x, y, z).
     pub dims: [usize; 3],
+    /// Voxel spacing along x, y and z, in mm.
     pub spacing_mm: [f64; 3],
+    /// Physical value of texel 0.
     pub value_min: f32,
+    /// Physical value range texels 0 to 1 cover.
     pub value_span: f32,
 }
 
 impl RenderUniforms {
+    /// The uniforms of a frame of `viewport_size` pixels (`srgb_output` for an sRGB target).
     pub fn new(
         rays: &ViewRays,
         settings: &RenderSettings,
@@ -130,11 +162,16 @@ impl RenderUniforms {
 #[repr(C)]
 #[derive(Clone, Copy, Debug, Default, PartialEq, bytemuck::Pod, bytemuck::Zeroable)]
 pub struct ClassEntry {
+    /// [`ClassStyle::hue_degrees`].
     pub hue_degrees: [f32; 2], // 0
-    pub opacity: [f32; 2],     // 8
-    pub saturation: f32,       // 16
-    pub value: f32,            // 20
-    pub gradient_max: f32,     // 24
+    /// [`ClassStyle::opacity`].
+    pub opacity: [f32; 2], // 8
+    /// [`ClassStyle::saturation`].
+    pub saturation: f32, // 16
+    /// [`ClassStyle::value`].
+    pub value: f32, // 20
+    /// [`ClassStyle::gradient_max`].
+    pub gradient_max: f32, // 24
     /// `ClassStyle::emphasis`, or 0 for a hidden class (its samples are then transparent,
     /// as `ClassStyle::rgba` makes them).
     pub emphasis: f32, // 28, size 32

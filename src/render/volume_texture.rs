@@ -23,15 +23,19 @@ use crate::volume::{Volume, VoxelType};
 /// Voxels and their spacing: the shape of the box the ray caster draws.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct VolumeGeometry {
+    /// Size in voxels, (x, y, z).
     pub dims: [usize; 3],
+    /// Voxel spacing along x, y and z, in mm.
     pub spacing_mm: [f64; 3],
 }
 
 impl VolumeGeometry {
+    /// The geometry of `volume`.
     pub fn of(volume: &Volume) -> VolumeGeometry {
         VolumeGeometry { dims: volume.dims, spacing_mm: volume.spacing_mm }
     }
 
+    /// Voxels in the box.
     pub fn voxel_count(&self) -> usize {
         self.dims.iter().product()
     }
@@ -40,16 +44,22 @@ impl VolumeGeometry {
 /// A 3-D texture, its default view, and the geometry it was made for.
 #[derive(Debug)]
 pub struct VolumeTexture {
+    /// The 3-D texture.
     pub texture: wgpu::Texture,
+    /// Its default view, as bound to the shader.
     pub view: wgpu::TextureView,
+    /// The volume it holds.
     pub geometry: VolumeGeometry,
 }
 
 /// The scalar volume's texture and the map from texels back to physical values.
 #[derive(Debug)]
 pub struct ScalarTexture {
+    /// The texture, `R8Unorm` or `R16Float`.
     pub volume: VolumeTexture,
+    /// Physical value of texel 0.
     pub value_min: f32,
+    /// Physical value range texels 0 to 1 cover.
     pub value_span: f32,
 }
 

@@ -1,7 +1,7 @@
 //! The dark region connected to the volume's faces: the air around a body in CT and MRI alike.
 //!
 //! A voxel is *dark* when its value lies below a level (the volume's Otsu threshold, see
-//! [`super::background`]); the face region is every dark voxel that a path of dark voxels
+//! `super::background`); the face region is every dark voxel that a path of dark voxels
 //! (6-neighbours) joins to a voxel on one of the volume's six faces. Dark voxels inside a body
 //! (lungs, sinuses, bowel gas) that no such path reaches are not in it.
 //!
@@ -13,7 +13,7 @@
 //!   until a face is touched, so that a lasso in the air around a body costs a small
 //!   neighbourhood, not the whole volume.
 //!
-//! Never: decides what is background (that is [`super::background`]'s rule), or reads files.
+//! Never: decides what is background (that is `super::background`'s rule), or reads files.
 
 use crate::volume::Volume;
 use rayon::prelude::*;
@@ -27,15 +27,18 @@ pub struct VoxelBits {
 }
 
 impl VoxelBits {
+    /// The empty set over `voxel_count` voxels.
     pub fn new(voxel_count: usize) -> VoxelBits {
         VoxelBits { words: vec![0; voxel_count.div_ceil(64)] }
     }
 
+    /// Whether voxel `index` is in the set.
     #[inline]
     pub fn contains(&self, index: usize) -> bool {
         self.words[index / 64] >> (index % 64) & 1 == 1
     }
 
+    /// Adds voxel `index`.
     #[inline]
     pub fn insert(&mut self, index: usize) {
         self.words[index / 64] |= 1 << (index % 64);
@@ -64,9 +67,11 @@ impl VoxelBits {
 /// The dark voxels connected to the volume's faces.
 #[derive(Clone, Debug)]
 pub struct FaceRegion {
+    /// The volume's size in voxels.
     pub dims: [usize; 3],
     /// The level: voxels below it are dark.
     pub level: f64,
+    /// The region's voxels.
     pub voxels: VoxelBits,
 }
 
@@ -93,6 +98,7 @@ impl FaceRegion {
         FaceRegion { dims, level, voxels: fill.visited }
     }
 
+    /// Whether voxel `index` (x fastest) is in the region.
     pub fn contains(&self, index: usize) -> bool {
         self.voxels.contains(index)
     }

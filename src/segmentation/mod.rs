@@ -16,7 +16,7 @@
 //! The classifier is a [`ClassifierKind`]: the paper's SN-SVM on the 5-D features (the
 //! default, [`SegmentationOptions::default`]) or a random forest ([`SegmentationOptions::forest`]).
 //!
-//! Before training, the background rule ([`background`]) drops the air a lasso took in and
+//! Before training, the background rule (`background`) drops the air a lasso took in and
 //! decides which voxels are background: below a threshold, or in the air joined to the
 //! volume's faces ([`face_air`]).
 //!
@@ -64,12 +64,14 @@ pub enum ClassifierKind {
 /// How to segment.
 #[derive(Clone, Debug)]
 pub struct SegmentationOptions {
+    /// The features each voxel is classified on.
     pub feature_set: FeatureSet,
     /// Which classifier to train; the default is the measured best (`volasso accuracy`).
     pub classifier_kind: ClassifierKind,
     /// The SN-SVM's parameters (used when `classifier_kind` is [`ClassifierKind::SnSvm`]); its
     /// RBF width is replaced by the data's when `kernel_width` is [`KernelWidth::Automatic`].
     pub classifier: SnSvmParams,
+    /// The RBF width: the median heuristic or a fixed value.
     pub kernel_width: KernelWidth,
     /// How the SN-SVM's features are standardised.
     pub standardisation: Standardisation,
@@ -77,7 +79,9 @@ pub struct SegmentationOptions {
     pub coherence: Coherence,
     /// Training voxels kept per class (stratified over the class's strokes).
     pub max_training_per_class: usize,
+    /// Which voxels are background and never classified.
     pub background: Background,
+    /// Every voxel, or coarse-to-fine.
     pub refinement: Refinement,
     /// Expansion points whose coefficients are all at most this fraction of their pair's
     /// largest are dropped before prediction ([`Model::pruned`]); 0 keeps every one.
@@ -173,16 +177,28 @@ pub enum SegmentationError {
     /// The volume's mapped file shrank since it was opened (see `Volume::check_still_mapped`).
     #[error(transparent)]
     Volume(#[from] crate::volume::VolumeError),
+    /// The strokes do not fit the volume or give no training voxels.
     #[error(transparent)]
     Strokes(#[from] StrokesError),
+    /// Computing or standardising features failed.
     #[error(transparent)]
     Features(#[from] FeatureError),
+    /// Training or evaluating the classifier failed.
     #[error(transparent)]
     Classify(#[from] ClassifyError),
+    /// A training voxel's value is NaN or infinite.
     #[error(
         "training voxel {voxel} of class '{class}' has the value {value}; NaN or infinite voxels cannot be classified"
     )]
-    NonFiniteTraining { voxel: usize, class: String, value: f64 },
+    NonFiniteTraining {
+        /// The voxel's index (x fastest).
+        voxel: usize,
+        /// The class that lassoed it.
+        class: String,
+        /// Its value.
+        value: f64,
+    },
+    /// The caller's cancel flag was set.
     #[error("the classification was cancelled")]
     Cancelled,
 }
@@ -193,11 +209,13 @@ pub struct TrainingSummary {
     /// The SN-SVM's parameters as trained (with the automatic kernel width filled in); unused
     /// by a forest.
     pub classifier: SnSvmParams,
+    /// The classifier trained.
     pub classifier_kind: ClassifierKind,
     /// Training voxels used per class, after the cap.
     pub used_per_class: Vec<usize>,
     /// Training voxels the cap removed per class.
     pub dropped_per_class: Vec<usize>,
+    /// The cap on training voxels per class.
     pub cap_per_class: usize,
     /// Voxels claimed by two classes and dropped from both.
     pub contested_voxels: usize,
@@ -234,11 +252,15 @@ pub struct Segmenter {
     /// [`label_volume`] gives them their class whatever the classifier says (the user said
     /// what they are).
     pub lassoed: Vec<(usize, u8)>,
+    /// The features the classifier was trained on.
     pub feature_set: FeatureSet,
     /// The spatial step [`label_volume`] ends with.
     pub coherence: Coherence,
+    /// The standardisation over all classes' training features.
     pub standardiser: Standardiser,
+    /// The trained classifier.
     pub classifier: TrainedClassifier,
+    /// What training used and decided.
     pub summary: TrainingSummary,
 }
 
@@ -420,7 +442,9 @@ pub fn median_heuristic_width(values: &[f64], dim: usize) -> f64 {
 /// A classified volume: one class id per voxel (0 = background), x fastest.
 #[derive(Clone, Debug)]
 pub struct LabelVolume {
+    /// Size in voxels, (x, y, z).
     pub dims: [usize; 3],
+    /// One class id per voxel, x fastest.
     pub labels: Vec<u8>,
     /// Voxels above the background threshold (labelled with a class).
     pub classified_voxels: usize,

@@ -24,7 +24,9 @@ use rayon::prelude::*;
 pub struct PairSnSvm {
     /// The pair's classes; a positive decision value votes for the first.
     pub classes: (u8, u8),
+    /// Mean and spread of the pair's training features, applied before the model.
     pub standardiser: Standardiser,
+    /// The trained SN-SVM.
     pub model: Model,
     /// The pair's parameters as trained (its RBF width filled in).
     pub params: SnSvmParams,
@@ -32,6 +34,7 @@ pub struct PairSnSvm {
 
 /// SN-SVMs for every pair of classes.
 pub struct PairwiseSnSvm {
+    /// One model per pair of classes.
     pub pairs: Vec<PairSnSvm>,
     /// Sorted class ids.
     pub class_ids: Vec<u8>,

@@ -12,6 +12,7 @@ use crate::rng::{SplitMix64, hash64};
 /// The training voxels of one class.
 #[derive(Clone, Debug, PartialEq)]
 pub struct ClassSamples {
+    /// The class's name, as in the strokes file.
     pub name: String,
     /// Volume indices (x fastest), sorted and unique.
     pub voxels: Vec<usize>,
@@ -27,6 +28,7 @@ pub struct ClassSamples {
 /// `classes[k - 1]`.
 #[derive(Clone, Debug, PartialEq)]
 pub struct TrainingSet {
+    /// Each class's samples, in the strokes file's order.
     pub classes: Vec<ClassSamples>,
     /// Voxels selected by more than one class, removed from all of them.
     pub contested_voxels: usize,

@@ -42,30 +42,98 @@ use std::path::PathBuf;
 /// The one error type of the transfer stage.
 #[derive(Debug, thiserror::Error)]
 pub enum TransferError {
+    /// The label volume's length differs from the volume's voxel count.
     #[error("the label volume has {labels} voxels but the volume has {voxels}")]
-    LabelCount { labels: usize, voxels: usize },
+    LabelCount {
+        /// Labels given.
+        labels: usize,
+        /// Voxels in the volume.
+        voxels: usize,
+    },
+    /// A voxel's label names a class that does not exist.
     #[error("voxel {voxel} has label {label}, but there are only {class_count} classes")]
-    LabelOutOfRange { voxel: usize, label: u8, class_count: usize },
+    LabelOutOfRange {
+        /// The voxel's index (x fastest).
+        voxel: usize,
+        /// Its label.
+        label: u8,
+        /// Classes there are (labels 1 to `class_count`).
+        class_count: usize,
+    },
+    /// More classes than an 8-bit label volume can name.
     #[error("{class_count} classes: a label volume holds at most 255")]
-    TooManyClasses { class_count: usize },
+    TooManyClasses {
+        /// Classes asked for.
+        class_count: usize,
+    },
+    /// The number of styles differs from the number of classes.
     #[error("there are {styles} class styles for {class_count} classes")]
-    StyleCount { styles: usize, class_count: usize },
+    StyleCount {
+        /// Styles given.
+        styles: usize,
+        /// Classes there are.
+        class_count: usize,
+    },
+    /// A clip box is empty or reaches outside the volume.
     #[error("clip box {lo:?}..={hi:?} is empty or outside the volume of {dims:?} voxels")]
-    ClipBox { lo: [usize; 3], hi: [usize; 3], dims: [usize; 3] },
+    ClipBox {
+        /// The box's lowest voxel coordinate, (x, y, z).
+        lo: [usize; 3],
+        /// The box's highest voxel coordinate, (x, y, z), included.
+        hi: [usize; 3],
+        /// The volume's size in voxels.
+        dims: [usize; 3],
+    },
+    /// Reading a slice for an overlay failed.
     #[error(transparent)]
     Slice(#[from] crate::slices::SliceError),
+    /// A class table file has another `format` than [`CLASS_TABLE_FORMAT`].
     #[error("class table is not {expected}: found format {found:?}: {path}")]
-    TableFormat { expected: &'static str, found: String, path: PathBuf },
+    TableFormat {
+        /// The format this build reads.
+        expected: &'static str,
+        /// The file's `format` field.
+        found: String,
+        /// The file.
+        path: PathBuf,
+    },
+    /// A class table file is not valid JSON for a [`ClassTable`].
     #[error("class table is not valid JSON ({source}): {path}")]
-    TableJson { source: serde_json::Error, path: PathBuf },
+    TableJson {
+        /// The parser's error, with line and column.
+        source: serde_json::Error,
+        /// The file.
+        path: PathBuf,
+    },
+    /// Encoding a PNG failed.
     #[error("could not encode the PNG ({source}): {path}")]
-    Png { source: image::ImageError, path: PathBuf },
+    Png {
+        /// The encoder's error.
+        source: image::ImageError,
+        /// The image file.
+        path: PathBuf,
+    },
+    /// An RGBA buffer's length does not match its dimensions.
     #[error("an RGBA volume of {dims:?} voxels needs {expected} bytes, not {found}")]
-    RgbaSize { dims: [usize; 3], expected: usize, found: usize },
+    RgbaSize {
+        /// The volume's size in voxels.
+        dims: [usize; 3],
+        /// Bytes the dimensions call for (4 per voxel).
+        expected: usize,
+        /// Bytes given.
+        found: usize,
+    },
+    /// Computing the voxels' features (gradient magnitudes) the styles need failed.
     #[error(transparent)]
     Features(#[from] crate::features::FeatureError),
+    /// Reading or writing a file failed.
     #[error("{source}: {path}")]
-    Io { source: std::io::Error, path: PathBuf },
+    Io {
+        /// The underlying I/O error.
+        source: std::io::Error,
+        /// The file.
+        path: PathBuf,
+    },
 }
 
 #[cfg(test)]

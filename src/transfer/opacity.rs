@@ -60,6 +60,7 @@ pub const SEE_THROUGH_WRAPPED: f64 = 0.9;
 /// What the see-through rule needs of one class: its size and whom it touches.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct ClassSurface {
+    /// The class's volume: its voxel count times the voxel volume, in mm³.
     pub volume_mm3: f64,
     /// Area of the faces between the class's voxels and any other label or the outside.
     pub surface_area_mm2: f64,

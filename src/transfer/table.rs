@@ -21,7 +21,9 @@ pub const CLASS_TABLE_FORMAT: &str = "volasso-classes/1";
 /// computed for.
 #[derive(Clone, Debug, PartialEq, Serialize, Deserialize)]
 pub struct ClassTable {
+    /// Always [`CLASS_TABLE_FORMAT`].
     pub format: String,
+    /// The harmonic hue template the hues were placed on.
     pub template: HueTemplate,
     /// How the default opacities were set (tables written before the field existed read as
     /// the default rule; their styles are kept as written until restyled).
@@ -31,6 +33,7 @@ pub struct ClassTable {
     pub clip: Option<ClipBox>,
     /// Voxels of each class inside the box.
     pub voxel_counts: Vec<u64>,
+    /// Each class's style, class `k` at index `k - 1`.
     pub styles: Vec<ClassStyle>,
 }
 
