@@ -63,14 +63,7 @@ pub fn upload_cells(
     labels: &[u8],
 ) -> Result<VolumeTexture, RenderError> {
     let dims = geometry.dims;
-    if labels.len() != geometry.voxel_count() {
-        return Err(RenderError::DataSize {
-            what: "label volume",
-            dims,
-            expected: geometry.voxel_count(),
-            found: labels.len(),
-        });
-    }
+    volume_texture::check_size("label volume", dims, geometry.voxel_count(), labels.len())?;
     let mut texture =
         volume_texture::create_texture(device, "label cells (R8Uint)", "label", dims, wgpu::TextureFormat::R8Uint)?;
     let plane = dims[0] * dims[1];

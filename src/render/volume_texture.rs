@@ -267,7 +267,12 @@ pub fn upload_bricks(
     Ok(texture)
 }
 
-fn check_size(what: &'static str, dims: [usize; 3], expected: usize, found: usize) -> Result<(), RenderError> {
+pub(super) fn check_size(
+    what: &'static str,
+    dims: [usize; 3],
+    expected: usize,
+    found: usize,
+) -> Result<(), RenderError> {
     if expected != found {
         return Err(RenderError::DataSize { what, dims, expected, found });
     }
