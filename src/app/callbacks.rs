@@ -154,11 +154,18 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
     refresh::show_screen(window, Screen::Chooser);
 }
 
-fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
+fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
     {
-        let mut state = state.borrow_mut();
+        let mut state = shared.borrow_mut();
         let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
         if state.opening.is_some() {
+            return;
+        }
+        let series = super::loading::series_cards(&state.sources, &source);
+        if series > 1 {
+            state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
+            drop(state);
+            refresh::push_status(window, shared);
             return;
         }
         state.ctl.jobs.cancel();
@@ -166,7 +173,7 @@ fn open_volume(window: &AppWindow, state: &Shared, index: i32) {
         state.opening = Some(index as usize);
         state.loader.open(index as usize, source);
     }
-    refresh::push_status(window, state);
+    refresh::push_status(window, shared);
 }
 
 /// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.

@@ -8,12 +8,18 @@
 //! ([`guarded`]) and reported the same way, so one bad file neither stops the other thumbnails
 //! nor leaves the chooser "Opening..." forever.
 //!
+//! A DICOM folder that holds several series (a PACS push, a study copied from a CD) is
+//! listed on the thumbnail worker ([`series_of`]), without patient data, and each series
+//! becomes a card of its own.
+//!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
 use super::windowing::WindowChoices;
 pub use crate::phantom::source::VolumeSource;
+use crate::phantom::source::uid_tail;
 use crate::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use crate::transfer::RgbImage;
+use crate::volume::dicom::{PatientShown, list_series};
 use crate::volume::{OpenOptions, Volume, open::detect_format};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -123,7 +129,7 @@ pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, OpenEr
 /// errors carry last (", in /var/lib/volasso/volumes/x.nrrd").
 pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {
     let mut reason = message.trim();
-    if let VolumeSource::Path(path) = source {
+    if let VolumeSource::Path(path) | VolumeSource::Series { folder: path, .. } = source {
         let path = path.display().to_string();
         if let Some(shorter) = reason.strip_suffix(path.as_str()) {
             let shorter = shorter.trim_end();
@@ -174,10 +180,49 @@ pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), OpenError>
     Ok((RgbImage { width, height, pixels }, detail))
 }
 
+/// The series of a DICOM folder, when it holds more than one: each becomes a source (and a
+/// card) of its own, labelled with what a person can tell them apart by. `None` for anything
+/// else (a file, a folder of one series, a folder that cannot be listed: opening it says why).
+pub fn series_of(source: &VolumeSource, options: &OpenOptions) -> Option<Vec<VolumeSource>> {
+    let VolumeSource::Path(folder) = source else { return None };
+    if !folder.is_dir() {
+        return None;
+    }
+    let listed = list_series(folder, PatientShown::Hidden, &options.limits()).ok()?;
+    (listed.len() > 1).then(|| {
+        listed
+            .into_iter()
+            .map(|series| {
+                let kind = [series.modality.as_str(), &format!("{} images", series.images)]
+                    .into_iter()
+                    .filter(|part| !part.is_empty())
+                    .collect::<Vec<_>>()
+                    .join(", ");
+                let label = match series.description.trim() {
+                    "" => format!("series {} ({kind})", uid_tail(&series.series_uid)),
+                    description => format!("{description} ({kind})"),
+                };
+                VolumeSource::Series { folder: folder.clone(), series_uid: series.series_uid, label }
+            })
+            .collect()
+    })
+}
+
 /// What the loader thread reports.
 pub enum LoaderEvent {
-    Thumbnail { index: usize, result: Result<(RgbImage, String), OpenError> },
-    Opened { index: usize, result: Result<Box<LoadedVolume>, OpenError> },
+    Thumbnail {
+        index: usize,
+        result: Result<(RgbImage, String), OpenError>,
+    },
+    /// The folder at `index` holds several series, each a source of its own.
+    Series {
+        index: usize,
+        series: Vec<VolumeSource>,
+    },
+    Opened {
+        index: usize,
+        result: Result<Box<LoadedVolume>, OpenError>,
+    },
 }
 
 /// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
@@ -199,6 +244,12 @@ impl Loader {
         let (sender, options) = (self.sender.clone(), self.options.clone());
         spawn("thumbnails", move || {
             for (index, source) in sources {
+                if let Ok(Some(series)) = guarded(&source, || Ok(series_of(&source, &options))) {
+                    if sender.send(LoaderEvent::Series { index, series }).is_err() {
+                        return;
+                    }
+                    continue;
+                }
                 let result = guarded(&source, || load(&source, &options).and_then(|loaded| thumbnail(&loaded)));
                 if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
                     return;
@@ -309,6 +360,7 @@ mod tests {
             match loader.poll() {
                 Some(LoaderEvent::Thumbnail { index, result }) => reported.push((index, result.is_ok())),
                 Some(LoaderEvent::Opened { .. }) => panic!("nothing was opened"),
+                Some(LoaderEvent::Series { .. }) => panic!("no folder was listed"),
                 None => std::thread::sleep(std::time::Duration::from_millis(10)),
             }
         }

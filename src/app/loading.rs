@@ -87,6 +87,7 @@ pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
             }
             model.set_row_data(index, card);
         }
+        LoaderEvent::Series { index, series } => show_series(state, index, series),
         LoaderEvent::Opened { index, result } => {
             let mut state_ref = state.borrow_mut();
             if state_ref.opening != Some(index) {
@@ -122,6 +123,38 @@ pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
             }
         }
     }
+}
+
+/// A folder of several series: its card says so, and each series joins the chooser as a card of
+/// its own (appended, so the indices of cards in flight stay valid), with its thumbnail.
+fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
+    let mut state = state.borrow_mut();
+    state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
+    let model = state.volumes_model.clone();
+    if let Some(mut card) = model.row_data(index) {
+        card.detail = format!("{} series, a card each", series.len()).into();
+        card.thumbnail = slint::Image::default();
+        model.set_row_data(index, card);
+    }
+    let added = super::library::appeared(&state.sources, series);
+    log::info!("a folder holds {} series", added.len());
+    for (_, source) in &added {
+        state.sources.push(source.clone());
+        model.push(VolumeCard {
+            name: source.name().into(),
+            detail: "".into(),
+            thumbnail: slint::Image::default(),
+            failed: false,
+        });
+    }
+    state.thumbnails_pending += added.len();
+    state.loader.thumbnails(added);
+}
+
+/// How many series of the folder `source` names have cards of their own.
+pub(super) fn series_cards(sources: &[VolumeSource], source: &VolumeSource) -> usize {
+    let VolumeSource::Path(path) = source else { return 0 };
+    sources.iter().filter(|s| matches!(s, VolumeSource::Series { folder, .. } if folder == path)).count()
 }
 
 /// A card whose file cannot be opened says so ("Cannot open"), and why.
