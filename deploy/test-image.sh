@@ -101,7 +101,10 @@ dicom=()
 series="$repository/../shared/data/dicom/philips_phantom_5mm"
 if command -v storescu > /dev/null && [ -d "$series" ]; then
     dicom_port=$(python3 -c 'import socket; s = socket.socket(); s.bind(("127.0.0.1", 0)); print(s.getsockname()[1])')
-    network=(-nic "user,model=virtio-net-pci,restrict=on,hostfwd=tcp:127.0.0.1:$dicom_port-:11112")
+    # No option ROM (romfile=): the firmware never boots from the network, and the unpacked
+    # packages carry no iPXE ROM for the NIC.
+    network=(-netdev "user,id=net0,restrict=on,hostfwd=tcp:127.0.0.1:$dicom_port-:11112"
+        -device "virtio-net-pci,netdev=net0,romfile=")
     dicom=(--dicom-port "$dicom_port" --dicom-series "$series")
 else
     echo "=== no storescu (apt-get install dcmtk) or no $series: the DICOM push is skipped"
