@@ -1,5 +1,4 @@
-//! The Rust side of `ui/*.slint`, generated at build time (build.rs): `AppWindow`, the
-//! `Session` global and the structs it shows.
-#![allow(clippy::all, clippy::pedantic, missing_docs, unused_qualifications)]
+//! The Rust side of `ui/*.slint` (the volasso-ui crate): `AppWindow`, the `Session` global
+//! and the structs it shows.
 
-slint::include_modules!();
+pub use volasso_ui::*;
