@@ -100,153 +100,46 @@ impl PairwiseSnSvm {
 
     /// Class ids of a block of raw feature vectors (row-major, `out.len()` rows), into `out`;
     /// `features` is standardised in place when there is one pair.
-    ///
-    /// With more classes, the vote is the module doc's, but a voxel stops as soon as it is
-    /// decided: when its leading class has more votes than any other class can still reach
-    /// with the pairs left to it, the remaining pairs cannot change the label, and are not
-    /// evaluated. Each voxel plays its leader against the strongest unplayed contender next, so
-    /// a voxel that one class wins clearly costs about one pair per other class instead of every
-    /// pair (5 of 15 with 6 classes). The labels are those of evaluating every pair.
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
         if let [pair] = self.pairs.as_slice() {
             pair.standardiser.apply_in_place(features)?;
             pair.model.predict_block(features, out)?;
             return Ok(());
         }
-        let (classes, pair_count, voxels) = (self.class_ids.len(), self.pairs.len(), out.len());
-        let dim = self.pairs[0].standardiser.mean.len();
-        if features.len() != voxels * dim {
-            return Err(classify::ClassifyError::FeatureBlockShape { values: features.len(), dim }.into());
-        }
+        let classes = self.class_ids.len();
+        // Per voxel and class: votes, and the summed |f| of the votes won.
+        let mut votes = vec![0u32; out.len() * classes];
+        let mut strength = vec![0f32; out.len() * classes];
+        let mut scaled = vec![0f32; features.len()];
+        let mut values = vec![0f32; out.len()];
         let position = |id: u8| self.class_ids.iter().position(|&c| c == id).unwrap_or(0);
-        let positions: Vec<(usize, usize)> =
-            self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect();
-        // The pair of two class positions.
-        let mut pair_of = vec![usize::MAX; classes * classes];
-        for (index, &(first, second)) in positions.iter().enumerate() {
-            pair_of[first * classes + second] = index;
-            pair_of[second * classes + first] = index;
+        for pair in &self.pairs {
+            scaled.copy_from_slice(features);
+            pair.standardiser.apply_in_place(&mut scaled)?;
+            pair.model.decision_values_block(&scaled, &mut values)?;
+            let (first, second) = (position(pair.classes.0), position(pair.classes.1));
+            for (voxel, &f) in values.iter().enumerate() {
+                let winner = if f > 0.0 { first } else { second };
+                votes[voxel * classes + winner] += 1;
+                strength[voxel * classes + winner] += f.abs();
+            }
         }
-        let mut state = Votes::new(voxels, classes, pair_count);
-        let mut active: Vec<usize> = (0..voxels).collect();
-        let mut batches: Vec<Vec<usize>> = vec![Vec::new(); pair_count];
-        let (mut gathered, mut values) = (Vec::new(), Vec::new());
-        while !active.is_empty() {
-            for &voxel in &active {
-                batches[state.next_pair(voxel, &pair_of)].push(voxel);
+        for (voxel, label) in out.iter_mut().enumerate() {
+            let (votes, strength) = (&votes[voxel * classes..][..classes], &strength[voxel * classes..][..classes]);
+            if strength.iter().any(|s| s.is_nan()) {
+                // A non-finite feature: not classified, as the single model does.
+                *label = 0;
+                continue;
             }
-            for (index, batch) in batches.iter_mut().enumerate().filter(|(_, batch)| !batch.is_empty()) {
-                let pair = &self.pairs[index];
-                gathered.clear();
-                for &voxel in batch.iter() {
-                    gathered.extend_from_slice(&features[voxel * dim..][..dim]);
+            let mut best = 0;
+            for class in 1..classes {
+                if votes[class] > votes[best] || votes[class] == votes[best] && strength[class] > strength[best] {
+                    best = class;
                 }
-                pair.standardiser.apply_in_place(&mut gathered)?;
-                values.resize(batch.len(), 0f32);
-                pair.model.decision_values_block(&gathered, &mut values)?;
-                for (&voxel, &f) in batch.iter().zip(&values) {
-                    state.record(voxel, index, positions[index], f);
-                }
-                batch.clear();
             }
-            active.retain(|&voxel| match state.decided(voxel) {
-                Some(class) => {
-                    out[voxel] = class.map_or(0, |position| self.class_ids[position]);
-                    false
-                }
-                None => true,
-            });
+            *label = self.class_ids[best];
         }
         Ok(())
-    }
-}
-
-/// Every voxel's one-vs-one votes so far, for [`PairwiseSnSvm::classify_block`].
-struct Votes {
-    classes: usize,
-    pair_count: usize,
-    /// Per voxel and class position: votes won.
-    votes: Vec<u32>,
-    /// Per voxel and class position: the summed |f| of the votes won (NaN once a decision
-    /// value was NaN).
-    strength: Vec<f32>,
-    /// Per voxel and class position: pairs of that class not yet evaluated.
-    left: Vec<u32>,
-    /// Per voxel and pair: evaluated.
-    played: Vec<bool>,
-}
-
-impl Votes {
-    fn new(voxels: usize, classes: usize, pair_count: usize) -> Votes {
-        Votes {
-            classes,
-            pair_count,
-            votes: vec![0; voxels * classes],
-            strength: vec![0.0; voxels * classes],
-            left: vec![classes as u32 - 1; voxels * classes],
-            played: vec![false; voxels * pair_count],
-        }
-    }
-
-    /// The class position leading `voxel`'s vote: most votes, then the larger strength, then
-    /// the smaller position (the final vote's order).
-    fn leader(&self, voxel: usize) -> usize {
-        let (votes, strength) = (
-            &self.votes[voxel * self.classes..][..self.classes],
-            &self.strength[voxel * self.classes..][..self.classes],
-        );
-        let mut best = 0;
-        for class in 1..self.classes {
-            if votes[class] > votes[best] || votes[class] == votes[best] && strength[class] > strength[best] {
-                best = class;
-            }
-        }
-        best
-    }
-
-    /// The pair `voxel` evaluates next: its leader against the unplayed class with the most
-    /// votes that can still be won, or else the first unplayed pair. Only called for voxels
-    /// that are not decided, which have an unplayed pair.
-    fn next_pair(&self, voxel: usize, pair_of: &[usize]) -> usize {
-        let leader = self.leader(voxel);
-        let row = voxel * self.classes;
-        let played = &self.played[voxel * self.pair_count..][..self.pair_count];
-        let contender = (0..self.classes)
-            .filter(|&class| class != leader && !played[pair_of[leader * self.classes + class]])
-            .max_by_key(|&class| (self.votes[row + class] + self.left[row + class], std::cmp::Reverse(class)));
-        match contender {
-            Some(class) => pair_of[leader * self.classes + class],
-            None => played.iter().position(|&p| !p).unwrap_or(0),
-        }
-    }
-
-    /// Records pair `index` (class positions `first`, `second`) giving `f` for `voxel`.
-    fn record(&mut self, voxel: usize, index: usize, (first, second): (usize, usize), f: f32) {
-        let row = voxel * self.classes;
-        let winner = if f > 0.0 { first } else { second };
-        self.votes[row + winner] += 1;
-        self.strength[row + winner] += f.abs();
-        self.left[row + first] -= 1;
-        self.left[row + second] -= 1;
-        self.played[voxel * self.pair_count + index] = true;
-    }
-
-    /// `voxel`'s label once no remaining pair can change it: `Some(None)` for a non-finite
-    /// feature (background, as the single model gives it), `Some(Some(position))` for a class.
-    fn decided(&self, voxel: usize) -> Option<Option<usize>> {
-        let row = voxel * self.classes;
-        let (votes, strength, left) = (
-            &self.votes[row..][..self.classes],
-            &self.strength[row..][..self.classes],
-            &self.left[row..][..self.classes],
-        );
-        if strength.iter().any(|s| s.is_nan()) {
-            return Some(None);
-        }
-        let leader = self.leader(voxel);
-        let all_played = left.iter().all(|&l| l == 0);
-        let unreachable = (0..self.classes).all(|class| class == leader || votes[class] + left[class] < votes[leader]);
-        (all_played || unreachable).then_some(Some(leader))
     }
 }
 
@@ -298,77 +191,6 @@ mod tests {
         standardiser.apply_in_place(&mut probes).unwrap();
         single.predict_block(&probes, &mut out).unwrap();
         assert_ne!(out, [1, 2, 3, 4, 1, 3], "the single model was expected to merge close classes");
-    }
-
-    /// The vote over every pair, as the module doc states it.
-    fn vote_over_every_pair(model: &PairwiseSnSvm, features: &[f32]) -> Vec<u8> {
-        let classes = model.class_ids.len();
-        let voxels = features.len() / 2;
-        let (mut votes, mut strength) = (vec![0u32; voxels * classes], vec![0f32; voxels * classes]);
-        let position = |id: u8| model.class_ids.iter().position(|&c| c == id).unwrap();
-        for pair in &model.pairs {
-            let mut scaled = features.to_vec();
-            pair.standardiser.apply_in_place(&mut scaled).unwrap();
-            let mut values = vec![0f32; voxels];
-            pair.model.decision_values_block(&scaled, &mut values).unwrap();
-            for (voxel, &f) in values.iter().enumerate() {
-                let winner = if f > 0.0 { position(pair.classes.0) } else { position(pair.classes.1) };
-                votes[voxel * classes + winner] += 1;
-                strength[voxel * classes + winner] += f.abs();
-            }
-        }
-        (0..voxels)
-            .map(|voxel| {
-                let (votes, strength) = (&votes[voxel * classes..][..classes], &strength[voxel * classes..][..classes]);
-                if strength.iter().any(|s| s.is_nan()) {
-                    return 0;
-                }
-                let mut best = 0;
-                for class in 1..classes {
-                    if votes[class] > votes[best] || votes[class] == votes[best] && strength[class] > strength[best] {
-                        best = class;
-                    }
-                }
-                model.class_ids[best]
-            })
-            .collect()
-    }
-
-    #[test]
-    fn stopping_each_voxel_once_decided_gives_the_vote_over_every_pair() {
-        // Five classes in a ring on two features, so that voxels between classes split their
-        // votes (ties and cycles) and voxels at a class's centre are decided early.
-        let mut rng = SplitMix64::new(11);
-        let (mut raw, mut labels) = (Vec::new(), Vec::new());
-        for class in 0..5u8 {
-            let angle = f32::from(class) * std::f32::consts::TAU / 5.0;
-            for _ in 0..30 {
-                raw.push(3.0 * angle.cos() + 0.8 * rng.next_gaussian());
-                raw.push(3.0 * angle.sin() + 0.8 * rng.next_gaussian());
-                labels.push(class + 1);
-            }
-        }
-        let model = PairwiseSnSvm::train(
-            &raw,
-            2,
-            &labels,
-            &[1, 2, 3, 4, 5],
-            &SnSvmParams::default(),
-            KernelWidth::Automatic,
-            0.01,
-        )
-        .unwrap();
-        let mut probes: Vec<f32> = (0..4000).map(|_| 4.0 * rng.next_gaussian()).collect();
-        probes[6] = f32::NAN;
-        probes[9] = f32::INFINITY;
-        let expected = vote_over_every_pair(&model, &probes);
-        let mut out = vec![9u8; 2000];
-        model.classify_block(&mut probes, &mut out).unwrap();
-        assert_eq!(out, expected);
-        assert_eq!(out[3], 0, "a NaN feature is background (an infinite one is clamped to the training range)");
-        for class in 1..=5 {
-            assert!(out.contains(&class), "class {class} is found somewhere");
-        }
     }
 
     #[test]
