@@ -28,7 +28,8 @@ pub struct Split {
 /// values lie below it.
 pub fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
     let low = volume.value_range().min;
-    if !(ceiling > low) {
+    // Also refuses a NaN ceiling.
+    if ceiling.partial_cmp(&low) != Some(std::cmp::Ordering::Greater) {
         return None;
     }
     let width = (ceiling - low) / BINS as f64;
@@ -108,7 +109,7 @@ mod tests {
     #[test]
     fn one_normal_population_is_split_near_its_mean_and_poorly_separated() {
         let values: Vec<f32> =
-            (0..16 * 256).map(|i| -1000.0 + 10.0 * gaussian_from_bits(hash64(5, i as u64)) as f32).collect();
+            (0..16 * 256).map(|i| -1000.0 + 10.0 * gaussian_from_bits(hash64(5, i as u64))).collect();
         let split = split_below(&volume(&values), 0.0).unwrap();
         assert!((-1010.0..-990.0).contains(&split.level), "{split:?}");
         assert!((0.55..0.75).contains(&split.separability), "{split:?}");
