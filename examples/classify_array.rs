@@ -6,7 +6,7 @@
 
 use ndarray::{Array3, s};
 use volasso::pipeline;
-use volasso::segmentation::{Background, SegmentationOptions};
+use volasso::segmentation::SegmentationOptions;
 use volasso::volume::{ByteOrder, VoxelType, nrrd};
 
 fn main() -> Result<(), Box<dyn std::error::Error>> {
@@ -32,11 +32,11 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     scribbles.slice_mut(s![23..26, 30..34, 20..26]).fill(1);
     scribbles.slice_mut(s![23..26, 31..34, 45..48]).fill(2);
 
-    // This program knows its air (0-5), so it says so. Left automatic, the background level is
-    // Otsu's split of the histogram; on a scan that is nearly all air with one small, very
-    // bright structure, Otsu splits that structure off instead of the air, the ball falls on
-    // the air's side, is taken for air drawn as a class, and every voxel gets a class.
-    let options = SegmentationOptions { background: Background::Below(50.0), ..SegmentationOptions::default() };
+    // The background is automatic: the air joined to the volume's faces stays label 0. (On a
+    // scan like this one, nearly all air with one small, very bright rod, Otsu's threshold of
+    // the whole histogram splits the rod off with the ball on the air's side; the automatic
+    // rule then splits the values below it again, between the air and the ball.)
+    let options = SegmentationOptions::default();
     let result = pipeline::classify_array(values.view(), spacing_mm, scribbles.view(), &options)?;
     let mut counts = [0usize; 3];
     for &label in &result.labels {

@@ -3,8 +3,9 @@
 //! they are drawn: a loop *around* a structure at the body's edge holds air too).
 //!
 //! Automatic rule ([`plan`]). The volume's dark level is its Otsu threshold
-//! ([`Volume::otsu_threshold`], which splits air from everything else in CT and MRI alike);
-//! the *face air* is the dark region joined to the volume's faces ([`super::face_air`]).
+//! ([`Volume::otsu_threshold`], which splits air from everything else in CT and MRI alike),
+//! or a second split below it where that one cuts through a lassoed tissue (a scan of air
+//! with one small, very bright structure; see `dark_level`); the *face air* is the dark region joined to the volume's faces ([`super::face_air`]).
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air was drawn in the
 //!    air: the user means air as a class. Other classes' face-air voxels are that class's.
 //! 2. Otherwise each class is cleaned: its voxels outside the face air are its reference, and
@@ -19,8 +20,9 @@
 //!    stays background all the same. Kept voxels in the face air (a rim of partial volume that
 //!    continues a class) keep their class as lassoed voxels but do not open the air.
 //!
-//! Limitation: dark structures that the volume's faces cut (lungs in a chest cut through them)
-//! are face air; a lasso in them is air drawn as a class, and every voxel is classified.
+//! Dark structures that the volume's faces cut (lungs in a chest cut through them) are face
+//! air at Otsu's level; a lasso in them moves the level to the split between them and the air
+//! when that split is clear, and is otherwise air drawn as a class (every voxel classified).
 //!
 //! So one stray dark voxel at a lasso's edge can no longer pull the air into a class: it is an
 //! outlier for its class and is dropped. Every rule is relative to the volume (its Otsu level,
@@ -36,6 +38,8 @@ use crate::strokes::TrainingSet;
 use crate::volume::Volume;
 use std::sync::Arc;
 
+mod level;
+
 /// A class with at least this share of its voxels in the face air was drawn in the air: a
 /// loop around a structure at the body's edge holds less (the structure is what it is drawn
 /// around), a loop in the air touches the body with at most its rim.
@@ -44,6 +48,11 @@ pub const AIR_CLASS_SHARE: f64 = 0.9;
 /// A dark training voxel more than this many robust deviations below its class's median is an
 /// outlier for the class (for a normal class, 3 deviations keep 99.9 % of its voxels).
 pub const OUTLIER_DEVIATIONS: f64 = 3.0;
+
+/// The least Otsu separability of the split below the volume's level that makes it the dark
+/// level: one normal population split at its mean scores 2/pi (0.64), a uniform one 0.75, so
+/// a split above 0.8 is between two populations, not inside the air's noise.
+pub const SEPARATE_POPULATIONS: f64 = 0.8;
 
 /// How the background is chosen.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -86,9 +95,9 @@ pub fn plan(volume: &Volume, training: &TrainingSet, background: Background) -> 
 }
 
 fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, BackgroundPlan) {
-    let level = volume.otsu_threshold();
     let values: Vec<Vec<f64>> =
         training.classes.iter().map(|class| class.voxels.iter().map(|&v| volume.value(v)).collect()).collect();
+    let level = dark_level(volume, training, &values);
     let dark: Vec<usize> = training
         .classes
         .iter()
@@ -154,6 +163,76 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     (cleaned, plan)
 }
 
+/// The volume's dark level: its Otsu threshold, unless that cuts through a lassoed tissue.
+/// On a scan that is nearly all air with one small, very bright structure, Otsu splits the
+/// bright structure off instead of the air: a tissue lies below the level, joins the faces
+/// through the air, and would be taken for air drawn as a class. So when a class has at least
+/// [`AIR_CLASS_SHARE`] of its voxels in the face air, the values below Otsu's threshold are
+/// split again ([`level::split_below`]), and that split is the level when all of these hold:
+/// * it separates two populations ([`SEPARATE_POPULATIONS`]): not the air's own noise;
+/// * the air at the faces stays below it (at least half of the dark face voxels);
+/// * no class is air by the same share at the new level (the class lies above it).
+///
+/// A loop drawn in the air fails the last test (its voxels are the air's), a scan cropped
+/// inside the body (a dark tissue at the faces, no air) the first or the second.
+fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f64 {
+    let otsu = volume.otsu_threshold();
+    if !air_shares(volume, training, values, otsu).into_iter().any(|share| share >= AIR_CLASS_SHARE) {
+        return otsu;
+    }
+    let Some(split) = level::split_below(volume, otsu) else { return otsu };
+    if split.separability < SEPARATE_POPULATIONS {
+        return otsu;
+    }
+    let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
+    let face_below = face_dark.iter().filter(|&&v| v < split.level).count();
+    if 2 * face_below < face_dark.len() {
+        return otsu;
+    }
+    if air_shares(volume, training, values, split.level).into_iter().any(|share| share >= AIR_CLASS_SHARE) {
+        return otsu;
+    }
+    split.level
+}
+
+/// For each class, the share of its voxels (`values` are theirs) in the face air below `level`.
+fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], level: f64) -> Vec<f64> {
+    let dark: Vec<usize> = training
+        .classes
+        .iter()
+        .zip(values)
+        .flat_map(|(class, values)| class.voxels.iter().zip(values).filter(|(_, v)| **v < level).map(|(&i, _)| i))
+        .collect();
+    let mut in_face_air: Vec<usize> =
+        dark.iter().zip(reaches_face(volume, level, &dark)).filter(|(_, face)| *face).map(|(&i, _)| i).collect();
+    in_face_air.sort_unstable();
+    training
+        .classes
+        .iter()
+        .map(|class| {
+            let inside = class.voxels.iter().filter(|v| in_face_air.binary_search(v).is_ok()).count();
+            if class.voxels.is_empty() { 0.0 } else { inside as f64 / class.voxels.len() as f64 }
+        })
+        .collect()
+}
+
+/// The values of the voxels on the volume's six faces (edges and corners more than once).
+fn face_values(volume: &Volume) -> Vec<f64> {
+    let [nx, ny, nz] = volume.dims;
+    let mut values = Vec::with_capacity(2 * (nx * ny + ny * nz + nx * nz));
+    for z in 0..nz {
+        for y in 0..ny {
+            if z == 0 || y == 0 || z + 1 == nz || y + 1 == ny {
+                values.extend((0..nx).map(|x| volume.value_at(x, y, z)));
+            } else {
+                values.push(volume.value_at(0, y, z));
+                values.push(volume.value_at(nx - 1, y, z));
+            }
+        }
+    }
+    values
+}
+
 /// The value below which a voxel is a low outlier for `reference`: its median minus
 /// [`OUTLIER_DEVIATIONS`] robust deviations of its lower half; minus infinity when empty.
 fn low_outlier_cutoff(mut reference: Vec<f64>) -> f64 {
@@ -175,5 +254,7 @@ fn median_in_place(values: &mut [f64]) -> f64 {
     *values.select_nth_unstable_by(middle, f64::total_cmp).1
 }
 
+#[cfg(test)]
+mod situations;
 #[cfg(test)]
 mod tests;

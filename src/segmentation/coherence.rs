@@ -43,47 +43,57 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize) -> Vec<(usize, u8
     let above = (z + 1 < size_z).then(|| &original[(z + 1) * plane..][..plane]);
     let mut changes = Vec::new();
     let mut counts = [0u8; 256];
+    let mut flags = vec![0u8; size_x];
     for (y, row) in here.chunks_exact(size_x).enumerate() {
         // Most rows of a scan are background: an OR over the row vectorises.
         if row.iter().fold(0u8, |any, &label| any | label) == 0 {
             continue;
         }
         let start = y * size_x;
-        if uniform_and_unopposed(
-            row,
-            [
-                (y > 0).then(|| &here[start - size_x..start]),
-                (y + 1 < size_y).then(|| &here[start + size_x..][..size_x]),
-                below.map(|p| &p[start..][..size_x]),
-                above.map(|p| &p[start..][..size_x]),
-            ],
-        ) {
+        let neighbours = [
+            (y > 0).then(|| &here[start - size_x..start]),
+            (y + 1 < size_y).then(|| &here[start + size_x..][..size_x]),
+            below.map(|p| &p[start..][..size_x]),
+            above.map(|p| &p[start..][..size_x]),
+        ];
+        if uniform_and_unopposed(row, neighbours) {
             // Inside a structure or a classified air (every voxel of a scan with air as a
             // class): nothing here disagrees with a face neighbour.
             continue;
         }
-        for (x, &own) in row.iter().enumerate() {
-            if own == 0 {
-                continue;
-            }
-            let index = start + x;
-            let disagrees = |label: u8| label != 0 && label != own;
-            let face = (x > 0 && disagrees(row[x - 1]))
-                || (x + 1 < size_x && disagrees(row[x + 1]))
-                || (y > 0 && disagrees(here[index - size_x]))
-                || (y + 1 < size_y && disagrees(here[index + size_x]))
-                || below.is_some_and(|p| disagrees(p[index]))
-                || above.is_some_and(|p| disagrees(p[index]));
-            if !face {
+        disagreeing_voxels(row, neighbours, &mut flags);
+        for (x, (&own, &flag)) in row.iter().zip(flags.iter()).enumerate() {
+            if flag == 0 || own == 0 {
                 continue;
             }
             let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &mut counts);
             if best != own {
-                changes.push((index, best));
+                changes.push((start + x, best));
             }
         }
     }
     changes
+}
+
+/// Into `flags` (one per voxel of `row`): non-zero where a face neighbour (beside it in the
+/// row, or in one of the `neighbours` rows) holds another class than the voxel (background
+/// neither agrees nor disagrees). Whole-row loops of byte operations without branches, which
+/// vectorise; the caller visits only the flagged voxels.
+fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u8]) {
+    let disagrees = |own: u8, other: u8| u8::from(other != 0) & u8::from(other != own);
+    flags.fill(0);
+    for neighbour in neighbours.into_iter().flatten() {
+        for ((flag, &own), &other) in flags.iter_mut().zip(row).zip(neighbour) {
+            *flag |= disagrees(own, other);
+        }
+    }
+    let Some(last) = row.len().checked_sub(1) else { return };
+    for ((flag, &own), &left) in flags[1..].iter_mut().zip(&row[1..]).zip(&row[..last]) {
+        *flag |= disagrees(own, left);
+    }
+    for ((flag, &own), &right) in flags[..last].iter_mut().zip(&row[..last]).zip(&row[1..]) {
+        *flag |= disagrees(own, right);
+    }
 }
 
 /// Whether `row` holds one label and each neighbouring row (the rows beside it in y and in

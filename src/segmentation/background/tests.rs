@@ -103,12 +103,16 @@ fn a_lasso_in_an_enclosed_lung_classifies_the_lung_and_not_the_air_outside() {
 }
 
 #[test]
-fn a_lung_cut_by_a_face_is_face_air_and_a_lasso_in_it_is_air_drawn_as_a_class() {
-    // The documented limitation: the lungs join the faces, so they are face air.
+fn a_lung_cut_by_a_face_is_a_class_and_the_air_stays_background() {
+    // The lung joins the faces, so at Otsu's level it is face air; the split below that level
+    // (air against lung) is clear, so it becomes the level: the lung is a class, the air is not.
     let volume = ct_body(true);
     let set = training(vec![class("lung", 14..17, 14..26, 10), class("bone", 23..27, 16..24, 10)]);
-    let (_, plan) = plan(&volume, &set, Background::Automatic);
-    assert!(plan.air_is_a_class && plan.threshold.is_none() && plan.face_air.is_none());
+    let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert_eq!(cleaned, set);
+    assert!(!plan.air_is_a_class);
+    let threshold = plan.threshold.expect("a level");
+    assert!((-960.0..-880.0).contains(&threshold), "between the air and the lung: {threshold}");
 }
 
 #[test]
@@ -170,4 +174,28 @@ fn labelling_leaves_the_face_air_background_when_a_class_lives_in_the_dark() {
         assert!(outside > 10_000 && outside_labelled == 0, "{outside_labelled} of {outside}");
         assert_eq!(labels.classified_voxels, labels.labels.iter().filter(|&&l| l != 0).count());
     }
+}
+
+#[test]
+fn a_loop_in_air_without_a_second_dark_population_is_still_air_drawn_as_a_class() {
+    // Air, body and bone only: the values below Otsu's level are the air's noise alone, whose
+    // split separates nothing, so the level stays and the loop in the air is the air's class.
+    let values: Vec<f32> = (0..DIMS[0] * DIMS[1] * DIMS[2])
+        .map(|i| {
+            let (x, y) = (i % DIMS[0], i / DIMS[0] % DIMS[1]);
+            let body = (8..32).contains(&x) && (8..32).contains(&y);
+            let base = if !body {
+                -1000.0
+            } else if (22..28).contains(&x) {
+                1000.0
+            } else {
+                40.0
+            };
+            base + 10.0 * gaussian_from_bits(hash64(9, i as u64))
+        })
+        .collect();
+    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("air body bone")).unwrap();
+    let set = training(vec![class("air", 10..20, 1..7, 10), class("bone", 23..27, 16..24, 10)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(plan.air_is_a_class && plan.threshold.is_none());
 }

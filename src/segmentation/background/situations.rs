@@ -1,0 +1,169 @@
+//! The background rule on stored 8- and 16-bit scans of the kinds it meets: a scan of air with
+//! one small, very bright structure, an MRI whose air is noise under a bias field, and a CT
+//! stored as integers with a rescale intercept; each with clean and leaky lassos, and labelled
+//! end to end where the plan alone does not show the picture.
+
+use super::*;
+use crate::rng::{gaussian_from_bits, hash64};
+use crate::segmentation::{Refinement, SegmentationOptions, label_volume, train};
+use crate::strokes::ClassSamples;
+use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
+use std::path::Path;
+
+const DIMS: [usize; 3] = [48, 48, 24];
+
+fn index(x: usize, y: usize, z: usize) -> usize {
+    x + DIMS[0] * (y + DIMS[1] * z)
+}
+
+/// A volume of `DIMS` stored as `voxel_type` (little-endian), from stored values.
+fn stored(voxel_type: VoxelType, scale: ValueScale, value: impl Fn(usize, usize, usize) -> f64) -> Volume {
+    let mut bytes = Vec::new();
+    for z in 0..DIMS[2] {
+        for y in 0..DIMS[1] {
+            for x in 0..DIMS[0] {
+                let v = value(x, y, z);
+                match voxel_type {
+                    VoxelType::U8 => bytes.push(v.round().clamp(0.0, 255.0) as u8),
+                    VoxelType::U16 => bytes.extend((v.round().clamp(0.0, 65535.0) as u16).to_le_bytes()),
+                    VoxelType::I16 => bytes.extend((v.round().clamp(-32768.0, 32767.0) as i16).to_le_bytes()),
+                    other => panic!("no test volume of {other:?}"),
+                }
+            }
+        }
+    }
+    Volume::new(DIMS, [1.0; 3], voxel_type, ByteOrder::Little, scale, VoxelBytes::Owned(bytes), Path::new("stored"))
+        .unwrap()
+}
+
+/// A class of the voxels of the box `x`, `y` on plane 12, one stroke.
+fn class(x: std::ops::Range<usize>, y: std::ops::Range<usize>) -> ClassSamples {
+    let mut voxels: Vec<usize> = y.flat_map(|y| x.clone().map(move |x| index(x, y, 12))).collect();
+    voxels.sort_unstable();
+    ClassSamples {
+        name: "class".into(),
+        stroke_of_voxel: vec![0; voxels.len()],
+        stroke_voxel_counts: vec![voxels.len()],
+        voxels,
+        dropped_by_cap: 0,
+    }
+}
+
+fn training(classes: Vec<ClassSamples>) -> TrainingSet {
+    TrainingSet { classes, contested_voxels: 0 }
+}
+
+/// 8-bit: air 0..5 (nearly all of it), a dim ball (35..45) and a small, very bright rod
+/// (245..255).
+fn air_ball_rod() -> Volume {
+    stored(VoxelType::U8, ValueScale::IDENTITY, |x, y, z| {
+        let noise = (hash64(3, index(x, y, z) as u64) % 11) as f64 - 5.0;
+        let (xf, yf, zf) = (x as f64, y as f64, z as f64);
+        let ball = (xf - 16.0).powi(2) + (yf - 24.0).powi(2) + (2.0 * zf - 24.0).powi(2) < 100.0;
+        let rod = (xf - 36.0).powi(2) + (yf - 24.0).powi(2) < 6.0 && (4..20).contains(&z);
+        if rod {
+            250.0 + noise
+        } else if ball {
+            40.0 + noise
+        } else {
+            noise.abs()
+        }
+    })
+}
+
+#[test]
+fn a_small_very_bright_structure_does_not_make_the_tissues_air() {
+    let volume = air_ball_rod();
+    // The case: Otsu splits the rod off, with the ball on the air's side.
+    assert!(volume.otsu_threshold() > 45.0, "{}", volume.otsu_threshold());
+    // Clean lassos inside the ball and the rod; then a leaky one around the ball that takes
+    // in the air beside it (x 2..7).
+    for (ball, leaked) in [(class(13..19, 22..26), 0), (class(2..19, 22..26), 5 * 4)] {
+        let set = training(vec![ball, class(35..38, 23..26)]);
+        let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+        assert!(!plan.air_is_a_class);
+        let threshold = plan.threshold.expect("a level");
+        assert!((5.0..35.0).contains(&threshold), "between the air and the ball: {threshold}");
+        assert_eq!(plan.dropped_per_class, vec![leaked, 0]);
+        assert!(cleaned.classes[0].voxels.iter().all(|&v| volume.value(v) >= 35.0));
+
+        let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
+        let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
+        let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| volume.value(i) <= 5.0).collect();
+        let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
+        assert!(air_labelled * 100 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
+        assert_eq!(labels.labels[index(16, 24, 12)], 1, "the ball's centre");
+        assert_eq!(labels.labels[index(36, 24, 12)], 2, "the rod's centre");
+    }
+}
+
+#[test]
+fn a_loop_drawn_in_the_air_beside_a_bright_structure_is_still_the_air() {
+    let volume = air_ball_rod();
+    let set = training(vec![class(2..12, 2..8), class(13..19, 22..26)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(plan.air_is_a_class && plan.threshold.is_none());
+}
+
+/// 16-bit MRI: air is Rayleigh-like noise (about 20) under a bias field that doubles from x = 0
+/// to the far face, a head (an ellipse through every z plane, cut by the z faces) of tissue at
+/// 600 with a brighter core at 900.
+fn mri_head() -> Volume {
+    stored(VoxelType::U16, ValueScale::IDENTITY, |x, y, z| {
+        let i = index(x, y, z) as u64;
+        let bias = 1.0 + x as f64 / DIMS[0] as f64;
+        let (dx, dy) = ((x as f64 - 24.0) / 18.0, (y as f64 - 24.0) / 20.0);
+        let radius = (dx * dx + dy * dy).sqrt();
+        let base = if radius < 0.5 {
+            900.0 + 30.0 * f64::from(gaussian_from_bits(hash64(1, i)))
+        } else if radius < 1.0 {
+            600.0 + 30.0 * f64::from(gaussian_from_bits(hash64(1, i)))
+        } else {
+            let (a, b) = (f64::from(gaussian_from_bits(hash64(2, i))), f64::from(gaussian_from_bits(hash64(3, i))));
+            16.0 * (a * a + b * b).sqrt()
+        };
+        base * bias
+    })
+}
+
+#[test]
+fn an_mri_with_noisy_biased_air_keeps_the_air_background() {
+    let volume = mri_head();
+    // The outer tissue's lasso leaks over the head's edge at x = 6 into the air (x 2..6); the
+    // core's is clean.
+    let set = training(vec![class(2..12, 20..28), class(22..27, 22..27)]);
+    let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(!plan.air_is_a_class);
+    let threshold = plan.threshold.expect("a level");
+    assert!(threshold > 100.0 && threshold < 600.0, "{threshold}");
+    assert!(cleaned.classes[0].voxels.iter().all(|&v| volume.value(v) > 300.0), "the air at the edge is dropped");
+    assert!(plan.dropped_per_class[0] >= 4 * 8 && plan.dropped_per_class[1] == 0, "{:?}", plan.dropped_per_class);
+}
+
+#[test]
+fn a_ct_stored_as_integers_with_an_intercept_keeps_its_air_and_lungs_apart() {
+    // int16 stored 0..=2024 with intercept -1024 (HU): air -1000, body 40, a lung at -850 cut
+    // by the z = 0 face, bone 1000.
+    let volume = stored(VoxelType::I16, ValueScale { slope: 1.0, intercept: -1024.0 }, |x, y, z| {
+        let noise = 10.0 * f64::from(gaussian_from_bits(hash64(4, index(x, y, z) as u64)));
+        let body = (8..40).contains(&x) && (8..40).contains(&y);
+        let lung = (12..20).contains(&x) && (12..36).contains(&y) && z < 16;
+        let bone = (28..34).contains(&x) && (16..30).contains(&y);
+        let hu = match (body, lung, bone) {
+            (false, _, _) => -1000.0,
+            (true, true, _) => -850.0,
+            (true, false, true) => 1000.0,
+            _ => 40.0,
+        };
+        hu + noise + 1024.0
+    });
+    // Lung and bone: the lung is a class, the air outside is not.
+    let set = training(vec![class(13..19, 14..34), class(29..33, 18..28)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    let threshold = plan.threshold.expect("a level");
+    assert!(!plan.air_is_a_class && (-960.0..-880.0).contains(&threshold), "{threshold}");
+    // Soft tissue and bone: Otsu's level, the lung is background with the air.
+    let set = training(vec![class(21..27, 14..34), class(29..33, 18..28)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert_eq!(plan.threshold.map(|t| t > -700.0), Some(true), "{:?}", plan.threshold);
+}
