@@ -344,6 +344,11 @@ impl App {
         &self.window
     }
 
+    /// The pixel density the UI is sized for (`AppConfig::dpi`).
+    pub fn dpi(&self) -> f32 {
+        self.window.global::<ui::Theme>().get_dpi()
+    }
+
     /// Shows the window (with Slint's own backend) and runs its event loop until it closes.
     pub fn run(&self) -> Result<(), slint::PlatformError> {
         self.window.run()
