@@ -2,7 +2,8 @@
 //! of the Philips phantom made with dcmtk (JPEG Lossless SV1, JPEG-LS lossless, RLE Lossless,
 //! Deflated Explicit VR Little Endian) and an Enhanced CT file built from it here (frames in
 //! reverse order, positions in per-frame functional groups), itself compressed by dcmtk; and a
-//! folder of several series listed for the chooser, where each series gets a card of its own.
+//! folder of several series listed for the chooser (`series-picker.touch` in `replay` shows
+//! each series as a card of its own).
 //!
 //! dcmtk is a test dependency (`.ci/run` installs it); without it the dcmtk cases say so and
 //! are skipped.
@@ -227,25 +228,4 @@ fn a_compressed_frame_that_declares_another_size_is_refused_before_decoding() {
     std::fs::write(&lying, bytes).unwrap();
     let output = crate::support::volasso(&["info", lying.to_str().unwrap()], &root.path().join("cache"));
     crate::support::assert_clean_error(&output, "compressed as 65535 x 65535 pixels", "a lying JPEG-LS header");
-}
-
-/// The kiosk's series picker by touch (`tests/replay/series-picker.touch`): a data folder with
-/// a folder of two series shows a card for each series, and tapping one opens it.
-#[test]
-fn the_chooser_gives_each_series_of_a_folder_a_card_that_opens_it() {
-    let work = tempfile::tempdir().unwrap();
-    let study = work.path().join("data/study");
-    std::fs::create_dir_all(&study).unwrap();
-    for series in ["philips_phantom_5mm", "ge_head_tilt"] {
-        std::os::unix::fs::symlink(data(&format!("dicom/{series}")), study.join(series)).unwrap();
-    }
-    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("tests/replay/series-picker.touch");
-    let data_dir = work.path().join("data");
-    let output = crate::support::volasso(
-        &["replay", script.to_str().unwrap(), "--data-dir", data_dir.to_str().unwrap()],
-        &work.path().join("cache"),
-    );
-    let (stdout, stderr) = (String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
-    assert!(output.status.success(), "replay failed:\n{stderr}\n{stdout}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
 }

@@ -75,6 +75,9 @@ pub struct AppConfig {
     /// Open this volume at once instead of showing the start screen.
     pub initial_volume: Option<VolumeSource>,
     pub open_options: OpenOptions,
+    /// The panel's pixel density, which sizes touch targets and text (`kiosk::dpi`); `None`:
+    /// `kiosk::dpi::DEFAULT_DPI`.
+    pub dpi: Option<f32>,
 }
 
 impl Default for AppConfig {
@@ -85,6 +88,7 @@ impl Default for AppConfig {
             idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
             initial_volume: None,
             open_options: OpenOptions::default(),
+            dpi: None,
         }
     }
 }
@@ -254,6 +258,7 @@ impl App {
             config.open_options.max_decoded_bytes = crate::kiosk::memory::kiosk_memory_ceiling();
         }
         let window = AppWindow::new()?;
+        window.global::<ui::Theme>().set_dpi(crate::kiosk::dpi::resolve(config.dpi, None));
         let sources = library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
             Some(autosave::Restore::Session(session)) => (Some(session), String::new()),
@@ -337,6 +342,11 @@ impl App {
 
     pub fn window(&self) -> &AppWindow {
         &self.window
+    }
+
+    /// The pixel density the UI is sized for (`AppConfig::dpi`).
+    pub fn dpi(&self) -> f32 {
+        self.window.global::<ui::Theme>().get_dpi()
     }
 
     /// Shows the window (with Slint's own backend) and runs its event loop until it closes.

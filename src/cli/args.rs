@@ -315,6 +315,14 @@ pub(super) fn parse_size(text: &str) -> Result<[u32; 2], String> {
     }
 }
 
+/// A pixel density for `--dpi`: a number within `kiosk::dpi::DPI_RANGE`.
+pub(super) fn parse_dpi(text: &str) -> Result<f32, String> {
+    let range = crate::kiosk::dpi::DPI_RANGE;
+    text.trim().parse::<f32>().ok().filter(|dpi| range.contains(dpi)).ok_or_else(|| {
+        format!("'{text}' is not a pixel density from {} to {} dots per inch", range.start(), range.end())
+    })
+}
+
 fn parse_type(text: &str) -> Result<VoxelType, String> {
     VoxelType::from_name(text)
         .ok_or_else(|| format!("'{text}' is not one of uint8, int8, uint16, int16, uint32, int32, float32, float64"))

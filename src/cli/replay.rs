@@ -36,6 +36,9 @@ pub struct ReplayArgs {
     /// Seconds of script time without a touch before the start screen returns; 0 never.
     #[arg(long, default_value_t = 120)]
     pub idle_timeout: u64,
+    /// The screen's pixel density, which sizes touch targets and text (default 150).
+    #[arg(long, value_parser = super::args::parse_dpi, value_name = "DPI")]
+    pub dpi: Option<f32>,
 }
 
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
@@ -44,6 +47,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         data_dir: args.data_dir.clone(),
         session_dir: args.session_dir.clone(),
         idle_timeout: args.idle_timeout,
+        dpi: args.dpi,
         ..UiArgs::default()
     };
     let options = ReplayOptions {

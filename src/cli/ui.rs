@@ -56,6 +56,10 @@ pub struct UiArgs {
     pub touch_flip_x: bool,
     #[arg(long)]
     pub touch_flip_y: bool,
+    /// The panel's pixel density, which sizes touch targets (9.5 mm) and text; default: from
+    /// the DRM display's physical size when it reports a believable one, else 150.
+    #[arg(long, value_parser = super::args::parse_dpi, value_name = "DPI")]
+    pub dpi: Option<f32>,
 }
 
 /// `volasso` alone: the UI with its defaults (and the VOLASSO_* environment variables).
@@ -79,6 +83,7 @@ impl UiArgs {
             session_dir: self.session_dir.clone(),
             idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
             initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
+            dpi: self.dpi,
             ..AppConfig::default()
         }
     }

@@ -106,6 +106,8 @@ pub struct DrmDisplay {
     connector: connector::Handle,
     crtc: crtc::Handle,
     mode: Mode,
+    /// The picture's size in millimetres as the connector reports it (EDID); may lie.
+    physical_size_mm: Option<[u32; 2]>,
     /// What the CRTC showed before us (the console), restored on drop.
     saved_crtc: crtc::Info,
     buffers: [DumbBuffer; 2],
@@ -132,6 +134,12 @@ impl DrmDisplay {
     pub fn size(&self) -> [u32; 2] {
         let (width, height) = self.mode.size();
         [u32::from(width), u32::from(height)]
+    }
+
+    /// The picture's size in millimetres, `[width, height]`, as the connector reports it
+    /// (EDID; 0 or an aspect ratio on some screens, so check it before trusting it).
+    pub fn physical_size_mm(&self) -> Option<[u32; 2]> {
+        self.physical_size_mm
     }
 
     /// Lets `draw` fill the back buffer (XRGB8888 rows of `stride` pixels, `stride >= width`)
@@ -271,6 +279,7 @@ impl DrmDisplay {
             connector: connector.handle(),
             crtc,
             mode,
+            physical_size_mm: connector.size().map(|(width, height)| [width, height]),
             saved_crtc,
             buffers: [first, second],
             framebuffers: [first_framebuffer, second_framebuffer],

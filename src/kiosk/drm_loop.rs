@@ -35,9 +35,14 @@ pub struct TouchOptions {
 }
 
 /// Runs the UI fullscreen on the DRM display `card` (the first connected one when `None`).
-pub fn run(config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Result<(), KioskError> {
+/// The UI is sized for `config.dpi` when set (`--dpi`), else for the panel's density from the
+/// connector's physical size when believable (dpi.rs).
+pub fn run(mut config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Result<(), KioskError> {
     let mut display = DrmDisplay::open(card.as_deref())?;
     let size = display.size();
+    let panel_dpi = display.physical_size_mm().and_then(|mm| super::dpi::from_physical_size(size, mm));
+    config.dpi = Some(super::dpi::resolve(config.dpi, panel_dpi));
+    log::info!("panel {:?} mm, UI at {:.0} dpi", display.physical_size_mm(), config.dpi.unwrap_or_default());
     let window = KioskWindow::install(size, Clock::Real(Instant::now()))?;
     let app = App::new(config).map_err(KioskError::StartUi)?;
     use slint::ComponentHandle;

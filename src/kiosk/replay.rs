@@ -7,7 +7,9 @@
 //! Expectations (`expect KEY VALUE`) compare [`App::query`](crate::app::App::query) keys, plus:
 //! `view-colours N` (the 3-D view shows at least N distinct hues), `view-differs NAME` (the 3-D
 //! view differs from the screenshot NAME taken earlier), `element NAME` (an element with that
-//! accessible label is on screen), and `letters ELEMENT TOP,RIGHT,BOTTOM,LEFT` (the patient
+//! accessible label is on screen), `layout 9mm` (every button and slider on screen is whole,
+//! overlaps no other and is at least 9 mm on each side at the UI's density: kiosk::layout),
+//! and `letters ELEMENT TOP,RIGHT,BOTTOM,LEFT` (the patient
 //! letters shown at the four edges of a slice, clockwise from the top, e.g.
 //! `expect letters "slice z" A,L,P,R`: each letter is read from the screen's accessibility tree
 //! and must lie at its edge of the part of the slice on screen).
@@ -231,6 +233,7 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
         }
         "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
         "letters" => expect_letters(harness, value),
+        "layout" => expect_layout(harness, value),
         key if expectations::KEYS.contains(&key) => {
             let (volume, labels, strokes) = harness.app().classification().ok_or("nothing is classified yet")?;
             expectations::check(key, value, &volume, &labels, &strokes)
@@ -239,6 +242,30 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
             let found = harness.app().query(key).ok_or(format!("unknown expectation key '{key}'"))?;
             if found == value { Ok(()) } else { Err(format!("{key} is '{found}', expected '{value}'")) }
         }
+    }
+}
+
+/// `expect layout 9mm` (module doc): every control on screen whole, apart from the others and
+/// at least that many millimetres on each side at the UI's density.
+fn expect_layout(harness: &mut Harness, value: &str) -> Result<(), String> {
+    let millimetres: f32 = value
+        .strip_suffix("mm")
+        .and_then(|mm| mm.trim().parse().ok())
+        .filter(|mm: &f32| mm.is_finite() && *mm > 0.0)
+        .ok_or(format!("layout wants a size such as 9mm, not '{value}'"))?;
+    // The layout as drawn now.
+    harness.screenshot();
+    let dpi = harness.app().dpi();
+    let (controls, banner) = super::layout::controls(harness.app());
+    let window = harness.size().map(|side| side as f32);
+    let problems = super::layout::problems(&controls, window, super::dpi::mm_to_pixels(millimetres, dpi), banner);
+    if controls.is_empty() {
+        return Err("no controls on screen".into());
+    }
+    if problems.is_empty() {
+        Ok(())
+    } else {
+        Err(format!("{} controls at {dpi:.0} dpi: {}", controls.len(), problems.join("; ")))
     }
 }
 
