@@ -45,6 +45,8 @@ struct RenderUniforms {
     brick_dims: vec3<u32>,
     jitter_seed: u32,
     max_steps: u32,
+    // Unit normal and offset (mm): points with dot(normal, p) > offset are cut away.
+    clip_plane: vec4<f32>,
 }
 
 struct ClassEntry {
@@ -289,8 +291,20 @@ fn fragment_main(@builtin(position) position: vec4<f32>) -> @location(0) vec4<f3
     let inverse_direction = 1.0 / safe_direction;
     let t_to_min = (box_min - origin) * inverse_direction;
     let t_to_max = (box_max - origin) * inverse_direction;
-    let t_entry = max(max(max(min(t_to_min.x, t_to_max.x), min(t_to_min.y, t_to_max.y)), min(t_to_min.z, t_to_max.z)), 0.0);
-    let t_exit = min(min(max(t_to_min.x, t_to_max.x), max(t_to_min.y, t_to_max.y)), max(t_to_min.z, t_to_max.z));
+    var t_entry = max(max(max(min(t_to_min.x, t_to_max.x), min(t_to_min.y, t_to_max.y)), min(t_to_min.z, t_to_max.z)), 0.0);
+    var t_exit = min(min(max(t_to_min.x, t_to_max.x), max(t_to_min.y, t_to_max.y)), max(t_to_min.z, t_to_max.z));
+    // The clip plane keeps the half-space dot(normal, p) <= offset: one more slab.
+    let plane_facing = dot(frame.clip_plane.xyz, direction);
+    let plane_room = frame.clip_plane.w - dot(frame.clip_plane.xyz, origin);
+    if abs(plane_facing) < 1e-12 {
+        if plane_room < 0.0 {
+            t_exit = -1.0;
+        }
+    } else if plane_facing > 0.0 {
+        t_exit = min(t_exit, plane_room / plane_facing);
+    } else {
+        t_entry = max(t_entry, plane_room / plane_facing);
+    }
 
     // 3. March front to back from a jittered start, sample k at t_entry + (k + jitter) * step.
     var jitter = 0.5;

@@ -94,9 +94,12 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `orientation.touch`: the patient's directions at the panels' edges (the GE head CT);
 /// * `panels.touch`: every screen's controls whole, apart and 9 mm wide;
 /// * `series-picker.touch`: a folder of two DICOM series gives each a card that opens it;
+/// * `clip.touch`, `opacity.touch` (then `opacity-restored.touch` on its session),
+///   `snapshot.touch`: the 3-D view's tools on the demo volume;
 /// * the others run on the demo volume from the start screen.
 fn script_arguments(script: &str, work: &Path) -> Vec<String> {
     let volume = |name: &str| vec!["--volume".to_string(), support::data(name).display().to_string()];
+    let volume_demo = || vec!["--volume".to_string(), "demo".to_string()];
     match script {
         "flat-band.touch" | "orientation.touch" => volume("dicom/ge_head_tilt"),
         "enlarge-loop.touch" | "cranium-skull-lasso.touch" => volume("cranium_ct_256x256x108_int16.raw"),
@@ -108,6 +111,29 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             vec!["--data-dir".into(), data.display().to_string()]
         }
         "restore-set-aside.touch" => saved_session_on(work, "skip.nrrd").0.split_off(2),
+        "clip.touch" => volume_demo(),
+        "opacity.touch" => {
+            let sessions = work.join("sessions");
+            [volume_demo(), vec!["--session-dir".into(), sessions.display().to_string()]].concat()
+        }
+        "opacity-restored.touch" => {
+            // The session opacity.touch leaves, restored at the next start.
+            let sessions = work.join("sessions");
+            let report = replay(
+                &["replay", script("opacity.touch").to_str().unwrap(), "--volume", "demo", "--session-dir"]
+                    .into_iter()
+                    .chain([sessions.to_str().unwrap()])
+                    .collect::<Vec<_>>(),
+                work,
+            );
+            assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "opacity.touch: {report}");
+            vec!["--session-dir".into(), sessions.display().to_string()]
+        }
+        "snapshot.touch" => {
+            let data = work.join("data");
+            std::fs::create_dir_all(&data).unwrap();
+            [volume_demo(), vec!["--data-dir".into(), data.display().to_string()]].concat()
+        }
         "series-picker.touch" => {
             let study = work.join("data/study");
             std::fs::create_dir_all(&study).unwrap();

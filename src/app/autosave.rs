@@ -5,7 +5,9 @@
 //!
 //! Format `volasso-session/1` (JSON): `{"format", "volume", "template", "rotation_degrees",
 //! "strokes"}` where `strokes` is a `volasso-strokes/1` document, so saved sessions can be
-//! classified with `volasso classify` as they are.
+//! classified with `volasso classify` as they are. Optional fields (absent in older files,
+//! which still load): `class_opacity` (class name to opacity factor, 1 the default rule's) and
+//! `clip` (the 3-D view's clip plane, `{"normal", "offset_mm"}`, see [`ClipPlane`]).
 //!
 //! A restore can itself be what stops the app (a volume that aborts its reader, a session whose
 //! classification crashes), and systemd would restart it into the same restore forever. So
@@ -18,8 +20,10 @@
 //! Never: fails the app, or restores a session that stopped the app before.
 
 use crate::atomic_file::write_atomically;
+use crate::render::settings::ClipPlane;
 use crate::strokes::StrokesFile;
 use serde::{Deserialize, Serialize};
+use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
 
@@ -188,6 +192,32 @@ pub struct SavedSession {
     pub template: String,
     pub rotation_degrees: f32,
     pub strokes: StrokesFile,
+    /// How the classes are shown beyond their colours (optional in the file).
+    pub look: SavedLook,
+}
+
+/// The optional parts of a session: what the user set on the 3-D view and the classes.
+#[derive(Clone, Debug, Default, PartialEq, Serialize, Deserialize)]
+pub struct SavedLook {
+    /// Per class name, its opacity factor (absent: 1).
+    #[serde(default, skip_serializing_if = "BTreeMap::is_empty")]
+    pub class_opacity: BTreeMap<String, f32>,
+    /// The clip plane through the 3-D view and the slices; `None`: nothing cut.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub clip: Option<ClipPlane>,
+}
+
+impl SavedLook {
+    /// What a lying file cannot turn into a renderer error: opacities outside 0 to
+    /// [`crate::render::MAX_CLASS_OPACITY_FACTOR`] are clamped (not a number: 1), and a clip
+    /// plane that is not finite or has no direction is dropped.
+    pub fn sanitised(mut self) -> SavedLook {
+        for factor in self.class_opacity.values_mut() {
+            *factor = if factor.is_finite() { factor.clamp(0.0, crate::render::MAX_CLASS_OPACITY_FACTOR) } else { 1.0 };
+        }
+        self.clip = self.clip.filter(ClipPlane::is_usable);
+        self
+    }
 }
 
 #[derive(Serialize, Deserialize)]
@@ -197,6 +227,8 @@ struct SessionFile {
     template: String,
     rotation_degrees: f32,
     strokes: serde_json::Value,
+    #[serde(flatten)]
+    look: SavedLook,
 }
 
 /// Writes `session` into `session_dir` (created if missing), whole or not at all.
@@ -209,6 +241,7 @@ pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveEr
         template: session.template.clone(),
         rotation_degrees: session.rotation_degrees,
         strokes,
+        look: session.look.clone(),
     };
     let text = serde_json::to_string_pretty(&file)?;
     std::fs::create_dir_all(session_dir)
@@ -247,6 +280,7 @@ fn read(session_dir: &Path) -> Result<Option<SavedSession>, AutosaveError> {
         template: file.template,
         rotation_degrees: file.rotation_degrees,
         strokes,
+        look: file.look.sanitised(),
     }))
 }
 
@@ -273,6 +307,7 @@ mod tests {
             template: "L".into(),
             rotation_degrees: 42.0,
             strokes: StrokesFile { classes: vec![ClassStrokes { name: "Class 1".into(), strokes: vec![lasso] }] },
+            look: SavedLook::default(),
         }
     }
 
@@ -344,6 +379,34 @@ mod tests {
         assert!(aside.reason.starts_with("it cannot be read"), "{}", aside.reason);
         assert!(aside.kept_as.unwrap().exists());
         assert!(!session_path(folder.path()).exists());
+    }
+
+    #[test]
+    fn opacities_and_the_clip_plane_come_back_and_older_files_still_load() {
+        let folder = tempfile::tempdir().unwrap();
+        let mut with_look = session();
+        with_look.look.class_opacity.insert("Class 1".into(), 0.4);
+        with_look.look.clip = Some(ClipPlane { normal: [0.0, -1.0, 0.0], offset_mm: 12.5 });
+        save(folder.path(), &with_look).unwrap();
+        assert_eq!(load(folder.path()), Some(with_look));
+        // A file written before these fields existed loads with the defaults.
+        let path = session_path(folder.path());
+        let old = serde_json::json!({
+            "format": SESSION_FORMAT, "volume": "demo", "template": "L", "rotation_degrees": 42.0,
+            "strokes": serde_json::from_str::<serde_json::Value>(&session().strokes.to_json().unwrap()).unwrap(),
+        });
+        std::fs::write(&path, old.to_string()).unwrap();
+        assert_eq!(load(folder.path()), Some(session()));
+        // Lying values are made harmless: clamped opacities, no plane without a direction.
+        let lying = old.as_object().unwrap().clone().into_iter().chain([
+            ("class_opacity".to_string(), serde_json::json!({"Class 1": 1e9, "Class 2": -3.0})),
+            ("clip".to_string(), serde_json::json!({"normal": [0.0, 0.0, 0.0], "offset_mm": 1.0})),
+        ]);
+        std::fs::write(&path, serde_json::Value::Object(lying.collect()).to_string()).unwrap();
+        let look = load(folder.path()).unwrap().look;
+        assert_eq!(look.class_opacity["Class 1"], crate::render::MAX_CLASS_OPACITY_FACTOR);
+        assert_eq!(look.class_opacity["Class 2"], 0.0);
+        assert_eq!(look.clip, None);
     }
 
     #[test]

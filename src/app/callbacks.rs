@@ -93,11 +93,19 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         state.camera = state.home_camera;
         state.view_dirty = true;
     }));
+    // While clipping, one finger moves the clip plane instead of orbiting (view_tools.rs).
     session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
-        s.borrow_mut().orbit_from = Some([x, y]);
+        if !super::view_tools::clip_press(s, [x, y]) {
+            s.borrow_mut().orbit_from = Some([x, y]);
+        }
     }));
-    session.on_view_drag(handler!(window, state, idle, |_w, s, x: f32, y: f32| { orbit(s, [x, y]) }));
+    session.on_view_drag(handler!(window, state, idle, |w, s, x: f32, y: f32| {
+        if !super::view_tools::clip_drag(&w, s, [x, y]) {
+            orbit(s, [x, y])
+        }
+    }));
     session.on_view_release(handler!(window, state, idle, |_w, s| {
+        super::view_tools::clip_release(s);
         let mut state = s.borrow_mut();
         state.orbit_from = None;
         state.view_dirty = true;
@@ -108,6 +116,13 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         s.borrow_mut().banner.clear();
         refresh::push_status(&w, s);
     }));
+    // The 3-D view's tools (per-class opacity, clip plane, snapshot).
+    session.on_class_opacity(handler!(window, state, idle, |w, s, index: i32, percent: i32| {
+        super::view_tools::class_opacity(&w, s, index, percent)
+    }));
+    session.on_toggle_clip(handler!(window, state, idle, |w, s| { super::view_tools::toggle_clip(&w, s) }));
+    session.on_reset_clip(handler!(window, state, idle, |w, s| { super::view_tools::reset_clip(&w, s) }));
+    session.on_snapshot(handler!(window, state, idle, |w, s| { super::view_tools::snapshot(&w, s) }));
 }
 
 /// Starts the idle timeout again; when it fires, the session is forgotten and the start

@@ -8,12 +8,14 @@
 //! Every edit of the classes is autosaved and, when at least two classes can be told apart
 //! (the defined ones plus the pending lassos as a provisional next class), classified again
 //! (paper §3.2-3.5, beyond the paper in classifying before a class is defined). A change of
-//! colours or visibility sends the class table alone to the 3-D view, never the labels.
+//! colours or visibility sends the class table alone to the 3-D view, never the labels; so
+//! does a class's opacity (beyond the paper's eq. 9, which fixes it: an outer class can be
+//! faded to show the inner ones), and it is autosaved with the clip plane of the 3-D view.
 //!
 //! Never: calls Slint, waits for a worker, or touches the disk itself (the autosave writer
 //! does).
 
-use super::autosave::SavedSession;
+use super::autosave::{SavedLook, SavedSession};
 use super::jobs::{ClassificationJobs, JobOutcome};
 use super::saver::AutosaveWriter;
 use super::session::{SessionError, WorkSession};
@@ -47,7 +49,12 @@ pub struct Controller {
     pub(super) chosen_template: Option<HueTemplate>,
     /// Where the session is autosaved; `None`: no autosave.
     session_dir: Option<PathBuf>,
+    /// Per class name, its opacity factor, and the clip plane (saved with the session).
+    pub(super) look: SavedLook,
 }
+
+/// The class opacity slider's range, in percent of the default rule's opacity.
+pub const MAX_OPACITY_PERCENT: i32 = 200;
 
 impl Controller {
     pub fn new(session_dir: Option<PathBuf>) -> Controller {
@@ -58,6 +65,7 @@ impl Controller {
             saver: AutosaveWriter::new(),
             chosen_template: None,
             session_dir,
+            look: SavedLook::default(),
         }
     }
 
@@ -75,6 +83,7 @@ impl Controller {
     /// A volume was opened: work on it starts, with the classes and template of `saved` when
     /// that session was saved for this volume.
     pub fn open(&mut self, mut work: Work, saved: Option<SavedSession>) -> Changed {
+        self.look = SavedLook::default();
         if let Some(saved) = saved
             && saved.volume == work.loaded.source.key()
         {
@@ -82,9 +91,11 @@ impl Controller {
             if let Some(template) = TemplateType::from_name(&saved.template) {
                 self.chosen_template = Some(HueTemplate::new(template, saved.rotation_degrees));
             }
+            self.look = saved.look.sanitised();
         }
         self.jobs.cancel();
         self.renderer.set_volume(work.loaded.volume.clone());
+        self.renderer.set_clip(self.look.clip);
         self.work = Some(work);
         self.session_changed()
     }
@@ -107,6 +118,36 @@ impl Controller {
         }
         self.save();
         self.restyle()
+    }
+
+    /// The opacity factor of class `index` (1: the default rule's).
+    pub fn class_opacity(&self, index: usize) -> f32 {
+        let work = self.work.as_ref();
+        let name = work.and_then(|work| work.session.classes.get(index)).map(|class| class.name.as_str());
+        name.and_then(|name| self.look.class_opacity.get(name)).copied().unwrap_or(1.0)
+    }
+
+    /// The opacity slider of class `index` moved to `percent`: the 3-D view redraws with the
+    /// new factor at once (the class table alone, no reclassification) and the session is
+    /// saved. `classes` is set only when the class appears or disappears on the slices.
+    pub fn set_class_opacity(&mut self, index: usize, percent: i32) -> Changed {
+        let Some(name) = self.work.as_ref().and_then(|work| work.session.classes.get(index)).map(|c| c.name.clone())
+        else {
+            return Changed::default();
+        };
+        let factor = percent.clamp(0, MAX_OPACITY_PERCENT) as f32 / 100.0;
+        let before = self.class_opacity(index);
+        if before == factor {
+            return Changed::default();
+        }
+        self.look.class_opacity.insert(name, factor);
+        self.save();
+        let classified = self.work.as_ref().and_then(|work| work.classified.as_ref());
+        let view = classified.is_some_and(|c| index < c.table.styles.len());
+        if view && let Ok(label) = u8::try_from(index + 1) {
+            self.renderer.set_class_opacity(label, factor);
+        }
+        Changed { classes: (before == 0.0) != (factor == 0.0), view, ..Changed::default() }
     }
 
     /// A template (or its rotation) chosen.
@@ -144,6 +185,8 @@ impl Controller {
         self.jobs.cancel();
         self.work = None;
         self.chosen_template = None;
+        self.look = SavedLook::default();
+        self.renderer.set_clip(None);
         if let Some(dir) = self.session_dir.clone() {
             self.saver.forget(dir);
             self.saver.flush();
@@ -164,6 +207,7 @@ impl Controller {
         for (index, style) in styles.iter_mut().enumerate() {
             let shown = work.session.classes.get(index).is_none_or(|class| class.visible);
             style.visible = style.visible && shown;
+            style.emphasis = self.class_opacity(index);
         }
         Some(styles)
     }
@@ -215,7 +259,7 @@ impl Controller {
     }
 
     /// Hands the session to the autosave writer, when autosave is on and a volume is open.
-    fn save(&self) {
+    pub(super) fn save(&self) {
         let (Some(dir), Some(work)) = (&self.session_dir, &self.work) else { return };
         let template = self.chosen_template;
         let saved = autosave::SavedSession {
@@ -223,8 +267,20 @@ impl Controller {
             template: template.map_or(String::new(), |t| t.template.name().to_string()),
             rotation_degrees: template.map_or(0.0, |t| t.rotation_degrees),
             strokes: work.session.strokes(),
+            look: self.saved_look(),
         };
         self.saver.save(dir.clone(), saved);
+    }
+}
+
+impl Controller {
+    /// The look to save: the opacities of the classes that exist (not those deleted).
+    fn saved_look(&self) -> SavedLook {
+        let mut look = self.look.clone();
+        if let Some(work) = &self.work {
+            look.class_opacity.retain(|name, _| work.session.classes.iter().any(|class| &class.name == name));
+        }
+        look
     }
 }
 

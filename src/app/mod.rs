@@ -29,6 +29,7 @@
 
 pub mod autosave;
 mod callbacks;
+pub mod clip;
 mod controller;
 pub mod drawing;
 pub mod jobs;
@@ -40,8 +41,10 @@ mod refresh;
 mod saver;
 pub mod session;
 mod slice_actions;
+pub mod snapshot;
 pub mod ui;
 pub mod view3d;
+mod view_tools;
 pub mod windowing;
 
 use crate::render::Camera;
@@ -78,6 +81,8 @@ pub struct AppConfig {
     /// The panel's pixel density, which sizes touch targets and text (`kiosk::dpi`); `None`:
     /// `kiosk::dpi::DEFAULT_DPI`.
     pub dpi: Option<f32>,
+    /// Where USB sticks are mounted (snapshots are copied onto each one found).
+    pub media_roots: Vec<PathBuf>,
 }
 
 impl Default for AppConfig {
@@ -89,6 +94,7 @@ impl Default for AppConfig {
             initial_volume: None,
             open_options: OpenOptions::default(),
             dpi: None,
+            media_roots: snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
         }
     }
 }
@@ -215,6 +221,8 @@ struct State {
     slices_model: Rc<slint::VecModel<ui::SliceView>>,
     classes_model: Rc<slint::VecModel<ui::ClassEntry>>,
     volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
+    /// The 3-D view's tools: clip plane by touch, the picture a snapshot writes.
+    tools: view_tools::Tools,
 }
 
 impl State {
@@ -287,6 +295,7 @@ impl App {
             slices_model: Rc::new(slint::VecModel::default()),
             classes_model: Rc::new(slint::VecModel::default()),
             volumes_model: Rc::new(slint::VecModel::default()),
+            tools: view_tools::Tools::default(),
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -366,7 +375,9 @@ impl App {
             && state.thumbnails_pending == 0
             && !state.ctl.jobs.busy()
             && !state.ctl.renderer.busy()
+            && state.ctl.renderer.settled()
             && !state.painter.busy()
+            && !state.tools.snapshots.busy()
             && !state.view_dirty
     }
 
@@ -379,9 +390,30 @@ impl App {
         Some((work.loaded.volume.clone(), classified.labels.clone(), work.requested.clone()?))
     }
 
+    /// The snapshots in the data folder's `snapshots/` (replay's `expect snapshots`), sorted.
+    pub fn snapshot_files(&self) -> Vec<PathBuf> {
+        let state = self.state.borrow();
+        let Some(folder) = state.config.data_dir.as_ref().map(|dir| dir.join(snapshot::SNAPSHOT_FOLDER)) else {
+            return Vec::new();
+        };
+        let mut files: Vec<PathBuf> = std::fs::read_dir(folder)
+            .map(|entries| entries.filter_map(|entry| entry.ok().map(|e| e.path())).collect())
+            .unwrap_or_default();
+        files.retain(|path| path.extension().is_some_and(|ext| ext == "png"));
+        files.sort();
+        files
+    }
+
+    /// The size of the 3-D view's newest picture, in pixels.
+    pub fn view_picture_size(&self) -> Option<[u32; 2]> {
+        self.state.borrow().tools.picture.as_ref().map(|picture| [picture.width(), picture.height()])
+    }
+
     /// A two-finger gesture on the 3-D view: `zoom` multiplies the zoom, `pan_pixels` moves the
     /// picture, `turn_degrees` turns it about the view direction (as azimuth).
     pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
+        // While clipping, the pan and the turn tilt the plane instead.
+        let (pan_pixels, turn_degrees) = view_tools::clip_gesture(&self.window, &self.state, pan_pixels, turn_degrees);
         callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
     }
 
@@ -399,8 +431,9 @@ impl App {
     /// `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown), `letters-z` /
     /// `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown), `window`
     /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
-    /// on a panel), `camera` (azimuth and elevation in degrees) and `label-uploads` (label
-    /// volumes sent to the 3-D view: a restyle sends none).
+    /// on a panel), `camera` (azimuth and elevation in degrees), `label-uploads` (label
+    /// volumes sent to the 3-D view: a restyle sends none), `opacity` (each class's opacity
+    /// in percent, e.g. `100,40`) and `clip` (`off`, or the plane's normal and offset in mm).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
@@ -429,6 +462,15 @@ impl App {
             "feedback" => work.and_then(|w| w.feedback.as_ref()).map_or(String::new(), |(_, m)| m.clone()),
             "camera" => format!("{:.1} {:.1}", state.camera.azimuth_degrees, state.camera.elevation_degrees),
             "label-uploads" => state.ctl.renderer.label_uploads().to_string(),
+            "clip" => state.ctl.look.clip.map_or("off".to_string(), |plane| {
+                let [x, y, z] = plane.normal;
+                format!("{x:.2},{y:.2},{z:.2} {:.1}", plane.offset_mm)
+            }),
+            "opacity" => {
+                let classes = work.map_or(0, |w| w.session.classes.len());
+                let percent = |index| format!("{:.0}", state.ctl.class_opacity(index) * 100.0);
+                (0..classes).map(percent).collect::<Vec<_>>().join(",")
+            }
             _ => {
                 let (kind, axis) = key.rsplit_once('-')?;
                 let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;

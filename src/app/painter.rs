@@ -28,6 +28,8 @@ pub struct PictureRequest {
     pub classification: Option<(Arc<Vec<u8>>, Vec<ClassStyle>)>,
     /// Lassos to highlight, each group with its colour.
     pub highlights: Vec<(Vec<Lasso>, [u8; 3])>,
+    /// The 3-D view's clip plane: what it cuts away is dimmed (clip.rs).
+    pub clip: Option<crate::render::ClipPlane>,
 }
 
 impl PictureRequest {
@@ -36,7 +38,13 @@ impl PictureRequest {
             self.highlights.iter().map(|(lassos, colour)| Highlight { lassos, colour: *colour }).collect();
         let classification =
             self.classification.as_ref().map(|(labels, styles)| (labels.as_slice(), styles.as_slice()));
-        slice_picture(&self.volume, &self.layout, self.slice, self.window, classification, &highlights)
+        let mut picture =
+            slice_picture(&self.volume, &self.layout, self.slice, self.window, classification, &highlights)?;
+        if let Some(plane) = &self.clip {
+            let volume = &self.volume;
+            super::clip::dim_cut(&mut picture, &self.layout, volume.dims, volume.spacing_mm, self.slice, plane);
+        }
+        Ok(picture)
     }
 }
 
@@ -151,6 +159,7 @@ mod tests {
             window,
             classification: None,
             highlights: Vec::new(),
+            clip: None,
         };
         let axes = plane_axes(orientation);
         let mut painter = SlicePainter::new();

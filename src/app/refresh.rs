@@ -40,6 +40,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
                 image.height(),
             );
             window.global::<Session>().set_view_picture(slint::Image::from_rgba8(buffer));
+            state.borrow_mut().tools.picture = Some(picture.image);
         }
         Some(RenderReply::Failed(error)) => {
             let message = error.to_string();
@@ -49,6 +50,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         None => {}
     }
     request_frame_if_needed(window, state);
+    super::view_tools::poll(window, state);
     push_status(window, state);
     loading::rescan_data_folder(state);
 }
@@ -109,6 +111,7 @@ pub(super) fn push_slice_layout(window: &AppWindow, state: &Shared) {
 pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
     let session = window.global::<Session>();
+    session.set_clipping(state.ctl.look.clip.is_some());
     let Some(work) = state.ctl.work.as_ref() else {
         state.classes_model.set_vec(Vec::new());
         session.set_volume_name("".into());
@@ -128,6 +131,7 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
             colour: to_colour(class_colour(styles.as_ref().and_then(|s| s.get(index)), &template, index, total)),
             visible: class.visible,
             voxels: counts.and_then(|c| c.get(index)).map_or(0, |&n| n.min(i32::MAX as u64) as i32),
+            opacity: (state.ctl.class_opacity(index) * 100.0).round() as i32,
         })
         .collect();
     state.classes_model.set_vec(entries);
@@ -221,6 +225,7 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
         window: work.window,
         classification,
         highlights,
+        clip: state_ref.ctl.look.clip,
     };
     let [across_mm, down_mm] = layout.screen_extent_mm(volume.dims, volume.spacing_mm);
     let letters = layout.edge_letters;

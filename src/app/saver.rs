@@ -131,6 +131,7 @@ mod tests {
             template: String::new(),
             rotation_degrees: 0.0,
             strokes: StrokesFile::default(),
+            look: Default::default(),
         }
     }
 

@@ -9,6 +9,9 @@
 //! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
 //! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
 //!
+//! A class's opacity factor and the clip plane change the class table or the frame's settings
+//! alone: the labels are not sent again.
+//!
 //! Before a volume is uploaded its memory map is checked (`Volume::check_still_mapped`): a file
 //! truncated while open gives a message, not a crash.
 //!
@@ -16,7 +19,7 @@
 
 use crate::render::headless::OFFSCREEN_FORMAT;
 use crate::render::progressive::ProgressiveView;
-use crate::render::{Camera, RayCaster, RenderMode, RenderSettings, gpu};
+use crate::render::{Camera, ClipPlane, RayCaster, RenderMode, RenderSettings, gpu};
 use crate::transfer::ClassStyle;
 use crate::volume::Volume;
 use std::sync::Arc;
@@ -31,7 +34,14 @@ enum Request {
     Volume(Arc<Volume>),
     Labels(Arc<Vec<u8>>, Vec<ClassStyle>),
     Styles(Vec<ClassStyle>),
-    Frame { id: u64, camera: Camera, size: [u32; 2] },
+    /// Class `label`'s opacity factor (`RayCaster::set_class_opacity`).
+    ClassOpacity(u8, f32),
+    Clip(Option<ClipPlane>),
+    Frame {
+        id: u64,
+        camera: Camera,
+        size: [u32; 2],
+    },
 }
 
 /// A drawn picture.
@@ -40,6 +50,8 @@ pub struct Picture {
     pub id: u64,
     pub image: image::RgbaImage,
     pub seconds: f64,
+    /// The full frame (false: its preview).
+    pub whole: bool,
 }
 
 /// What comes back from the renderer.
@@ -71,6 +83,8 @@ pub struct ViewRenderer {
     awaited: Option<u64>,
     /// How many label volumes were sent (a restyle sends none).
     label_uploads: usize,
+    /// The newest frame asked for has come back whole (or failed): nothing more will come.
+    settled: bool,
     /// Joined when the renderer is dropped: a process that exits while this thread is inside
     /// the GPU driver can hang there (lavapipe registering LLVM passes while the exit handlers
     /// destroy LLVM's registry spun forever in a replay test).
@@ -92,7 +106,7 @@ impl ViewRenderer {
             .name("render".into())
             .spawn(move || render_thread(request_receiver, reply_sender));
         let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
-        ViewRenderer { requests, replies, next_id: 0, awaited: None, label_uploads: 0, thread }
+        ViewRenderer { requests, replies, next_id: 0, awaited: None, label_uploads: 0, settled: true, thread }
     }
 
     /// Ends the render thread and waits for it (at most the frame it is drawing). Later
@@ -128,6 +142,17 @@ impl ViewRenderer {
         let _ = self.requests.send(Request::Styles(styles));
     }
 
+    /// Class `label` (1-based) drawn with opacity `factor` (1: the default rule's); the class
+    /// table alone changes.
+    pub fn set_class_opacity(&self, label: u8, factor: f32) {
+        let _ = self.requests.send(Request::ClassOpacity(label, factor));
+    }
+
+    /// The clip plane of the next frames; `None`: nothing cut.
+    pub fn set_clip(&self, clip: Option<ClipPlane>) {
+        let _ = self.requests.send(Request::Clip(clip));
+    }
+
     /// Asks for a frame of `size` pixels; returns its id.
     pub fn request_frame(&mut self, camera: Camera, size: [u32; 2]) -> u64 {
         self.next_id += 1;
@@ -135,7 +160,14 @@ impl ViewRenderer {
         let size = size.map(|side| ((side as f32 * scale) as u32).max(1));
         let _ = self.requests.send(Request::Frame { id: self.next_id, camera, size });
         self.awaited = Some(self.next_id);
+        self.settled = false;
         self.next_id
+    }
+
+    /// True when the newest frame asked for is shown whole (or failed), so the view will not
+    /// change until asked again (replay's `wait-idle`).
+    pub fn settled(&self) -> bool {
+        self.settled
     }
 
     /// True while a requested frame has not come back.
@@ -149,8 +181,17 @@ impl ViewRenderer {
             Ok(reply) => {
                 match &reply {
                     RenderReply::Picture(picture) if Some(picture.id) == self.awaited => self.awaited = None,
-                    RenderReply::Failed(_) => self.awaited = None,
+                    RenderReply::Failed(_) => {
+                        self.awaited = None;
+                        self.settled = true;
+                    }
                     RenderReply::Picture(_) => {}
+                }
+                if let RenderReply::Picture(picture) = &reply
+                    && picture.id == self.next_id
+                    && picture.whole
+                {
+                    self.settled = true;
                 }
                 Some(reply)
             }
@@ -173,6 +214,7 @@ struct GpuScene {
     refining: Option<(u64, Camera, [u32; 2], Instant)>,
     has_volume: bool,
     has_labels: bool,
+    clip: Option<ClipPlane>,
 }
 
 fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
@@ -240,6 +282,15 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                     .and_then(|()| scene.ray_caster.set_labels(&labels))
                     .map(|()| scene.has_labels = true),
                 Request::Styles(styles) => scene.ray_caster.set_class_table(&styles),
+                Request::ClassOpacity(label, factor) if scene.ray_caster.class_opacity(label).is_some() => {
+                    scene.ray_caster.set_class_opacity(label, factor)
+                }
+                // Labels not yet sent: the styles that come with them carry the factor.
+                Request::ClassOpacity(..) => Ok(()),
+                Request::Clip(clip) => {
+                    scene.clip = clip;
+                    Ok(())
+                }
                 Request::Frame { id, camera, size } => {
                     frame = Some((id, camera, size));
                     Ok(())
@@ -270,11 +321,16 @@ fn open_scene() -> Result<GpuScene, ViewError> {
     log::info!("3-D view renders on {}", gpu.adapter_name());
     let ray_caster = RayCaster::new(&gpu.device, &gpu.queue, OFFSCREEN_FORMAT).map_err(ViewError::Unavailable)?;
     let view = ProgressiveView::new(&gpu.device, &gpu.queue);
-    Ok(GpuScene { ray_caster, view, refining: None, has_volume: false, has_labels: false })
+    Ok(GpuScene { ray_caster, view, refining: None, has_volume: false, has_labels: false, clip: None })
 }
 
-fn settings() -> RenderSettings {
-    RenderSettings { mode: RenderMode::Postclassified, background: [0.0, 0.0, 0.0, 1.0], ..RenderSettings::default() }
+fn settings(clip: Option<ClipPlane>) -> RenderSettings {
+    RenderSettings {
+        mode: RenderMode::Postclassified,
+        background: [0.0, 0.0, 0.0, 1.0],
+        clip_plane: clip.filter(ClipPlane::is_usable),
+        ..RenderSettings::default()
+    }
 }
 
 /// Draws the next band of the full frame; sends the frame once it is whole.
@@ -285,7 +341,12 @@ fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
         Ok(None) => scene.refining = None,
         Ok(Some(image)) => {
             scene.refining = None;
-            let _ = replies.send(RenderReply::Picture(Picture { id, image, seconds: started.elapsed().as_secs_f64() }));
+            let _ = replies.send(RenderReply::Picture(Picture {
+                id,
+                image,
+                seconds: started.elapsed().as_secs_f64(),
+                whole: true,
+            }));
         }
         Err(error) => {
             scene.refining = None;
@@ -297,11 +358,11 @@ fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
 /// Draws the preview of a frame and starts its full frame.
 fn draw(scene: &mut GpuScene, id: u64, camera: &Camera, size: [u32; 2]) -> Result<Picture, ViewError> {
     let started = Instant::now();
-    let settings = settings();
+    let settings = settings(scene.clip);
     let image = scene.view.preview(&mut scene.ray_caster, camera, &settings, size).map_err(ViewError::Render)?;
     scene.view.start_full(camera, &settings, size);
     scene.refining = Some((id, *camera, size, started));
-    Ok(Picture { id, image, seconds: started.elapsed().as_secs_f64() })
+    Ok(Picture { id, image, seconds: started.elapsed().as_secs_f64(), whole: false })
 }
 
 #[cfg(test)]
@@ -348,5 +409,6 @@ mod tests {
         assert_eq!(full.dimensions(), (size[0], size[1]));
         assert!(full.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
         assert!(!renderer.busy());
+        assert!(!pictures[0].whole && pictures[1].whole && renderer.settled());
     }
 }

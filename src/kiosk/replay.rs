@@ -13,6 +13,9 @@
 //! letters shown at the four edges of a slice, clockwise from the top, e.g.
 //! `expect letters "slice z" A,L,P,R`: each letter is read from the screen's accessibility tree
 //! and must lie at its edge of the part of the slice on screen).
+//! `view-matches NAME` (the 3-D view is as in the screenshot NAME: mean difference under one
+//! level) and `snapshots N` (the data folder's `snapshots/` holds N PNGs, the newest one of
+//! the 3-D view's picture size).
 
 use super::KioskError;
 use super::harness::{FrameTimes, Harness};
@@ -231,6 +234,18 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
                 Err(format!("the 3-D view is unchanged since '{value}' (mean difference {difference:.2} levels)"))
             }
         }
+        "view-matches" => {
+            let earlier = taken.get(value).ok_or(format!("no screenshot named '{value}' was taken"))?;
+            let screen = harness.screenshot();
+            let (now, then) = (view_pixels(harness, &screen)?, view_pixels(harness, earlier)?);
+            let difference = mean_difference(&now, &then);
+            if difference < 1.0 {
+                Ok(())
+            } else {
+                Err(format!("the 3-D view differs from '{value}' (mean difference {difference:.2} levels)"))
+            }
+        }
+        "snapshots" => expect_snapshots(harness, value),
         "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
         "letters" => expect_letters(harness, value),
         "layout" => expect_layout(harness, value),
@@ -266,6 +281,26 @@ fn expect_layout(harness: &mut Harness, value: &str) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{} controls at {dpi:.0} dpi: {}", controls.len(), problems.join("; ")))
+    }
+}
+
+/// `expect snapshots N` (module doc).
+fn expect_snapshots(harness: &Harness, value: &str) -> Result<(), String> {
+    let wanted: usize = value.parse().map_err(|_| format!("snapshots wants a count, not '{value}'"))?;
+    let files = harness.app().snapshot_files();
+    if files.len() != wanted {
+        return Err(format!("{} snapshots in the data folder, expected {wanted}: {files:?}", files.len()));
+    }
+    let Some(newest) = files.iter().max_by_key(|path| std::fs::metadata(path).and_then(|m| m.modified()).ok()) else {
+        return Ok(());
+    };
+    let size =
+        image::image_dimensions(newest).map_err(|error| format!("{} is not a PNG: {error}", newest.display()))?;
+    let view = harness.app().view_picture_size().ok_or("the 3-D view shows no picture")?;
+    if [size.0, size.1] == view {
+        Ok(())
+    } else {
+        Err(format!("{} is {}x{}, the 3-D view's picture {}x{}", newest.display(), size.0, size.1, view[0], view[1]))
     }
 }
 

@@ -57,5 +57,5 @@ pub use camera::{Camera, Projection, ViewRays};
 pub use error::RenderError;
 pub use gpu::{Gpu, acquire};
 pub use raycast::{MAX_CLASS_OPACITY_FACTOR, PixelRegion, RayCaster};
-pub use settings::{ClipBox, LabelInterpolation, Lighting, RenderMode, RenderSettings};
+pub use settings::{ClipBox, ClipPlane, LabelInterpolation, Lighting, RenderMode, RenderSettings};
 pub use volume_texture::VolumeGeometry;

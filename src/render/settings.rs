@@ -1,5 +1,5 @@
-//! Per-frame render settings: which classification, sampling, shading, clipping and
-//! background; checked once by [`RenderSettings::validate`] before they reach the GPU.
+//! Per-frame render settings: which classification, sampling, shading, clipping (a box and a
+//! plane) and background; checked once by [`RenderSettings::validate`] before they reach the GPU.
 //!
 //! Never: holds volume data or camera pose (see [`super::Camera`]).
 
@@ -39,6 +39,37 @@ pub struct ClipBox {
 impl ClipBox {
     /// The whole volume, nothing clipped.
     pub const WHOLE: ClipBox = ClipBox { min: [0.0; 3], max: [1.0; 3] };
+}
+
+/// A plane that cuts the volume open: samples at world points `p` (millimetres, the volume's
+/// box centred on the origin, as the shader's world space) with `dot(normal, p) > offset_mm`
+/// are not drawn. `normal` need not be unit length; it is normalised where used.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ClipPlane {
+    /// Points from the part kept toward the part cut away (x, y, z of the volume's axes).
+    pub normal: [f32; 3],
+    /// The plane's signed distance from the volume's centre along `normal`, in mm.
+    pub offset_mm: f32,
+}
+
+impl ClipPlane {
+    /// A finite plane with a direction.
+    pub fn is_usable(&self) -> bool {
+        let length = self.normal.iter().map(|n| n * n).sum::<f32>().sqrt();
+        self.normal.iter().all(|n| n.is_finite()) && length > 1e-6 && length.is_finite() && self.offset_mm.is_finite()
+    }
+
+    /// The plane with a unit normal; `None` when it is not [`Self::is_usable`].
+    pub fn normalised(&self) -> Option<ClipPlane> {
+        let length = self.normal.iter().map(|n| n * n).sum::<f32>().sqrt();
+        self.is_usable().then(|| ClipPlane { normal: self.normal.map(|n| n / length), offset_mm: self.offset_mm })
+    }
+
+    /// True when the world point `point_mm` is cut away.
+    pub fn cuts(&self, point_mm: [f32; 3]) -> bool {
+        let Some(unit) = self.normalised() else { return false };
+        (0..3).map(|a| unit.normal[a] * point_mm[a]).sum::<f32>() > unit.offset_mm
+    }
 }
 
 /// Blinn-Phong with a headlight, applied to the gradient's direction.
@@ -83,6 +114,8 @@ pub struct RenderSettings {
     pub opaque_alpha: f32,
     /// The part of the volume drawn.
     pub clip_box: ClipBox,
+    /// A plane cutting the volume open; `None`: nothing cut beyond the box.
+    pub clip_plane: Option<ClipPlane>,
     /// Straight RGBA in [0, 1], composited behind the volume.
     pub background: [f32; 4],
 }
@@ -100,6 +133,7 @@ impl Default for RenderSettings {
             step_voxels: 0.5,
             opaque_alpha: 0.99,
             clip_box: ClipBox::WHOLE,
+            clip_plane: None,
             background: [0.0, 0.0, 0.0, 1.0],
         }
     }
@@ -119,6 +153,11 @@ impl RenderSettings {
         let in_unit = |v: f32| (0.0..=1.0).contains(&v);
         if !(clip.min.into_iter().chain(clip.max).all(in_unit) && (0..3).all(|a| clip.min[a] < clip.max[a])) {
             return bad("clip_box", format!("{:?} to {:?}", clip.min, clip.max), "0 <= min < max <= 1 on each axis");
+        }
+        if let Some(plane) = self.clip_plane
+            && !plane.is_usable()
+        {
+            return bad("clip_plane", format!("{plane:?}"), "a finite normal of non-zero length and a finite offset");
         }
         if !self.background.into_iter().all(in_unit) {
             return bad("background", format!("{:?}", self.background), "each channel in [0, 1]");
@@ -149,6 +188,20 @@ mod tests {
             ),
             ("clip_box", RenderSettings { clip_box: ClipBox { min: [-0.1; 3], max: [1.0; 3] }, ..Default::default() }),
             ("background", RenderSettings { background: [2.0, 0.0, 0.0, 1.0], ..Default::default() }),
+            (
+                "clip_plane",
+                RenderSettings {
+                    clip_plane: Some(ClipPlane { normal: [0.0; 3], offset_mm: 0.0 }),
+                    ..Default::default()
+                },
+            ),
+            (
+                "clip_plane",
+                RenderSettings {
+                    clip_plane: Some(ClipPlane { normal: [1.0, 0.0, 0.0], offset_mm: f32::NAN }),
+                    ..Default::default()
+                },
+            ),
         ];
         for (name, settings) in cases {
             match settings.validate() {

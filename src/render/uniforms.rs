@@ -4,7 +4,7 @@
 //!
 //! WGSL uniform layout: a `vec3<f32>` is 16-byte aligned and 12 bytes long, so each `[f32; 3]`
 //! below is followed by one 4-byte scalar that fills its vec4 slot; the struct is padded to a
-//! multiple of 16 bytes by `padding`.
+//! multiple of 16 bytes (`padding` fills the slot after `max_steps`).
 //!
 //! Never: computes colours (the table stores [`ClassStyle`]'s numbers unchanged; the shader's
 //! `class_colour` is the twin of [`ClassStyle::rgba`]).
@@ -84,8 +84,11 @@ pub struct RenderUniforms {
     pub jitter_seed: u32, // 188
     /// Bound on a ray's loop iterations (samples plus skipped bricks).
     pub max_steps: u32, // 192
-    /// Zero; pads the struct to a multiple of 16 bytes.
-    pub padding: [u32; 3], // 196, size 208
+    /// Zero; pads `max_steps` to the next 16-byte slot.
+    pub padding: [u32; 3], // 196
+    /// [`ClipPlane`](super::ClipPlane): unit normal (x, y, z) and offset in mm (w); a zero normal
+    /// with a positive offset when there is none (then nothing is cut).
+    pub clip_plane: [f32; 4], // 208, size 224
 }
 
 /// What the frame's volume looks like to the shader.
@@ -154,6 +157,12 @@ impl RenderUniforms {
             jitter_seed: settings.jitter_seed,
             max_steps,
             padding: [0; 3],
+            clip_plane: settings
+                .clip_plane
+                .and_then(|plane| plane.normalised())
+                .map_or([0.0, 0.0, 0.0, 1.0], |plane| {
+                    [plane.normal[0], plane.normal[1], plane.normal[2], plane.offset_mm]
+                }),
         }
     }
 }
@@ -268,6 +277,7 @@ mod tests {
             ("brick_dims", offset_of!(RenderUniforms, brick_dims)),
             ("jitter_seed", offset_of!(RenderUniforms, jitter_seed)),
             ("max_steps", offset_of!(RenderUniforms, max_steps)),
+            ("clip_plane", offset_of!(RenderUniforms, clip_plane)),
         ];
         let rust: Vec<(String, u32)> = rust.iter().map(|(n, o)| (n.to_string(), *o as u32)).collect();
         assert_eq!(members, rust);

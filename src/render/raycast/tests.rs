@@ -7,7 +7,7 @@ use super::super::test_support::{
 };
 use super::*;
 use crate::render::headless::{OFFSCREEN_FORMAT, OffscreenTarget};
-use crate::render::{ClipBox, LabelInterpolation, MAX_CLASS_OPACITY_FACTOR, Projection};
+use crate::render::{ClipBox, ClipPlane, LabelInterpolation, MAX_CLASS_OPACITY_FACTOR, Projection};
 use crate::volume::VoxelType;
 
 const SIZE: [u32; 2] = [128, 128];
@@ -249,6 +249,37 @@ fn the_clip_box_and_class_visibility_remove_what_they_should() {
     let image = capture(&mut ray_caster, &camera, &flat(RenderMode::Postclassified), SIZE);
     assert_eq!(at(&image, centres[0])[3], 0.0, "hidden class 1");
     assert_eq!(at(&image, centres[1]), at(&whole, centres[1]), "class 2 untouched");
+}
+
+#[test]
+fn a_clip_plane_cuts_what_the_box_cuts_and_tilts() {
+    let (phantom, styles, centres) = three_boxes();
+    let camera = front_camera();
+    let mut ray_caster = phantom.ray_caster(&styles, RenderMode::Postclassified);
+    let at = |image: &image::RgbaImage, point| pixel_at(image, projected(&camera, point));
+    let post = flat(RenderMode::Postclassified);
+    let whole = capture(&mut ray_caster, &camera, &post, SIZE);
+    // x > 0 cut away: the box's left half, drawn alike.
+    let plane = |normal, offset_mm| RenderSettings { clip_plane: Some(ClipPlane { normal, offset_mm }), ..post };
+    let by_plane = capture(&mut ray_caster, &camera, &plane([2.0, 0.0, 0.0], 0.0), SIZE);
+    let left_half = ClipBox { min: [0.0; 3], max: [0.5, 1.0, 1.0] };
+    let by_box = capture(&mut ray_caster, &camera, &RenderSettings { clip_box: left_half, ..post }, SIZE);
+    look("clip-plane-left-half", &by_plane);
+    assert_eq!(at(&by_plane, centres[0]), at(&whole, centres[0]), "the red box (x < 0) stays");
+    assert_eq!(at(&by_plane, centres[1])[3], 0.0, "the green box (x > 0) is cut away");
+    let differing = by_plane.pixels().zip(by_box.pixels()).filter(|(a, b)| a != b).count();
+    assert!(differing < 2 * SIZE[1] as usize, "plane and box agree but for the cut's edge: {differing} pixels");
+    // Turned round, the plane keeps the other side.
+    let other = capture(&mut ray_caster, &camera, &plane([-1.0, 0.0, 0.0], 0.0), SIZE);
+    assert_eq!(at(&other, centres[0])[3], 0.0, "red cut away");
+    assert_eq!(at(&other, centres[1]), at(&whole, centres[1]), "green kept");
+    // Tilted toward the viewer (normal toward the eye): the front of each box is peeled and the
+    // colour behind it shows, still drawn where the plane passes behind a box.
+    let toward_eye = camera.view_rays([64.0; 3], SIZE[0], SIZE[1]).forward_in_world.map(|f| -f);
+    let peeled = capture(&mut ray_caster, &camera, &plane(toward_eye, -1000.0), SIZE);
+    assert!(peeled.pixels().all(|p| p[3] == 0), "everything in front of a far plane is cut");
+    let kept = capture(&mut ray_caster, &camera, &plane(toward_eye, 1000.0), SIZE);
+    assert_eq!(kept, whole, "a plane beyond the volume cuts nothing");
 }
 
 #[test]
