@@ -120,10 +120,14 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             // The session opacity.touch leaves, restored at the next start.
             let sessions = work.join("sessions");
             let report = replay(
-                &["replay", script("opacity.touch").to_str().unwrap(), "--volume", "demo", "--session-dir"]
-                    .into_iter()
-                    .chain([sessions.to_str().unwrap()])
-                    .collect::<Vec<_>>(),
+                &[
+                    "replay",
+                    self::script("opacity.touch").to_str().unwrap(),
+                    "--volume",
+                    "demo",
+                    "--session-dir",
+                    sessions.to_str().unwrap(),
+                ],
                 work,
             );
             assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "opacity.touch: {report}");
