@@ -5,7 +5,8 @@
 //!
 //! Format `volasso-session/1` (JSON): `{"format", "volume", "template", "rotation_degrees",
 //! "strokes"}` where `strokes` is a `volasso-strokes/1` document, so saved sessions can be
-//! classified with `volasso classify` as they are.
+//! classified with `volasso classify` as they are. A gallery entry (gallery.rs) keeps the same
+//! record ([`to_record`], [`from_record`]).
 //!
 //! A restore can itself be what stops the app (a volume that aborts its reader, a session whose
 //! classification crashes), and systemd would restart it into the same restore forever. So
@@ -199,8 +200,9 @@ struct SessionFile {
     strokes: serde_json::Value,
 }
 
-/// Writes `session` into `session_dir` (created if missing), whole or not at all.
-pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveError> {
+/// The session as the JSON record autosave writes (`volasso-session/1`); the gallery keeps
+/// the same record in each entry, so every field of the session travels with it.
+pub fn to_record(session: &SavedSession) -> Result<serde_json::Value, AutosaveError> {
     let strokes_json = session.strokes.to_json()?;
     let strokes: serde_json::Value = serde_json::from_str(&strokes_json)?;
     let file = SessionFile {
@@ -210,7 +212,22 @@ pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveEr
         rotation_degrees: session.rotation_degrees,
         strokes,
     };
-    let text = serde_json::to_string_pretty(&file)?;
+    Ok(serde_json::to_value(file)?)
+}
+
+/// The session a record of [`to_record`] holds.
+pub fn from_record(record: serde_json::Value) -> Result<SavedSession, AutosaveError> {
+    let file = serde_json::from_value::<SessionFile>(record)?;
+    if file.format != SESSION_FORMAT {
+        return Err(AutosaveError::Format { found: file.format });
+    }
+    let strokes = StrokesFile::parse(&file.strokes.to_string())?;
+    Ok(SavedSession { volume: file.volume, template: file.template, rotation_degrees: file.rotation_degrees, strokes })
+}
+
+/// Writes `session` into `session_dir` (created if missing), whole or not at all.
+pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveError> {
+    let text = serde_json::to_string_pretty(&to_record(session)?)?;
     std::fs::create_dir_all(session_dir)
         .map_err(|source| AutosaveError::CreateFolder { source, path: session_dir.to_path_buf() })?;
     let path = session_path(session_dir);
@@ -237,17 +254,7 @@ fn read(session_dir: &Path) -> Result<Option<SavedSession>, AutosaveError> {
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(error) => return Err(AutosaveError::Read(error)),
     };
-    let file = serde_json::from_str::<SessionFile>(&text)?;
-    if file.format != SESSION_FORMAT {
-        return Err(AutosaveError::Format { found: file.format });
-    }
-    let strokes = StrokesFile::parse(&file.strokes.to_string())?;
-    Ok(Some(SavedSession {
-        volume: file.volume,
-        template: file.template,
-        rotation_degrees: file.rotation_degrees,
-        strokes,
-    }))
+    from_record(serde_json::from_str(&text)?).map(Some)
 }
 
 /// Forgets the saved session.

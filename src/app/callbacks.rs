@@ -108,6 +108,9 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         s.borrow_mut().banner.clear();
         refresh::push_status(&w, s);
     }));
+    // The gallery: keep the current result, open a kept one (results.rs).
+    session.on_save_result(handler!(window, state, idle, |w, s| { super::results::save(&w, s) }));
+    session.on_open_result(handler!(window, state, idle, |w, s, index: i32| { super::results::open(&w, s, index) }));
 }
 
 /// Starts the idle timeout again; when it fires, the session is forgotten and the start
@@ -139,6 +142,7 @@ fn reset_to_start(window: &AppWindow, state: &Shared) {
     window.global::<Session>().set_view_picture(slint::Image::default());
     refresh::push_work(window, state);
     refresh::show_screen(window, Screen::Start);
+    super::attract::begin(window, state);
 }
 
 fn show_chooser(window: &AppWindow, state: &Shared) {
@@ -151,6 +155,8 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
             state.loader.thumbnails(sources);
         }
     }
+    super::attract::end(window, state);
+    super::results::refresh_cards(state);
     refresh::show_screen(window, Screen::Chooser);
 }
 
