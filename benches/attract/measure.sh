@@ -1,9 +1,10 @@
 #!/bin/sh
 # CPU time of 600 s of attract mode: idle.touch minus setup.touch, each run $1 times (default
-# 3), with the release build. Prints user+system seconds of each run and the share of one core.
+# 3), with the release build
+# (VOLASSO=target/debug/volasso for the debug one). Prints user+system seconds of each run and the share of one core.
 set -eu
 runs=${1:-3}
-bin=target/release/volasso
+bin=${VOLASSO:-target/release/volasso}
 dir=$(dirname "$0")
 cpu() {
     /usr/bin/time -f "%U %S" -o /tmp/attract-cpu.$$ "$bin" replay "$dir/$1" >/dev/null 2>&1

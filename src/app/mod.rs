@@ -444,7 +444,9 @@ impl App {
     /// `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown), `window`
     /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
     /// on a panel), `camera` (azimuth and elevation in degrees) and `label-uploads` (label
-    /// volumes sent to the 3-D view: a restyle sends none).
+    /// volumes sent to the 3-D view: a restyle sends none), `results` (the gallery's cards),
+    /// `result-problem-N` (why card N, from 1, cannot be opened; empty when it can) and
+    /// `attract` (the start screen's turntable: off, loading, rendering or playing).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
