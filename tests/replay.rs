@@ -94,6 +94,7 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `orientation.touch`: the patient's directions at the panels' edges (the GE head CT);
 /// * `panels.touch`: every screen's controls whole, apart and 9 mm wide;
 /// * `series-picker.touch`: a folder of two DICOM series gives each a card that opens it;
+/// * `gallery-*.touch`, `attract-gallery.touch`: kept results in a data folder of their own;
 /// * `clip.touch`, `opacity.touch` (then `opacity-restored.touch` on its session),
 ///   `snapshot.touch`: the 3-D view's tools on the demo volume;
 /// * the others run on the demo volume from the start screen.
@@ -137,6 +138,15 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             let data = work.join("data");
             std::fs::create_dir_all(&data).unwrap();
             [volume_demo(), vec!["--data-dir".into(), data.display().to_string()]].concat()
+        }
+        "gallery-save-open.touch" | "attract-gallery.touch" => {
+            let data = work.join("data");
+            std::fs::create_dir_all(&data).unwrap();
+            vec!["--data-dir".into(), data.display().to_string()]
+        }
+        "gallery-problems.touch" => {
+            write_gallery_problems(work);
+            vec!["--data-dir".into(), work.join("data").display().to_string()]
         }
         "series-picker.touch" => {
             let study = work.join("data/study");
@@ -187,6 +197,9 @@ fn every_script_passes_at_the_reference_panel_size() {
     every_script_passes_at(&THREE_SIZES[..1]);
 }
 
+/// Scripts whose own tests run them at the reference size, with checks of the files they leave.
+const WITH_OWN_TESTS: [&str; 3] = ["gallery-save-open.touch", "gallery-problems.touch", "attract-gallery.touch"];
+
 /// Every script in tests/replay/ passes at each of [`THREE_SIZES`]. It runs every script three
 /// times, minutes on a slow 2-core machine, so it is a check of its own (`.ci/replay-sizes`);
 /// `every_screen_fits_every_panel_size_with_9_mm_targets` checks every screen's layout at
@@ -209,6 +222,9 @@ fn every_script_passes_at(sizes: &[&str]) {
     let fixtures = tempfile::tempdir().unwrap();
     let mut runs = Vec::new();
     for (index, name) in scripts.iter().enumerate() {
+        if sizes.len() == 1 && WITH_OWN_TESTS.contains(&name.as_str()) {
+            continue;
+        }
         for size in sizes {
             // Each run gets its own copy of the files its script is about.
             let work = fixtures.path().join(format!("{index}-{size}"));
@@ -478,4 +494,112 @@ fn a_restored_session_that_classifies_clears_its_restore_marker() {
         replay(&["replay", restore.to_str().unwrap(), "--session-dir", sessions.to_str().unwrap()], work.path());
     assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
     assert_eq!(session_files(&sessions), ["session.json"]);
+}
+
+/// The size the gallery and attract tests run at here; `.ci/replay-sizes` runs their scripts
+/// at [`THREE_SIZES`].
+const PANEL_SIZES: [&str; 1] = ["1280x800"];
+
+/// "Save" keeps the result in the data folder's gallery (one folder: the entry and its
+/// thumbnail); its card in the chooser restores the same classes, visibility, labels, camera
+/// and 3-D pixels (`gallery-save-open.touch`).
+#[test]
+fn a_kept_result_opens_from_the_gallery_as_it_was_saved() {
+    for size in PANEL_SIZES {
+        let work = tempfile::tempdir().unwrap();
+        let data = work.path().join("data");
+        std::fs::create_dir_all(&data).unwrap();
+        let report = replay(
+            &[
+                "replay",
+                script("gallery-save-open.touch").to_str().unwrap(),
+                "--data-dir",
+                data.to_str().unwrap(),
+                "--size",
+                size,
+            ],
+            work.path(),
+        );
+        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
+        let entries: Vec<PathBuf> =
+            std::fs::read_dir(data.join("gallery")).unwrap().map(|e| e.unwrap().path()).collect();
+        assert_eq!(entries.len(), 1, "{entries:?}");
+        assert_eq!(session_files(&entries[0]), ["entry.json", "thumbnail.png"]);
+        let entry: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(entries[0].join("entry.json")).unwrap()).unwrap();
+        assert_eq!(entry["format"], "volasso-gallery/1");
+        assert_eq!(entry["session"]["format"], "volasso-session/1");
+        assert_eq!(entry["visible"], serde_json::json!([false, true]));
+    }
+}
+
+/// The gallery of `gallery-problems.touch` under `work/data`: an entry whose scan is gone, one
+/// without its entry file and one cut short.
+fn write_gallery_problems(work: &Path) {
+    let gallery = work.join("data/gallery");
+    let entry = serde_json::json!({
+        "format": "volasso-gallery/1",
+        "saved_unix": 300,
+        "volume_name": "gone.nrrd",
+        "camera": {"azimuth_degrees": 10.0, "elevation_degrees": 5.0, "zoom": 1.0, "pan_mm": [0.0, 0.0]},
+        "visible": [true],
+        "session": serde_json::from_str::<serde_json::Value>(&session_file(&work.join("data/gone.nrrd"))).unwrap(),
+    });
+    let text = serde_json::to_string_pretty(&entry).unwrap();
+    for (folder, file, bytes) in [
+        ("result-300", "entry.json", text.as_bytes()),
+        ("result-200", "thumbnail.png", b"\x89PNG".as_slice()),
+        ("result-100", "entry.json", &text.as_bytes()[..60]),
+    ] {
+        std::fs::create_dir_all(gallery.join(folder)).unwrap();
+        std::fs::write(gallery.join(folder).join(file), bytes).unwrap();
+    }
+}
+
+/// Kept results that cannot be opened: one whose scan is gone says so plainly, one never
+/// finished and one cut short say why, none opens, and the chooser still opens a volume
+/// (`gallery-problems.touch`).
+#[test]
+fn damaged_gallery_entries_and_missing_scans_say_so_on_their_cards() {
+    for size in PANEL_SIZES {
+        let work = tempfile::tempdir().unwrap();
+        write_gallery_problems(work.path());
+        let data = work.path().join("data");
+        let report = replay(
+            &[
+                "replay",
+                script("gallery-problems.touch").to_str().unwrap(),
+                "--data-dir",
+                data.to_str().unwrap(),
+                "--size",
+                size,
+            ],
+            work.path(),
+        );
+        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
+    }
+}
+
+/// After the idle timeout the start screen plays a turntable of the demo (an empty gallery):
+/// its pixels change as it turns, and a touch starts (`attract-demo.touch`).
+#[test]
+fn the_idle_start_screen_turns_the_demo_until_touched() {
+    for size in PANEL_SIZES {
+        let work = tempfile::tempdir().unwrap();
+        let report = replay(&["replay", script("attract-demo.touch").to_str().unwrap(), "--size", size], work.path());
+        assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
+    }
+}
+
+/// With a kept result the turntable shows the newest one (`attract-gallery.touch`).
+#[test]
+fn the_idle_start_screen_turns_the_newest_kept_result() {
+    let work = tempfile::tempdir().unwrap();
+    let data = work.path().join("data");
+    std::fs::create_dir_all(&data).unwrap();
+    let report = replay(
+        &["replay", script("attract-gallery.touch").to_str().unwrap(), "--data-dir", data.to_str().unwrap()],
+        work.path(),
+    );
+    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
 }

@@ -8,6 +8,7 @@
 //! classified with `volasso classify` as they are. Optional fields (absent in older files,
 //! which still load): `class_opacity` (class name to opacity factor, 1 the default rule's) and
 //! `clip` (the 3-D view's clip plane, `{"normal", "offset_mm"}`, see [`ClipPlane`]).
+//! A gallery entry (gallery.rs) keeps the same record ([`to_record`], [`from_record`]).
 //!
 //! A restore can itself be what stops the app (a volume that aborts its reader, a session whose
 //! classification crashes), and systemd would restart it into the same restore forever. So
@@ -231,8 +232,9 @@ struct SessionFile {
     look: SavedLook,
 }
 
-/// Writes `session` into `session_dir` (created if missing), whole or not at all.
-pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveError> {
+/// The session as the JSON record autosave writes (`volasso-session/1`); the gallery keeps
+/// the same record in each entry, so every field of the session travels with it.
+pub fn to_record(session: &SavedSession) -> Result<serde_json::Value, AutosaveError> {
     let strokes_json = session.strokes.to_json()?;
     let strokes: serde_json::Value = serde_json::from_str(&strokes_json)?;
     let file = SessionFile {
@@ -243,7 +245,28 @@ pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveEr
         strokes,
         look: session.look.clone(),
     };
-    let text = serde_json::to_string_pretty(&file)?;
+    Ok(serde_json::to_value(file)?)
+}
+
+/// The session a record of [`to_record`] holds.
+pub fn from_record(record: serde_json::Value) -> Result<SavedSession, AutosaveError> {
+    let file = serde_json::from_value::<SessionFile>(record)?;
+    if file.format != SESSION_FORMAT {
+        return Err(AutosaveError::Format { found: file.format });
+    }
+    let strokes = StrokesFile::parse(&file.strokes.to_string())?;
+    Ok(SavedSession {
+        volume: file.volume,
+        template: file.template,
+        rotation_degrees: file.rotation_degrees,
+        strokes,
+        look: file.look.sanitised(),
+    })
+}
+
+/// Writes `session` into `session_dir` (created if missing), whole or not at all.
+pub fn save(session_dir: &Path, session: &SavedSession) -> Result<(), AutosaveError> {
+    let text = serde_json::to_string_pretty(&to_record(session)?)?;
     std::fs::create_dir_all(session_dir)
         .map_err(|source| AutosaveError::CreateFolder { source, path: session_dir.to_path_buf() })?;
     let path = session_path(session_dir);
@@ -270,18 +293,7 @@ fn read(session_dir: &Path) -> Result<Option<SavedSession>, AutosaveError> {
         Err(error) if error.kind() == std::io::ErrorKind::NotFound => return Ok(None),
         Err(error) => return Err(AutosaveError::Read(error)),
     };
-    let file = serde_json::from_str::<SessionFile>(&text)?;
-    if file.format != SESSION_FORMAT {
-        return Err(AutosaveError::Format { found: file.format });
-    }
-    let strokes = StrokesFile::parse(&file.strokes.to_string())?;
-    Ok(Some(SavedSession {
-        volume: file.volume,
-        template: file.template,
-        rotation_degrees: file.rotation_degrees,
-        strokes,
-        look: file.look.sanitised(),
-    }))
+    from_record(serde_json::from_str(&text)?).map(Some)
 }
 
 /// Forgets the saved session.

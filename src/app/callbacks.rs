@@ -123,6 +123,9 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     session.on_toggle_clip(handler!(window, state, idle, |w, s| { super::view_tools::toggle_clip(&w, s) }));
     session.on_reset_clip(handler!(window, state, idle, |w, s| { super::view_tools::reset_clip(&w, s) }));
     session.on_snapshot(handler!(window, state, idle, |w, s| { super::view_tools::snapshot(&w, s) }));
+    // The gallery: keep the current result, open a kept one (results.rs).
+    session.on_save_result(handler!(window, state, idle, |w, s| { super::results::save(&w, s) }));
+    session.on_open_result(handler!(window, state, idle, |w, s, index: i32| { super::results::open(&w, s, index) }));
 }
 
 /// Starts the idle timeout again; when it fires, the session is forgotten and the start
@@ -154,6 +157,7 @@ fn reset_to_start(window: &AppWindow, state: &Shared) {
     window.global::<Session>().set_view_picture(slint::Image::default());
     refresh::push_work(window, state);
     refresh::show_screen(window, Screen::Start);
+    super::attract::begin(window, state);
 }
 
 fn show_chooser(window: &AppWindow, state: &Shared) {
@@ -166,6 +170,8 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
             state.loader.thumbnails(sources);
         }
     }
+    super::attract::end(window, state);
+    super::results::refresh_cards(state);
     refresh::show_screen(window, Screen::Chooser);
 }
 

@@ -88,9 +88,9 @@ impl Controller {
             && saved.volume == work.loaded.source.key()
         {
             work.session = WorkSession::from_strokes(&saved.strokes);
-            if let Some(template) = TemplateType::from_name(&saved.template) {
-                self.chosen_template = Some(HueTemplate::new(template, saved.rotation_degrees));
-            }
+            // No template saved: the class count's default, not the last volume's choice.
+            self.chosen_template = TemplateType::from_name(&saved.template)
+                .map(|template| HueTemplate::new(template, saved.rotation_degrees));
             self.look = saved.look.sanitised();
         }
         self.jobs.cancel();
@@ -260,16 +260,21 @@ impl Controller {
 
     /// Hands the session to the autosave writer, when autosave is on and a volume is open.
     pub(super) fn save(&self) {
-        let (Some(dir), Some(work)) = (&self.session_dir, &self.work) else { return };
+        let (Some(dir), Some(saved)) = (&self.session_dir, self.saved_session()) else { return };
+        self.saver.save(dir.clone(), saved);
+    }
+
+    /// The session as autosave writes it (and the gallery keeps it); `None` without a volume.
+    pub fn saved_session(&self) -> Option<SavedSession> {
+        let work = self.work.as_ref()?;
         let template = self.chosen_template;
-        let saved = autosave::SavedSession {
+        Some(autosave::SavedSession {
             volume: work.loaded.source.key(),
             template: template.map_or(String::new(), |t| t.template.name().to_string()),
             rotation_degrees: template.map_or(0.0, |t| t.rotation_degrees),
             strokes: work.session.strokes(),
             look: self.saved_look(),
-        };
-        self.saver.save(dir.clone(), saved);
+        })
     }
 }
 

@@ -50,6 +50,10 @@ pub const THUMBNAIL_SIDE: usize = 256;
 /// The most entries the chooser lists, so a folder of thousands of files stays usable.
 pub const MAX_ENTRIES: usize = 200;
 
+/// Folders of the data folder that hold the app's own output, never a DICOM series: kept
+/// results (gallery.rs) and snapshots.
+pub const RESERVED_FOLDERS: [&str; 2] = [super::gallery::FOLDER, "snapshots"];
+
 /// The volumes to offer: the demo first, then the data folder's volumes by name.
 pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
     let mut sources = vec![VolumeSource::Demo];
@@ -61,6 +65,7 @@ pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
     let mut paths: Vec<PathBuf> = entries
         .filter_map(|entry| entry.ok().map(|e| e.path()))
         .filter(|path| !path.file_name().is_some_and(|name| name.to_string_lossy().starts_with('.')))
+        .filter(|path| !path.file_name().is_some_and(|name| RESERVED_FOLDERS.iter().any(|r| name == *r)))
         .filter(|path| looks_like_volume(path))
         .collect();
     paths.sort();
@@ -295,6 +300,7 @@ mod tests {
             std::fs::write(folder.path().join(name), b"x").unwrap();
         }
         std::fs::create_dir(folder.path().join("series")).unwrap();
+        std::fs::create_dir(folder.path().join("gallery")).unwrap();
         let names: Vec<String> = scan(Some(folder.path())).iter().map(VolumeSource::name).collect();
         assert_eq!(names, ["Demo: CT foot phantom", "a.nii.gz", "b.nrrd", "ct_8x8x8_uint8.raw", "head.mhd", "series"]);
         assert_eq!(scan(Some(&folder.path().join("missing"))), vec![VolumeSource::Demo]);

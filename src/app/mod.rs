@@ -27,17 +27,20 @@
 //! Never: draws pixels itself or reads input devices; the platform (src/kiosk or Slint's own
 //! winit backend) does that.
 
+mod attract;
 pub mod autosave;
 mod callbacks;
 pub mod clip;
 mod controller;
 pub mod drawing;
+pub mod gallery;
 pub mod jobs;
 pub mod library;
 mod loading;
 mod painter;
 pub mod pictures;
 mod refresh;
+mod results;
 mod saver;
 pub mod session;
 mod slice_actions;
@@ -223,6 +226,10 @@ struct State {
     volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
     /// The 3-D view's tools: clip plane by touch, the picture a snapshot writes.
     tools: view_tools::Tools,
+    /// The gallery of kept results: its cards, a save in flight, a result being opened.
+    results: results::Results,
+    /// The start screen's turntable after the idle timeout.
+    attract: attract::Attract,
 }
 
 impl State {
@@ -296,6 +303,8 @@ impl App {
             classes_model: Rc::new(slint::VecModel::default()),
             volumes_model: Rc::new(slint::VecModel::default()),
             tools: view_tools::Tools::default(),
+            results: results::Results::default(),
+            attract: attract::Attract::default(),
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -311,6 +320,7 @@ impl App {
             session.set_slices(state.slices_model.clone().into());
             session.set_classes(state.classes_model.clone().into());
             session.set_volumes(state.volumes_model.clone().into());
+            session.set_results(state.results.model.clone().into());
         }
         callbacks::wire(&app.window, &state, &app.idle_timer);
         let weak = app.window.as_weak();
@@ -379,6 +389,8 @@ impl App {
             && !state.painter.busy()
             && !state.tools.snapshots.busy()
             && !state.view_dirty
+            && !state.results.busy()
+            && !state.attract.busy()
     }
 
     /// The open volume, the label volume shown and the lassos it was trained on (replay
@@ -409,6 +421,48 @@ impl App {
         self.state.borrow().tools.picture.as_ref().map(|picture| [picture.width(), picture.height()])
     }
 
+    /// What a result is, in one line (replay's `same-result`): the volume, each class's name
+    /// and visibility, the template, a digest of the label volume shown, and the camera.
+    pub fn result_digest(&self) -> String {
+        let state = self.state.borrow();
+        let Some(work) = state.ctl.work.as_ref() else { return "no volume".into() };
+        let classes: Vec<String> = work
+            .session
+            .classes
+            .iter()
+            .map(|c| format!("{}{}", c.name, if c.visible { "" } else { " (hidden)" }))
+            .collect();
+        // FNV-1a over the labels: equal label volumes, equal digests.
+        let labels = work.classified.as_ref().map_or(0, |classified| {
+            classified.labels.iter().fold(0xcbf2_9ce4_8422_2325u64, |hash, &label| {
+                (hash ^ u64::from(label)).wrapping_mul(0x0000_0100_0000_01b3)
+            })
+        });
+        let template = state.template();
+        let camera = &state.camera;
+        format!(
+            "{}; classes {}; template {} {}; labels {labels:016x}; camera {:.1} {:.1} {:.2} {:.1},{:.1}",
+            work.loaded.source.key(),
+            classes.join(", "),
+            template.template.name(),
+            template.rotation_degrees,
+            camera.azimuth_degrees,
+            camera.elevation_degrees,
+            camera.zoom,
+            camera.pan_mm[0],
+            camera.pan_mm[1],
+        )
+    }
+
+    /// The 3-D view shows a whole frame at the size it is drawn at (not a smaller preview).
+    pub fn view_whole(&self) -> bool {
+        let size = self.window.global::<ui::Session>().get_view_picture().size();
+        let wanted = self.state.borrow().view_size;
+        let scale = (view3d::MAX_PICTURE_SIDE as f32 / wanted[0].max(wanted[1]).max(1) as f32).min(1.0);
+        let wanted = wanted.map(|side| ((side as f32 * scale) as u32).max(1));
+        [size.width, size.height] == wanted
+    }
+
     /// A two-finger gesture on the 3-D view: `zoom` multiplies the zoom, `pan_pixels` moves the
     /// picture, `turn_degrees` turns it about the view direction (as azimuth).
     pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
@@ -433,7 +487,10 @@ impl App {
     /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
     /// on a panel), `camera` (azimuth and elevation in degrees), `label-uploads` (label
     /// volumes sent to the 3-D view: a restyle sends none), `opacity` (each class's opacity
-    /// in percent, e.g. `100,40`) and `clip` (`off`, or the plane's normal and offset in mm).
+    /// in percent, e.g. `100,40`) `clip` (`off`, or the plane's normal and offset in mm),
+    /// `results` (the gallery's cards), `result-problem-N` (why card N, from 1, cannot be
+    /// opened; empty when it can) and `attract` (the start screen's turntable: off, loading,
+    /// rendering or playing).
     pub fn query(&self, key: &str) -> Option<String> {
         let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
@@ -471,6 +528,8 @@ impl App {
                 let percent = |index| format!("{:.0}", state.ctl.class_opacity(index) * 100.0);
                 (0..classes).map(percent).collect::<Vec<_>>().join(",")
             }
+            "attract" => state.attract.describe().to_string(),
+            key if key.starts_with("result") => results::query(&state, key)?,
             _ => {
                 let (kind, axis) = key.rsplit_once('-')?;
                 let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;

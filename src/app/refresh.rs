@@ -24,6 +24,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         let Some(event) = event else { break };
         loading::loader_event(window, state, event);
     }
+    super::results::poll(window, state);
     let changed = state.borrow_mut().ctl.poll();
     if changed != Changed::default() {
         apply(window, state, changed);

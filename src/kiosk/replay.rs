@@ -16,6 +16,11 @@
 //! `view-matches NAME` (the 3-D view is as in the screenshot NAME: mean difference under one
 //! level) and `snapshots N` (the data folder's `snapshots/` holds N PNGs, the newest one of
 //! the 3-D view's picture size).
+//! `screen-differs NAME` (the
+//! whole screen differs from the screenshot NAME), `view-steady SECONDS` (waits, in real time,
+//! until the 3-D view stops changing: a progressive frame is whole) and `same-result NAME` (the
+//! app's result, [`App::result_digest`](crate::app::App::result_digest): volume, classes,
+//! labels and camera, and the 3-D view's pixels, equal those at the screenshot NAME).
 
 use super::KioskError;
 use super::harness::{FrameTimes, Harness};
@@ -86,6 +91,7 @@ pub fn run(options: &ReplayOptions) -> Result<ReplayReport, KioskError> {
         report: ReplayReport::default(),
         compiled: EventsText::new(&DeviceInfo::virtual_touchscreen()),
         taken: HashMap::new(),
+        results: HashMap::new(),
         screenshot_syncs: 0,
     };
     for script in &options.scripts {
@@ -112,6 +118,8 @@ struct Run {
     report: ReplayReport,
     compiled: EventsText,
     taken: HashMap<String, RgbImage>,
+    /// The app's result digest at each screenshot, for `same-result`.
+    results: HashMap<String, String>,
     /// Disk flushes of the screenshots the harness wrote (on the UI thread, but not the app's).
     screenshot_syncs: u64,
 }
@@ -164,9 +172,15 @@ impl Run {
                         self.report.screenshots.push(file);
                     }
                     self.taken.insert(name.clone(), image);
+                    self.results.insert(name.clone(), harness.app().result_digest());
                 }
                 ScriptAction::Expect { key, value } => {
-                    if let Err(message) = expect(harness, &self.taken, key, value) {
+                    let result = match key.as_str() {
+                        "same-result" => same_result(harness, &self.taken, &self.results, value),
+                        "view-steady" => view_steady(harness, value),
+                        _ => expect(harness, &self.taken, key, value),
+                    };
+                    if let Err(message) = result {
                         self.report.failures.push(at(message));
                     }
                 }
@@ -246,6 +260,16 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
             }
         }
         "snapshots" => expect_snapshots(harness, value),
+        "screen-differs" => {
+            let earlier = taken.get(value).ok_or(format!("no screenshot named '{value}' was taken"))?;
+            let screen = harness.screenshot();
+            let difference = mean_difference(&pixels_of(&screen), &pixels_of(earlier));
+            if difference > 0.2 {
+                Ok(())
+            } else {
+                Err(format!("the screen is unchanged since '{value}' (mean difference {difference:.3} levels)"))
+            }
+        }
         "element" => harness.element_rect(value).map(|_| ()).ok_or(format!("no element '{value}' on screen")),
         "letters" => expect_letters(harness, value),
         "layout" => expect_layout(harness, value),
@@ -301,6 +325,54 @@ fn expect_snapshots(harness: &Harness, value: &str) -> Result<(), String> {
         Ok(())
     } else {
         Err(format!("{} is {}x{}, the 3-D view's picture {}x{}", newest.display(), size.0, size.1, view[0], view[1]))
+    }
+}
+
+/// Every pixel of a screenshot.
+fn pixels_of(image: &RgbImage) -> Vec<[u8; 3]> {
+    image.pixels.chunks_exact(3).map(|p| [p[0], p[1], p[2]]).collect()
+}
+
+/// `expect view-steady SECONDS`: frames run (the clock following real time) until the 3-D view shows a
+/// whole frame and two screenshots half a second apart show the same view.
+fn view_steady(harness: &mut Harness, value: &str) -> Result<(), String> {
+    let seconds: f64 =
+        value.trim_end_matches('s').parse().map_err(|_| format!("view-steady wants seconds, not '{value}'"))?;
+    let started = Instant::now();
+    let mut before = harness.screenshot();
+    while started.elapsed().as_secs_f64() < seconds {
+        for _ in 0..25 {
+            std::thread::sleep(Duration::from_millis(20));
+            harness.wait(Duration::from_millis(20));
+        }
+        let now = harness.screenshot();
+        if harness.app().view_whole() && view_pixels(harness, &now)? == view_pixels(harness, &before)? {
+            return Ok(());
+        }
+        before = now;
+    }
+    Err(format!("the 3-D view still changes after {seconds} s"))
+}
+
+/// `expect same-result NAME` (module doc).
+fn same_result(
+    harness: &mut Harness,
+    taken: &HashMap<String, RgbImage>,
+    results: &HashMap<String, String>,
+    value: &str,
+) -> Result<(), String> {
+    let (earlier, then) =
+        taken.get(value).zip(results.get(value)).ok_or(format!("no screenshot named '{value}' was taken"))?;
+    let now = harness.app().result_digest();
+    if now != *then {
+        return Err(format!("the result is '{now}', at '{value}' it was '{then}'"));
+    }
+    let screen = harness.screenshot();
+    let difference = mean_difference(&view_pixels(harness, &screen)?, &view_pixels(harness, earlier)?);
+    if difference < 0.05 {
+        Ok(())
+    } else {
+        Err(format!("the 3-D view differs from '{value}' (mean difference {difference:.3} levels)"))
     }
 }
 

@@ -1,0 +1,297 @@
+//! Attract mode: after the idle timeout the start screen plays a slow turntable of the newest
+//! kept result (gallery.rs) whose scan is there, or of the demo with its benchmark lassos when
+//! the gallery has none, under "Touch anywhere to start"; any touch starts as before.
+//!
+//! An idle stand runs all day, so the turn costs almost nothing: the result opens, classifies
+//! and renders [`FRAMES`] frames of one turn once, at the size the start screen shows them, on
+//! a controller of its own (no autosave, its own render thread), which is then dropped with
+//! its GPU device and volume. The turn is then replayed from those pictures at
+//! [`FRAMES_PER_SECOND`]; nothing is rendered again while it plays, and nothing at all once
+//! the start screen is left.
+//!
+//! Never: touches the user's session, the autosave or the work screen's 3-D view.
+
+use super::controller::Controller;
+use super::gallery::{self, Listed};
+use super::library::{self, LoadedVolume, OpenError, VolumeSource};
+use super::ui::{AppWindow, Session};
+use super::view3d::RenderReply;
+use super::{
+    State, Work,
+    autosave::{SavedLook, SavedSession},
+};
+use crate::render::Camera;
+use crate::strokes::StrokesFile;
+use slint::ComponentHandle;
+use std::cell::RefCell;
+use std::rc::{Rc, Weak};
+use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::time::Duration;
+
+/// Pictures in one turn (12 degrees apart).
+pub const FRAMES: usize = 30;
+
+/// How fast the turn plays: a turn takes `FRAMES / FRAMES_PER_SECOND` = 15 s.
+pub const FRAMES_PER_SECOND: u64 = 2;
+
+/// The largest side of a turntable picture, in pixels: a start screen is looked at from afar.
+pub const MAX_SIDE: u32 = 480;
+
+/// How often loading and rendering are looked after while the turn is prepared.
+const PREPARING_TICK: Duration = Duration::from_millis(50);
+
+/// The demo's lassos (the benchmark's), for a stand whose gallery is empty.
+const DEMO_STROKES: &str = include_str!("../../benches/strokes/demo-foot.strokes.json");
+
+type Shared = Rc<RefCell<State>>;
+
+/// What the turntable shows.
+#[derive(Clone, Debug)]
+struct Showing {
+    session: SavedSession,
+    name: String,
+    camera: Camera,
+    visible: Vec<bool>,
+}
+
+enum Phase {
+    Off,
+    Loading {
+        showing: Showing,
+        loaded: Receiver<Result<Box<LoadedVolume>, OpenError>>,
+    },
+    Rendering {
+        showing: Showing,
+        ctl: Box<Controller>,
+        frames: Vec<slint::Image>,
+        size: [u32; 2],
+        awaited: Option<u64>,
+    },
+    Playing {
+        frames: Vec<slint::Image>,
+        next: usize,
+        name: String,
+    },
+}
+
+/// The attract mode's part of the app's state.
+pub(super) struct Attract {
+    phase: Phase,
+    timer: slint::Timer,
+}
+
+impl Default for Attract {
+    fn default() -> Self {
+        Attract { phase: Phase::Off, timer: slint::Timer::default() }
+    }
+}
+
+impl Attract {
+    /// The turn is being prepared (replay's `wait-idle` waits for it).
+    pub(super) fn busy(&self) -> bool {
+        matches!(self.phase, Phase::Loading { .. } | Phase::Rendering { .. })
+    }
+
+    /// `off`, `loading`, `rendering` or `playing` (replay's `expect attract`).
+    pub(super) fn describe(&self) -> &'static str {
+        match self.phase {
+            Phase::Off => "off",
+            Phase::Loading { .. } => "loading",
+            Phase::Rendering { .. } => "rendering",
+            Phase::Playing { .. } => "playing",
+        }
+    }
+}
+
+/// The idle timeout brought the start screen back: the turntable starts.
+pub(super) fn begin(window: &AppWindow, state: &Shared) {
+    if !matches!(state.borrow().attract.phase, Phase::Off) {
+        return;
+    }
+    let Some(showing) = what_to_show(&state.borrow()) else { return };
+    let options = state.borrow().config.open_options.clone();
+    let source = VolumeSource::from_key(&showing.session.volume);
+    let (sender, loaded) = channel();
+    let spawned = std::thread::Builder::new().name("attract".into()).spawn(move || {
+        let result = library::guarded(&source, || library::load(&source, &options)).map(Box::new);
+        let _ = sender.send(result);
+    });
+    if let Err(error) = spawned {
+        log::warn!("attract mode: cannot start a thread to open the volume: {error}");
+        return;
+    }
+    log::info!("attract mode: a turntable of {}", showing.name);
+    let mut state_ref = state.borrow_mut();
+    state_ref.attract.phase = Phase::Loading { showing, loaded };
+    let (weak_window, weak_state) = (window.as_weak(), Rc::downgrade(state));
+    state_ref.attract.timer.start(slint::TimerMode::Repeated, PREPARING_TICK, move || tick(&weak_window, &weak_state));
+    drop(state_ref);
+    window.global::<Session>().set_attract_caption("".into());
+}
+
+/// The start screen is left: the turntable stops, and what it held goes.
+pub(super) fn end(window: &AppWindow, state: &Shared) {
+    let phase = {
+        let mut state = state.borrow_mut();
+        state.attract.timer.stop();
+        std::mem::replace(&mut state.attract.phase, Phase::Off)
+    };
+    if let Phase::Rendering { mut ctl, .. } = phase {
+        ctl.jobs.cancel();
+    }
+    let session = window.global::<Session>();
+    session.set_attracting(false);
+    session.set_attract_picture(slint::Image::default());
+}
+
+/// The newest kept result whose scan is there, else the demo with its benchmark lassos.
+fn what_to_show(state: &State) -> Option<Showing> {
+    let listed = state.config.data_dir.as_deref().map(gallery::list).unwrap_or_default();
+    let kept = listed.into_iter().find_map(|listed| match listed {
+        Listed::Entry { entry, .. } if !entry.volume_missing() => Some(entry),
+        _ => None,
+    });
+    if let Some(entry) = kept {
+        return Some(Showing {
+            name: format!("Saved result: {}", entry.volume_name),
+            camera: entry.camera,
+            visible: entry.visible,
+            session: entry.session,
+        });
+    }
+    let strokes = match StrokesFile::parse(DEMO_STROKES) {
+        Ok(strokes) => strokes,
+        Err(error) => {
+            log::error!("attract mode: the demo's lassos do not parse: {error}");
+            return None;
+        }
+    };
+    Some(Showing {
+        session: SavedSession {
+            volume: VolumeSource::Demo.key(),
+            template: String::new(),
+            rotation_degrees: 0.0,
+            strokes,
+            look: SavedLook::default(),
+        },
+        name: VolumeSource::Demo.name(),
+        camera: Camera::default(),
+        visible: Vec::new(),
+    })
+}
+
+fn tick(window: &slint::Weak<AppWindow>, state: &Weak<RefCell<State>>) {
+    let (Some(window), Some(state)) = (window.upgrade(), state.upgrade()) else { return };
+    let phase = std::mem::replace(&mut state.borrow_mut().attract.phase, Phase::Off);
+    let was_rendering = matches!(phase, Phase::Rendering { .. });
+    let next = match phase {
+        Phase::Off => Phase::Off,
+        Phase::Loading { showing, loaded } => match loaded.try_recv() {
+            Err(TryRecvError::Empty) => Phase::Loading { showing, loaded },
+            Err(TryRecvError::Disconnected) => stopped("the loader stopped"),
+            Ok(Err(error)) => stopped(&format!("cannot open {}: {error}", showing.name)),
+            Ok(Ok(loaded)) => {
+                let mut ctl = Box::new(Controller::new(None));
+                ctl.open(Work::new(*loaded), Some(showing.session.clone()));
+                for (index, shown) in showing.visible.iter().enumerate() {
+                    if !shown {
+                        ctl.toggle_class(index);
+                    }
+                }
+                let session = window.global::<Session>();
+                let scale = window.window().scale_factor();
+                let side = ((session.get_attract_size() * scale).round() as u32).clamp(64, MAX_SIDE);
+                Phase::Rendering { showing, ctl, frames: Vec::new(), size: [side, side], awaited: None }
+            }
+        },
+        Phase::Rendering { showing, ctl, frames, size, awaited } => render(showing, ctl, frames, size, awaited),
+        Phase::Playing { frames, next, name } => {
+            let session = window.global::<Session>();
+            if let Some(frame) = frames.get(next) {
+                session.set_attract_picture(frame.clone());
+            }
+            Phase::Playing { next: (next + 1) % frames.len().max(1), frames, name }
+        }
+    };
+    let started_playing = was_rendering && matches!(next, Phase::Playing { .. });
+    let caption = match &next {
+        Phase::Playing { name, .. } => name.clone(),
+        _ => String::new(),
+    };
+    let stopped_now = matches!(next, Phase::Off);
+    let mut state_ref = state.borrow_mut();
+    state_ref.attract.phase = next;
+    if started_playing {
+        let (weak_window, weak_state) = (window.as_weak(), Rc::downgrade(&state));
+        let interval = Duration::from_millis(1000 / FRAMES_PER_SECOND);
+        state_ref.attract.timer.start(slint::TimerMode::Repeated, interval, move || tick(&weak_window, &weak_state));
+        let first = match &state_ref.attract.phase {
+            Phase::Playing { frames, .. } => frames.first().cloned(),
+            _ => None,
+        };
+        drop(state_ref);
+        let session = window.global::<Session>();
+        session.set_attracting(true);
+        session.set_attract_caption(caption.into());
+        if let Some(first) = first {
+            session.set_attract_picture(first);
+        }
+    } else if stopped_now {
+        state_ref.attract.timer.stop();
+    }
+}
+
+fn stopped(reason: &str) -> Phase {
+    log::warn!("attract mode: {reason}; the start screen stays still");
+    Phase::Off
+}
+
+/// Classification, then one turn's pictures one after another; the controller goes once the
+/// turn is whole.
+fn render(
+    showing: Showing,
+    mut ctl: Box<Controller>,
+    mut frames: Vec<slint::Image>,
+    size: [u32; 2],
+    mut awaited: Option<u64>,
+) -> Phase {
+    let changed = ctl.poll();
+    let classified = ctl.work.as_ref().is_some_and(|work| work.classified.is_some());
+    if let Some(status) = changed.status.filter(|_| !classified) {
+        return stopped(&format!("the classification failed: {status}"));
+    }
+    if !classified {
+        return Phase::Rendering { showing, ctl, frames, size, awaited };
+    }
+    while let Some(reply) = ctl.renderer.poll() {
+        match reply {
+            RenderReply::Failed(error) => return stopped(&error.to_string()),
+            // Previews come first with the same id: only the whole frame is kept.
+            RenderReply::Picture(picture)
+                if Some(picture.id) == awaited && picture.image.dimensions() == (size[0], size[1]) =>
+            {
+                let image = &picture.image;
+                let buffer = slint::SharedPixelBuffer::<slint::Rgba8Pixel>::clone_from_slice(
+                    image.as_raw(),
+                    image.width(),
+                    image.height(),
+                );
+                frames.push(slint::Image::from_rgba8(buffer));
+                awaited = None;
+            }
+            RenderReply::Picture(_) => {}
+        }
+    }
+    if frames.len() == FRAMES {
+        ctl.jobs.cancel();
+        drop(ctl);
+        log::info!("attract mode: {} pictures of {} ready", frames.len(), showing.name);
+        return Phase::Playing { frames, next: 1, name: showing.name };
+    }
+    if awaited.is_none() {
+        let mut camera = showing.camera;
+        camera.azimuth_degrees += 360.0 * frames.len() as f32 / FRAMES as f32;
+        awaited = Some(ctl.renderer.request_frame(camera, size));
+    }
+    Phase::Rendering { showing, ctl, frames, size, awaited }
+}
