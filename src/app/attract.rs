@@ -7,7 +7,8 @@
 //! a controller of its own (no autosave, its own render thread), which is then dropped with
 //! its GPU device and volume. The turn is then replayed from those pictures at
 //! [`FRAMES_PER_SECOND`]; nothing is rendered again while it plays, and nothing at all once
-//! the start screen is left.
+//! the start screen is left. The pictures are kept for the next idle period: when it shows
+//! the same result at the same size they play at once, with nothing opened or rendered.
 //!
 //! Never: touches the user's session, the autosave or the work screen's 3-D view.
 
@@ -71,18 +72,29 @@ enum Phase {
         frames: Vec<slint::Image>,
         next: usize,
         name: String,
+        /// What was turned, at which size ([`turn_key`]).
+        key: String,
     },
+}
+
+/// One prepared turn, kept while the app is not on the start screen.
+struct Turn {
+    key: String,
+    frames: Vec<slint::Image>,
+    name: String,
 }
 
 /// The attract mode's part of the app's state.
 pub(super) struct Attract {
     phase: Phase,
     timer: slint::Timer,
+    /// The last turn prepared, played again when the same result is shown at the same size.
+    last_turn: Option<Turn>,
 }
 
 impl Default for Attract {
     fn default() -> Self {
-        Attract { phase: Phase::Off, timer: slint::Timer::default() }
+        Attract { phase: Phase::Off, timer: slint::Timer::default(), last_turn: None }
     }
 }
 
@@ -109,6 +121,15 @@ pub(super) fn begin(window: &AppWindow, state: &Shared) {
         return;
     }
     let Some(showing) = what_to_show(&state.borrow()) else { return };
+    let key = turn_key(&showing, picture_side(window));
+    let kept = state.borrow_mut().attract.last_turn.take_if(|turn| turn.key == key);
+    if let Some(turn) = kept {
+        log::info!("attract mode: the turntable of {} again, as prepared before", turn.name);
+        let phase = Phase::Playing { frames: turn.frames, next: 1, name: turn.name, key: turn.key };
+        state.borrow_mut().attract.phase = phase;
+        play(window, state);
+        return;
+    }
     let options = state.borrow().config.open_options.clone();
     let source = VolumeSource::from_key(&showing.session.volume);
     let (sender, loaded) = channel();
@@ -136,8 +157,12 @@ pub(super) fn end(window: &AppWindow, state: &Shared) {
         state.attract.timer.stop();
         std::mem::replace(&mut state.attract.phase, Phase::Off)
     };
-    if let Phase::Rendering { mut ctl, .. } = phase {
-        ctl.jobs.cancel();
+    match phase {
+        Phase::Rendering { mut ctl, .. } => ctl.jobs.cancel(),
+        Phase::Playing { frames, name, key, .. } => {
+            state.borrow_mut().attract.last_turn = Some(Turn { key, frames, name })
+        }
+        Phase::Off | Phase::Loading { .. } => {}
     }
     let session = window.global::<Session>();
     session.set_attracting(false);
@@ -198,47 +223,68 @@ fn tick(window: &slint::Weak<AppWindow>, state: &Weak<RefCell<State>>) {
                         ctl.toggle_class(index);
                     }
                 }
-                let session = window.global::<Session>();
-                let scale = window.window().scale_factor();
-                let side = ((session.get_attract_size() * scale).round() as u32).clamp(64, MAX_SIDE);
+                let side = picture_side(&window);
                 Phase::Rendering { showing, ctl, frames: Vec::new(), size: [side, side], awaited: None }
             }
         },
         Phase::Rendering { showing, ctl, frames, size, awaited } => render(showing, ctl, frames, size, awaited),
-        Phase::Playing { frames, next, name } => {
+        Phase::Playing { frames, next, name, key } => {
             let session = window.global::<Session>();
             if let Some(frame) = frames.get(next) {
                 session.set_attract_picture(frame.clone());
             }
-            Phase::Playing { next: (next + 1) % frames.len().max(1), frames, name }
+            Phase::Playing { next: (next + 1) % frames.len().max(1), frames, name, key }
         }
     };
     let started_playing = was_rendering && matches!(next, Phase::Playing { .. });
-    let caption = match &next {
-        Phase::Playing { name, .. } => name.clone(),
-        _ => String::new(),
-    };
     let stopped_now = matches!(next, Phase::Off);
     let mut state_ref = state.borrow_mut();
     state_ref.attract.phase = next;
-    if started_playing {
-        let (weak_window, weak_state) = (window.as_weak(), Rc::downgrade(&state));
-        let interval = Duration::from_millis(1000 / FRAMES_PER_SECOND);
-        state_ref.attract.timer.start(slint::TimerMode::Repeated, interval, move || tick(&weak_window, &weak_state));
-        let first = match &state_ref.attract.phase {
-            Phase::Playing { frames, .. } => frames.first().cloned(),
-            _ => None,
-        };
-        drop(state_ref);
-        let session = window.global::<Session>();
-        session.set_attracting(true);
-        session.set_attract_caption(caption.into());
-        if let Some(first) = first {
-            session.set_attract_picture(first);
-        }
-    } else if stopped_now {
+    if stopped_now {
         state_ref.attract.timer.stop();
     }
+    drop(state_ref);
+    if started_playing {
+        play(&window, &state);
+    }
+}
+
+/// The turn in the `Playing` phase starts: its timer, its first picture and its caption.
+fn play(window: &AppWindow, state: &Shared) {
+    let state_ref = state.borrow_mut();
+    let (first, caption) = match &state_ref.attract.phase {
+        Phase::Playing { frames, name, .. } => (frames.first().cloned(), name.clone()),
+        _ => return,
+    };
+    let (weak_window, weak_state) = (window.as_weak(), Rc::downgrade(state));
+    let interval = Duration::from_millis(1000 / FRAMES_PER_SECOND);
+    state_ref.attract.timer.start(slint::TimerMode::Repeated, interval, move || tick(&weak_window, &weak_state));
+    drop(state_ref);
+    let session = window.global::<Session>();
+    session.set_attracting(true);
+    session.set_attract_caption(caption.into());
+    if let Some(first) = first {
+        session.set_attract_picture(first);
+    }
+}
+
+/// The side of a turntable picture in pixels: the start screen's picture at its scale.
+fn picture_side(window: &AppWindow) -> u32 {
+    let scale = window.window().scale_factor();
+    ((window.global::<Session>().get_attract_size() * scale).round() as u32).clamp(64, MAX_SIDE)
+}
+
+/// What a turn shows and at which size: equal keys, equal pictures. The scan's file or folder
+/// is named with its length and modification time, so a scan replaced at the same path (a
+/// series received again) is rendered anew, never shown from the old pictures.
+fn turn_key(showing: &Showing, side: u32) -> String {
+    let path = match VolumeSource::from_key(&showing.session.volume) {
+        VolumeSource::Demo => None,
+        VolumeSource::Path(path) => Some(path),
+        VolumeSource::Series { folder, .. } => Some(folder),
+    };
+    let stamp = path.and_then(|path| std::fs::metadata(path).ok()).map(|meta| (meta.len(), meta.modified().ok()));
+    format!("{side} {stamp:?} {showing:?}")
 }
 
 fn stopped(reason: &str) -> Phase {
@@ -286,7 +332,8 @@ fn render(
         ctl.jobs.cancel();
         drop(ctl);
         log::info!("attract mode: {} pictures of {} ready", frames.len(), showing.name);
-        return Phase::Playing { frames, next: 1, name: showing.name };
+        let key = turn_key(&showing, size[0]);
+        return Phase::Playing { frames, next: 1, name: showing.name, key };
     }
     if awaited.is_none() {
         let mut camera = showing.camera;
