@@ -6,7 +6,8 @@
 //!
 //! Expectations (`expect KEY VALUE`) compare [`App::query`](crate::app::App::query) keys, plus:
 //! `view-colours N` (the 3-D view shows at least N distinct hues), `view-differs NAME` (the 3-D
-//! view differs from the screenshot NAME taken earlier), `element NAME` (an element with that
+//! view changed since the screenshot NAME: a mean difference over one level, or 1 % of its
+//! pixels changed by more than 16 levels), `element NAME` (an element with that
 //! accessible label is on screen), `layout 9mm` (every button and slider on screen is whole,
 //! overlaps no other and is at least 9 mm on each side at the UI's density: kiosk::layout),
 //! and `letters ELEMENT TOP,RIGHT,BOTTOM,LEFT` (the patient
@@ -241,11 +242,17 @@ fn expect(harness: &mut Harness, taken: &HashMap<String, RgbImage>, key: &str, v
             let earlier = taken.get(value).ok_or(format!("no screenshot named '{value}' was taken"))?;
             let screen = harness.screenshot();
             let (now, then) = (view_pixels(harness, &screen)?, view_pixels(harness, earlier)?);
-            let difference = mean_difference(&now, &then);
-            if difference > 1.0 {
+            let (difference, changed) = (mean_difference(&now, &then), changed_share(&now, &then));
+            // A small structure on a wide black view changes few pixels but changes them a
+            // lot: either measure says the view moved.
+            if difference > 1.0 || changed >= MIN_CHANGED_SHARE {
                 Ok(())
             } else {
-                Err(format!("the 3-D view is unchanged since '{value}' (mean difference {difference:.2} levels)"))
+                Err(format!(
+                    "the 3-D view is unchanged since '{value}' (mean difference {difference:.2} levels, {:.2} % of its \
+                     pixels changed by more than {CHANGED_LEVELS} levels)",
+                    100.0 * changed
+                ))
             }
         }
         "view-matches" => {
@@ -462,6 +469,23 @@ pub fn distinct_hues(pixels: &[[u8; 3]]) -> usize {
     bins.iter().filter(|&&count| count >= threshold).count()
 }
 
+/// A pixel changed when one of its channels moved by more than this many levels.
+const CHANGED_LEVELS: u8 = 16;
+
+/// The share of the 3-D view's pixels that must change for `view-differs` when the mean
+/// difference is under a level: a frame's rendering noise changes none by that much.
+const MIN_CHANGED_SHARE: f64 = 0.01;
+
+/// The share of pixels of which a channel differs by more than [`CHANGED_LEVELS`] (1 when the
+/// sizes differ).
+fn changed_share(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
+    if a.len() != b.len() || a.is_empty() {
+        return 1.0;
+    }
+    let changed = a.iter().zip(b).filter(|(p, q)| (0..3).any(|c| p[c].abs_diff(q[c]) > CHANGED_LEVELS)).count();
+    changed as f64 / a.len() as f64
+}
+
 fn mean_difference(a: &[[u8; 3]], b: &[[u8; 3]]) -> f64 {
     if a.len() != b.len() || a.is_empty() {
         return f64::INFINITY;
@@ -484,6 +508,22 @@ mod tests {
         assert_eq!(distinct_hues(&pixels), 2);
         pixels.extend(vec![[10u8, 10, 60]; 500]);
         assert_eq!(distinct_hues(&pixels), 2, "dark pixels are not a colour");
+    }
+
+    #[test]
+    fn a_small_structure_that_changes_counts_as_a_changed_view() {
+        let before = vec![[0u8, 0, 0]; 10_000];
+        let mut after = before.clone();
+        for pixel in &mut after[..200] {
+            *pixel = [40, 120, 130];
+        }
+        assert!(mean_difference(&before, &after) < 1.0, "diluted by the black around it");
+        assert!(changed_share(&before, &after) >= MIN_CHANGED_SHARE);
+        let mut noise = before.clone();
+        for pixel in noise.iter_mut().step_by(3) {
+            *pixel = [3, 2, 4];
+        }
+        assert_eq!(changed_share(&before, &noise), 0.0, "small level changes are not a change");
     }
 
     #[test]
