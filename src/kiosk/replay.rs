@@ -515,7 +515,7 @@ mod tests {
         let before = vec![[0u8, 0, 0]; 10_000];
         let mut after = before.clone();
         for pixel in &mut after[..200] {
-            *pixel = [40, 120, 130];
+            *pixel = [20, 40, 45];
         }
         assert!(mean_difference(&before, &after) < 1.0, "diluted by the black around it");
         assert!(changed_share(&before, &after) >= MIN_CHANGED_SHARE);
