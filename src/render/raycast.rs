@@ -100,14 +100,14 @@ impl RayCaster {
         let uniform_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("ray caster uniforms"),
             size: std::mem::size_of::<RenderUniforms>() as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         let class_table = class_table(&[])?;
         let class_table_buffer = device.create_buffer(&wgpu::BufferDescriptor {
             label: Some("ray caster class table"),
             size: std::mem::size_of_val(class_table.as_slice()) as u64,
-            usage: wgpu::BufferUsages::UNIFORM | wgpu::BufferUsages::COPY_DST,
+            usage: wgpu::BufferUsages::STORAGE | wgpu::BufferUsages::COPY_DST,
             mapped_at_creation: false,
         });
         queue.write_buffer(&class_table_buffer, 0, bytemuck::cast_slice(&class_table));

@@ -1,5 +1,5 @@
 //! The ray caster's bind group layout and bind group: bindings 0-8 of `shaders/raycast.wgsl`
-//! (uniforms, class table, the volume textures and the sampler).
+//! (the frame's parameters and the class table as read-only storage, the volume textures and the sampler).
 //!
 //! Never: creates or uploads textures (the ray caster hands over their views).
 
@@ -43,11 +43,12 @@ pub(super) fn create_bind_group(
 
 /// Bindings 0-8 of `raycast.wgsl`, all for the fragment stage.
 pub(super) fn create_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroupLayout {
-    let uniform = |binding, size: usize| wgpu::BindGroupLayoutEntry {
+    // Read-only storage rather than uniform buffers: see the bindings in raycast.wgsl.
+    let read_only = |binding, size: usize| wgpu::BindGroupLayoutEntry {
         binding,
         visibility: wgpu::ShaderStages::FRAGMENT,
         ty: wgpu::BindingType::Buffer {
-            ty: wgpu::BufferBindingType::Uniform,
+            ty: wgpu::BufferBindingType::Storage { read_only: true },
             has_dynamic_offset: false,
             min_binding_size: wgpu::BufferSize::new(size as u64),
         },
@@ -67,8 +68,8 @@ pub(super) fn create_bind_group_layout(device: &wgpu::Device) -> wgpu::BindGroup
     device.create_bind_group_layout(&wgpu::BindGroupLayoutDescriptor {
         label: Some("ray caster bind group layout"),
         entries: &[
-            uniform(0, std::mem::size_of::<RenderUniforms>()),
-            uniform(1, std::mem::size_of::<ClassEntry>() * super::super::uniforms::CLASS_TABLE_SIZE),
+            read_only(0, std::mem::size_of::<RenderUniforms>()),
+            read_only(1, std::mem::size_of::<ClassEntry>() * super::super::uniforms::CLASS_TABLE_SIZE),
             texture(2, filterable),
             texture(3, wgpu::TextureSampleType::Uint),
             texture(4, filterable),
