@@ -51,12 +51,7 @@ pub(super) fn rescan_data_folder(state: &Shared) {
     log::info!("{} new volume(s) in the data folder", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        state.volumes_model.push(VolumeCard {
-            name: source.name().into(),
-            detail: "".into(),
-            thumbnail: slint::Image::default(),
-            failed: false,
-        });
+        state.volumes_model.push(blank_card(source));
     }
     if state.thumbnails_requested {
         state.thumbnails_pending += added.len();
@@ -140,12 +135,7 @@ fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
     log::info!("a folder holds {} series", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        model.push(VolumeCard {
-            name: source.name().into(),
-            detail: "".into(),
-            thumbnail: slint::Image::default(),
-            failed: false,
-        });
+        model.push(blank_card(source));
     }
     state.thumbnails_pending += added.len();
     state.loader.thumbnails(added);
@@ -218,4 +208,9 @@ pub(super) fn home_caption(home: Option<&HomeView>) -> &'static str {
         Some(home) if !home.exact => "Nearest front view with the head up",
         Some(_) => "",
     }
+}
+
+/// A volume's card before its thumbnail and details arrive: its name alone.
+pub(super) fn blank_card(source: &VolumeSource) -> VolumeCard {
+    VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default(), failed: false }
 }

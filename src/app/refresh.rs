@@ -177,16 +177,7 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
 
 pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
-    let cards: Vec<VolumeCard> = state
-        .sources
-        .iter()
-        .map(|source| VolumeCard {
-            name: source.name().into(),
-            detail: "".into(),
-            thumbnail: slint::Image::default(),
-            failed: false,
-        })
-        .collect();
+    let cards: Vec<VolumeCard> = state.sources.iter().map(super::loading::blank_card).collect();
     state.volumes_model.set_vec(cards);
     drop(state);
     let _ = window;

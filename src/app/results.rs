@@ -11,7 +11,7 @@ use super::State;
 use super::gallery::{self, GalleryEntry, GalleryError, Listed};
 use super::library::VolumeSource;
 use super::refresh;
-use super::ui::{AppWindow, ResultCard, Session, VolumeCard};
+use super::ui::{AppWindow, ResultCard, Session};
 use crate::render::Camera;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
@@ -204,12 +204,7 @@ pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
             None => {
                 // A scan outside the data folder: it joins the chooser, so indices stay aligned.
                 state.sources.push(source.clone());
-                state.volumes_model.push(VolumeCard {
-                    name: source.name().into(),
-                    detail: "".into(),
-                    thumbnail: slint::Image::default(),
-                    failed: false,
-                });
+                state.volumes_model.push(super::loading::blank_card(&source));
                 state.sources.len() - 1
             }
         };
