@@ -203,11 +203,13 @@ pub enum Method {
     Default,
     /// The default without its majority pass: the classifier's vote voxel by voxel.
     DefaultVoxelwise,
+    /// The default (SN-SVM, majority pass) on the fine multi-scale features.
+    DefaultFine,
 }
 
 impl Method {
     /// Every method, in report order.
-    pub const ALL: [Method; 10] = [
+    pub const ALL: [Method; 11] = [
         Method::SnSvmPaper5,
         Method::SnSvmPaper5Global,
         Method::SvmPaper5,
@@ -218,6 +220,7 @@ impl Method {
         Method::ForestMultiscaleFine,
         Method::Default,
         Method::DefaultVoxelwise,
+        Method::DefaultFine,
     ];
 
     /// The method's name in reports and on the command line.
@@ -233,6 +236,7 @@ impl Method {
             Method::ForestMultiscaleFine => "forest-fine",
             Method::Default => "default",
             Method::DefaultVoxelwise => "default-voxelwise",
+            Method::DefaultFine => "default-fine",
         }
     }
 
@@ -271,6 +275,9 @@ impl Method {
             Method::Default => SegmentationOptions::default(),
             Method::DefaultVoxelwise => {
                 SegmentationOptions { coherence: segmentation::Coherence::None, ..SegmentationOptions::default() }
+            }
+            Method::DefaultFine => {
+                SegmentationOptions { feature_set: FeatureSet::MultiscaleFine, ..SegmentationOptions::default() }
             }
         }
     }

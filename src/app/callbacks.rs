@@ -78,6 +78,8 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
     }));
     session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
+    session.on_toggle_unsure(handler!(window, state, idle, |w, s| { super::guidance::toggle_unsure(&w, s) }));
+    session.on_draw_here_next(handler!(window, state, idle, |w, s| { super::guidance::draw_here_next(&w, s) }));
     session.on_choose_template(handler!(window, state, idle, |w, s, name: slint::SharedString| {
         let rotation = s.borrow().template().rotation_degrees;
         if let Some(template) = TemplateType::from_name(&name) {

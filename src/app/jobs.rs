@@ -6,7 +6,8 @@
 //! Never: touches the UI; the app polls [`ClassificationJobs::poll`] from its event loop.
 
 use crate::pipeline::{self, RunControl};
-use crate::segmentation::SegmentationOptions;
+use crate::segmentation::uncertainty::{self, Survey};
+use crate::segmentation::{SegmentationOptions, Segmenter};
 use crate::strokes::StrokesFile;
 use crate::transfer::{ClassTable, HueTemplate};
 use crate::volume::Volume;
@@ -23,6 +24,22 @@ pub struct Classified {
     /// From "define class" to the result, training and labelling included.
     pub seconds: f64,
     pub classified_voxels: usize,
+    /// Where the classifier is unsure (the slices' tint, "Draw here next"); `None` when the
+    /// survey failed (logged).
+    pub guidance: Option<Arc<Guidance>>,
+}
+
+/// The trained classifier kept with its result, and the survey of its margins
+/// ([`uncertainty::survey`]).
+pub struct Guidance {
+    pub segmenter: Arc<Segmenter>,
+    pub survey: Survey,
+}
+
+impl std::fmt::Debug for Guidance {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.debug_struct("Guidance").field("survey", &self.survey).finish_non_exhaustive()
+    }
 }
 
 /// What a job ended with.
@@ -140,11 +157,32 @@ fn classify(
     let classified =
         pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
     let labelled = classified.labels;
+    let seconds = started.elapsed().as_secs_f64();
+    // After the result's time: the survey is for guidance, not part of the classification.
+    let surveyed = Instant::now();
+    let guidance = match uncertainty::survey(volume, &classified.segmenter, &labelled.labels) {
+        Ok(survey) => {
+            log::info!(
+                "unsure survey: {} of {} voxels (every {}th) unsure below margin {:.3}, {:.0} ms",
+                survey.unsure,
+                survey.evaluated,
+                survey.stride,
+                survey.threshold,
+                surveyed.elapsed().as_secs_f64() * 1000.0
+            );
+            Some(Arc::new(Guidance { segmenter: Arc::new(classified.segmenter), survey }))
+        }
+        Err(error) => {
+            log::warn!("cannot survey where the classifier is unsure: {error}");
+            None
+        }
+    };
     Ok(Classified {
         labels: Arc::new(labelled.labels),
         table: classified.table,
-        seconds: started.elapsed().as_secs_f64(),
+        seconds,
         classified_voxels: labelled.classified_voxels,
+        guidance,
     })
 }
 

@@ -34,11 +34,13 @@ pub mod clip;
 mod controller;
 pub mod drawing;
 pub mod gallery;
+mod guidance;
 pub mod jobs;
 pub mod library;
 mod loading;
 mod painter;
 pub mod pictures;
+mod queries;
 mod refresh;
 mod results;
 mod saver;
@@ -60,7 +62,7 @@ use drawing::FingerPath;
 use jobs::Classified;
 use library::{LoadedVolume, Loader, VolumeSource};
 use session::WorkSession;
-use slint::{ComponentHandle, Model};
+use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
@@ -155,6 +157,8 @@ struct Work {
     pan: [f32; 2],
     /// Why the last path on a panel meant nothing, shown on that panel until the next touch.
     feedback: Option<(usize, String)>,
+    /// The voxels the classifier is least sure of are striped on the slices (guidance.rs).
+    unsure_shown: bool,
 }
 
 impl Work {
@@ -181,6 +185,7 @@ impl Work {
             zoom: 1.0,
             pan: [0.0; 2],
             feedback: None,
+            unsure_shown: false,
             loaded,
         }
     }
@@ -478,72 +483,9 @@ impl App {
         slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
     }
 
-    /// The app's state by name, for replay scripts' `expect KEY VALUE`: `screen` (start,
-    /// chooser, work), `classes`, `pending`, `volume`, `banner`, `busy`, `classifying`, `classified`,
-    /// `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the chooser's cards),
-    /// `cannot-open` (those whose file cannot be opened), `panels` (the panels' axes, e.g.
-    /// `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown), `letters-z` /
-    /// `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown), `window`
-    /// (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the message
-    /// on a panel), `camera` (azimuth and elevation in degrees), `label-uploads` (label
-    /// volumes sent to the 3-D view: a restyle sends none), `opacity` (each class's opacity
-    /// in percent, e.g. `100,40`) `clip` (`off`, or the plane's normal and offset in mm),
-    /// `results` (the gallery's cards), `result-problem-N` (why card N, from 1, cannot be
-    /// opened; empty when it can) and `attract` (the start screen's turntable: off, loading,
-    /// rendering or playing).
+    /// The app's state by name, for replay scripts' `expect KEY VALUE` (the keys: queries.rs).
     pub fn query(&self, key: &str) -> Option<String> {
-        let state = self.state.borrow();
         let screen = self.window.global::<ui::Session>().get_screen();
-        let work = state.ctl.work.as_ref();
-        let value = match key {
-            "screen" => ["start", "chooser", "work"].get(screen as usize).unwrap_or(&"?").to_string(),
-            "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
-            "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
-            "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
-            "banner" => state.banner.clone(),
-            "busy" => (state.ctl.jobs.busy() || state.opening.is_some()).to_string(),
-            "classifying" => state.ctl.jobs.busy().to_string(),
-            "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
-            "cards" => state.volumes_model.row_count().to_string(),
-            "cannot-open" => state.volumes_model.iter().filter(|card| card.failed).count().to_string(),
-            "template" => {
-                let template = state.template();
-                format!("{} {}", template.template.name(), template.rotation_degrees)
-            }
-            "panels" => work.map_or(String::new(), |w| w.panels.map(|p| p.axis.name()).join(",")),
-            "window" => work.map_or(String::new(), |w| windowing::describe(&w.window_name, w.window)),
-            "enlarged" => {
-                work.and_then(|w| w.enlarged).and_then(|p| work?.panels.get(p)).map_or("none", |p| p.axis.name()).into()
-            }
-            "zoom" => format!("{:.1}", work.map_or(1.0, |w| w.zoom)),
-            "feedback" => work.and_then(|w| w.feedback.as_ref()).map_or(String::new(), |(_, m)| m.clone()),
-            "camera" => format!("{:.1} {:.1}", state.camera.azimuth_degrees, state.camera.elevation_degrees),
-            "label-uploads" => state.ctl.renderer.label_uploads().to_string(),
-            "clip" => state.ctl.look.clip.map_or("off".to_string(), |plane| {
-                let [x, y, z] = plane.normal;
-                format!("{x:.2},{y:.2},{z:.2} {:.1}", plane.offset_mm)
-            }),
-            "opacity" => {
-                let classes = work.map_or(0, |w| w.session.classes.len());
-                let percent = |index| format!("{:.0}", state.ctl.class_opacity(index) * 100.0);
-                (0..classes).map(percent).collect::<Vec<_>>().join(",")
-            }
-            "attract" => state.attract.describe().to_string(),
-            key if key.starts_with("result") => results::query(&state, key)?,
-            _ => {
-                let (kind, axis) = key.rsplit_once('-')?;
-                let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;
-                match kind {
-                    "slice" => panel.slice.to_string(),
-                    "plane" => panel.layout.plane.map_or("unknown", |plane| plane.name()).to_string(),
-                    "letters" => panel
-                        .layout
-                        .edge_letters
-                        .map_or(String::new(), |l| [l.top, l.right, l.bottom, l.left].join(",")),
-                    _ => return None,
-                }
-            }
-        };
-        Some(value)
+        queries::query(&self.state.borrow(), screen, key)
     }
 }

@@ -9,6 +9,7 @@
 //! Never: touches the UI, or blocks the caller.
 
 use super::pictures::{Highlight, PictureError, slice_picture};
+use crate::segmentation::{Segmenter, uncertainty};
 use crate::slices::{DisplayWindow, SliceLayout};
 use crate::strokes::Lasso;
 use crate::transfer::{ClassStyle, RgbImage};
@@ -30,6 +31,9 @@ pub struct PictureRequest {
     pub highlights: Vec<(Vec<Lasso>, [u8; 3])>,
     /// The 3-D view's clip plane: what it cuts away is dimmed (clip.rs).
     pub clip: Option<crate::render::ClipPlane>,
+    /// Where the classifier is unsure is striped: the trained classifier and the margin below
+    /// which a voxel is unsure (`segmentation::uncertainty`).
+    pub unsure: Option<(Arc<Segmenter>, f32)>,
 }
 
 impl PictureRequest {
@@ -38,8 +42,25 @@ impl PictureRequest {
             self.highlights.iter().map(|(lassos, colour)| Highlight { lassos, colour: *colour }).collect();
         let classification =
             self.classification.as_ref().map(|(labels, styles)| (labels.as_slice(), styles.as_slice()));
-        let mut picture =
-            slice_picture(&self.volume, &self.layout, self.slice, self.window, classification, &highlights)?;
+        let unsure = match (&self.unsure, &self.classification) {
+            (Some((segmenter, threshold)), Some((labels, _))) => {
+                let axis = self.layout.axis;
+                uncertainty::slice_unsure(&self.volume, segmenter, labels, *threshold, axis, self.slice)
+                    .map_err(|error| log::warn!("cannot mark the unsure voxels of the {axis} slice: {error}"))
+                    .ok()
+                    .flatten()
+            }
+            _ => None,
+        };
+        let mut picture = slice_picture(
+            &self.volume,
+            &self.layout,
+            self.slice,
+            self.window,
+            classification,
+            &highlights,
+            unsure.as_deref(),
+        )?;
         if let Some(plane) = &self.clip {
             let volume = &self.volume;
             super::clip::dim_cut(&mut picture, &self.layout, volume.dims, volume.spacing_mm, self.slice, plane);
@@ -160,6 +181,7 @@ mod tests {
             classification: None,
             highlights: Vec::new(),
             clip: None,
+            unsure: None,
         };
         let axes = plane_axes(orientation);
         let mut painter = SlicePainter::new();

@@ -49,6 +49,7 @@ pub fn slice_picture(
     window: DisplayWindow,
     classification: Option<(&[u8], &[ClassStyle])>,
     highlights: &[Highlight],
+    unsure: Option<&[bool]>,
 ) -> Result<RgbImage, PictureError> {
     volume.check_still_mapped()?;
     let axis = layout.axis;
@@ -75,10 +76,30 @@ pub fn slice_picture(
             });
         }
     }
+    if let Some(unsure) = unsure.filter(|flags| flags.len() == picture.width * picture.height) {
+        tint_unsure(&mut picture, unsure);
+    }
     let (pixels, width, height) = layout
         .arrange_pixels(&picture.pixels, 3, picture.width, picture.height)
         .ok_or(PictureError::Arrangement { slice, axis })?;
     Ok(RgbImage { width, height, pixels })
+}
+
+/// How unsure voxels look: diagonal stripes of [`UNSURE_COLOUR`] every third voxel, the rest
+/// lightened, over whatever class colour they have, so they stand out from every hue a
+/// template can give a class.
+pub const UNSURE_COLOUR: [u8; 3] = [255, 255, 255];
+
+/// Marks the pixels flagged in `unsure` (one flag per pixel of `picture`, before arrangement).
+fn tint_unsure(picture: &mut RgbImage, unsure: &[bool]) {
+    let width = picture.width.max(1);
+    for (pixel, _) in unsure.iter().enumerate().filter(|(_, flag)| **flag) {
+        let (i, j) = (pixel % width, pixel / width);
+        let alpha = if (i + j) % 3 == 0 { 0.85 } else { 0.35 };
+        for (channel, &colour) in picture.pixels[3 * pixel..][..3].iter_mut().zip(&UNSURE_COLOUR) {
+            *channel = (*channel as f32 * (1.0 - alpha) + colour as f32 * alpha).round() as u8;
+        }
+    }
 }
 
 /// The colour a class is shown with in the class bar: its style's mid hue once classified,
@@ -108,14 +129,21 @@ mod tests {
         let volume = &phantom.volume;
         let window = DisplayWindow::automatic(volume);
         let layout = SliceLayout::new(None, Axis::Z);
-        let plain = slice_picture(volume, &layout, 8, window, None, &[]).unwrap();
+        let plain = slice_picture(volume, &layout, 8, window, None, &[], None).unwrap();
         let lassos = [
             Lasso { axis: Axis::Z, slice: 8, points: vec![[1.5, 1.5], [5.5, 1.5], [5.5, 5.5], [1.5, 5.5]] },
             Lasso { axis: Axis::Z, slice: 9, points: vec![[10.0, 10.0], [20.0, 10.0], [20.0, 20.0]] },
         ];
-        let tinted =
-            slice_picture(volume, &layout, 8, window, None, &[Highlight { lassos: &lassos, colour: [255, 0, 0] }])
-                .unwrap();
+        let tinted = slice_picture(
+            volume,
+            &layout,
+            8,
+            window,
+            None,
+            &[Highlight { lassos: &lassos, colour: [255, 0, 0] }],
+            None,
+        )
+        .unwrap();
         let changed: Vec<usize> = (0..plain.width * plain.height)
             .filter(|&p| plain.pixels[3 * p..][..3] != tinted.pixels[3 * p..][..3])
             .collect();
@@ -172,6 +200,7 @@ mod tests {
                 window,
                 None,
                 &[Highlight { lassos: std::slice::from_ref(&lasso), colour: [255, 0, 0] }],
+                None,
             )
             .unwrap();
             assert_eq!([highlighted.width, highlighted.height], layout.screen_size(dims));
@@ -181,7 +210,8 @@ mod tests {
                 labels[voxel] = 1;
             }
             let classified =
-                slice_picture(&volume, &layout, 4, window, Some((&labels, std::slice::from_ref(&red))), &[]).unwrap();
+                slice_picture(&volume, &layout, 4, window, Some((&labels, std::slice::from_ref(&red))), &[], None)
+                    .unwrap();
             assert_eq!(coloured(&classified), under_finger, "{axis}: class overlay");
         }
     }
@@ -195,10 +225,32 @@ mod tests {
         assert!(volume.is_memory_mapped());
         let layout = SliceLayout::new(None, Axis::Z);
         let window = DisplayWindow::from_range(0.0, 255.0);
-        assert!(slice_picture(&volume, &layout, 15, window, None, &[]).is_ok());
+        assert!(slice_picture(&volume, &layout, 15, window, None, &[], None).is_ok());
         std::fs::OpenOptions::new().write(true).open(&path).unwrap().set_len(100).unwrap();
-        let error = slice_picture(&volume, &layout, 15, window, None, &[]).unwrap_err().to_string();
+        let error = slice_picture(&volume, &layout, 15, window, None, &[], None).unwrap_err().to_string();
         assert!(error.contains(&path.display().to_string()), "{error}");
+    }
+
+    #[test]
+    fn unsure_voxels_are_striped_on_screen_where_they_lie() {
+        let phantom = demo_foot_with([32, 24, 16], 3).unwrap();
+        let volume = &phantom.volume;
+        let window = DisplayWindow::automatic(volume);
+        let layout = SliceLayout::new(None, Axis::Z);
+        let plain = slice_picture(volume, &layout, 8, window, None, &[], None).unwrap();
+        let mut unsure = vec![false; 32 * 24];
+        for pixel in [0, 5, 6, 7, 40] {
+            unsure[pixel] = true;
+        }
+        let marked = slice_picture(volume, &layout, 8, window, None, &[], Some(&unsure)).unwrap();
+        let changed: Vec<usize> = (0..plain.width * plain.height)
+            .filter(|&p| plain.pixels[3 * p..][..3] != marked.pixels[3 * p..][..3])
+            .collect();
+        let brighter = |p: usize| marked.pixels[3 * p] > plain.pixels[3 * p];
+        assert!(changed.iter().all(|p| unsure[*p] && brighter(*p)), "{changed:?}");
+        assert!(changed.len() >= 4, "{changed:?}");
+        let wrong_size = slice_picture(volume, &layout, 8, window, None, &[], Some(&[true; 3])).unwrap();
+        assert_eq!(wrong_size.pixels, plain.pixels, "flags of another slice's size are ignored");
     }
 
     #[test]

@@ -27,7 +27,7 @@ pub struct AccuracyArgs {
     pub seeds: Vec<u64>,
     /// Methods (default: all): snsvm-paper5, svm-paper5, forest-paper5, svm-multiscale,
     /// snsvm-multiscale, forest-multiscale, forest-fine, default,
-    /// default-voxelwise.
+    /// default-voxelwise, default-fine.
     #[arg(long, value_delimiter = ',')]
     pub methods: Vec<String>,
     /// How the simulated user draws: clean (inside each structure), leaky (loops around it,

@@ -28,6 +28,7 @@ pub mod coherence;
 pub mod face_air;
 pub mod pairwise;
 mod refine;
+pub mod uncertainty;
 
 pub use background::{Background, BackgroundPlan};
 

@@ -212,12 +212,7 @@ impl Forest {
         let mut scratch = leaf_masks::Scratch::default();
         for (chunk_features, chunk_out) in features.chunks(CHUNK * self.dim).zip(out.chunks_mut(CHUNK)) {
             let votes = &mut votes[..chunk_out.len() * class_count];
-            votes.fill(0.0);
-            for (vectors, group_votes) in
-                chunk_features.chunks(LANES * self.dim).zip(votes.chunks_mut(LANES * class_count))
-            {
-                self.leaf_masks.add_votes(&self.trees, vectors, self.dim, group_votes, &mut scratch);
-            }
+            self.add_votes(chunk_features, votes, &mut scratch);
             for (label, voxel_votes) in chunk_out.iter_mut().zip(votes.chunks_exact(class_count)) {
                 let mut best = 0;
                 for (k, &vote) in voxel_votes.iter().enumerate() {
@@ -229,6 +224,24 @@ impl Forest {
             }
         }
         Ok(())
+    }
+
+    /// Each vector's votes (row-major, `votes.len() / class_ids().len()` vectors, one value
+    /// per class in [`class_ids`](Self::class_ids) order): the trees' leaf frequencies summed,
+    /// so a vector's votes add up to the number of trees.
+    pub fn votes_block(&self, features: &[f32], votes: &mut [f32]) -> Result<(), ClassifyError> {
+        let class_count = self.class_ids.len();
+        check_block(features, self.dim, votes.len() / class_count.max(1))?;
+        self.add_votes(features, votes, &mut leaf_masks::Scratch::default());
+        Ok(())
+    }
+
+    fn add_votes(&self, features: &[f32], votes: &mut [f32], scratch: &mut leaf_masks::Scratch) {
+        let class_count = self.class_ids.len();
+        votes.fill(0.0);
+        for (vectors, group_votes) in features.chunks(LANES * self.dim).zip(votes.chunks_mut(LANES * class_count)) {
+            self.leaf_masks.add_votes(&self.trees, vectors, self.dim, group_votes, scratch);
+        }
     }
 
     /// [`predict_block`](Self::predict_block) split over threads.

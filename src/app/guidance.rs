@@ -1,0 +1,98 @@
+//! Where to draw next: the "Unsure" toggle stripes, on the slices, the voxels the classifier
+//! is least sure of, and "Draw here next" moves a panel to the slice that holds most of them
+//! (`segmentation::uncertainty`; the paper's users asked for guidance, §5). Both act on the
+//! classification shown; before there is one they say so.
+//!
+//! The panel moved is the enlarged one when a slice is enlarged (the user is working there),
+//! otherwise whichever of the three panels' axes has the slice with the most unsure voxels.
+//! The stripes are turned on with it, so the user sees what to draw around.
+//!
+//! Never: changes the classes or the classification; it only moves panels and marks pictures.
+
+use super::ui::AppWindow;
+use super::{State, Work, refresh};
+use std::cell::RefCell;
+use std::rc::Rc;
+
+type Shared = Rc<RefCell<State>>;
+
+/// Said when there is nothing to be unsure of yet.
+pub const NOTHING_CLASSIFIED: &str = "Draw two classes first: then the classifier can say where it is unsure";
+
+/// Shown on the panel "Draw here next" moved, until the next touch on a slice.
+pub const PANEL_HINT: &str = "Draw here next: the least sure slice (striped)";
+
+/// The panel, its slice and the unsure voxels the survey found there: the enlarged panel's
+/// best slice when one is enlarged, else the best over the three panels. `None` before a
+/// classification with a survey, or when no voxel is unsure.
+pub(super) fn next_place(work: &Work) -> Option<(usize, usize, u32)> {
+    let survey = &work.classified.as_ref()?.guidance.as_ref()?.survey;
+    let candidates: Vec<usize> = match work.enlarged {
+        Some(panel) => vec![panel],
+        None => (0..work.panels.len()).collect(),
+    };
+    candidates
+        .into_iter()
+        .filter_map(|panel| {
+            let (slice, count) = survey.most_unsure_slice(work.panels.get(panel)?.axis)?;
+            Some((panel, slice, count))
+        })
+        .max_by_key(|&(panel, _, count)| (count, std::cmp::Reverse(panel)))
+}
+
+/// The status line for the stripes turned on or off.
+fn describe(work: &Work) -> String {
+    match work.classified.as_ref().and_then(|c| c.guidance.as_ref()) {
+        Some(guidance) if work.unsure_shown => {
+            format!("Striped: the {:.0} % least sure voxels", 100.0 * guidance.survey.unsure_fraction())
+        }
+        Some(_) => "Unsure voxels hidden".to_string(),
+        None => NOTHING_CLASSIFIED.to_string(),
+    }
+}
+
+/// "Unsure": stripes on or off.
+pub(super) fn toggle_unsure(window: &AppWindow, state: &Shared) {
+    {
+        let mut state = state.borrow_mut();
+        let Some(work) = state.ctl.work.as_mut() else { return };
+        let surveyed = work.classified.as_ref().is_some_and(|c| c.guidance.is_some());
+        work.unsure_shown = surveyed && !work.unsure_shown;
+        state.status = state.ctl.work.as_ref().map_or_else(String::new, describe);
+    }
+    refresh::push_work(window, state);
+}
+
+/// "Draw here next": the panel moves to the slice with the most unsure voxels, stripes on.
+pub(super) fn draw_here_next(window: &AppWindow, state: &Shared) {
+    let moved = {
+        let mut state_ref = state.borrow_mut();
+        let Some(work) = state_ref.ctl.work.as_mut() else { return };
+        let place = next_place(work);
+        let message = match place {
+            Some((panel, slice, _)) => {
+                let order = &work.loaded.entropies.axis(work.panels[panel].axis).order;
+                let shown = &mut work.panels[panel];
+                shown.slice = slice;
+                shown.rank = order.iter().position(|&s| s == slice).unwrap_or(shown.rank);
+                work.unsure_shown = true;
+                // Said on the panel itself, so the eye finds the slice that moved.
+                work.feedback = Some((panel, PANEL_HINT.to_string()));
+                let title =
+                    shown.layout.plane.map_or_else(|| format!("slice {}", shown.axis), |p| p.name().to_string());
+                format!("Draw here next: {title} {slice}")
+            }
+            None if work.classified.as_ref().is_some_and(|c| c.guidance.is_some()) => {
+                "The classifier is sure of every voxel it classified".to_string()
+            }
+            None => NOTHING_CLASSIFIED.to_string(),
+        };
+        state_ref.status = message;
+        place.is_some()
+    };
+    if moved {
+        refresh::push_work(window, state);
+    } else {
+        refresh::push_status(window, state);
+    }
+}
