@@ -4,7 +4,8 @@
 //!
 //! Voxel-by-voxel labels are noisy: a voxel's features see at most one voxel around it, so
 //! noise and partial volume give isolated voxels of a wrong class inside a structure and
-//! ragged borders. One pass of the filter removes isolated voxels and smooths borders.
+//! ragged borders. One pass of the filter removes isolated voxels and smooths borders; a
+//! second settles the voxels whose neighbours the first changed ([`DEFAULT_PASSES`]).
 //! Voxels whose six face neighbours all agree with them (or are background) keep their label
 //! unread, which leaves the interiors of structures alone and makes the pass cost little more
 //! than a scan of the label volume.
@@ -14,22 +15,50 @@
 
 use rayon::prelude::*;
 
+/// Passes of the filter the default runs ([`super::Coherence::Majority`]). A second pass
+/// settles what the first left ragged (a voxel whose neighbours changed); measured with
+/// `volasso accuracy` on the check cases (seeds 5-8, benches/README.md), mean macro Dice went
+/// from 0.781 to 0.789 with clean lassos and from 0.772 to 0.778 with leaky ones.
+pub const DEFAULT_PASSES: usize = 2;
+
 /// One pass over `labels` (`dims`, x fastest), in parallel over z planes; returns the voxels
 /// changed.
 pub fn majority_pass(labels: &mut [u8], dims: [usize; 3]) -> usize {
+    majority_passes(labels, dims, 1)
+}
+
+/// `passes` passes, each on the labels the one before left; returns the voxels changed in all.
+/// After the first, a pass visits only the planes next to a plane the pass before changed (a
+/// plane whose three planes kept their labels would give the same result again), and the
+/// passes stop early once one changes nothing.
+pub fn majority_passes(labels: &mut [u8], dims: [usize; 3], passes: usize) -> usize {
     let plane = dims[0] * dims[1];
     if plane == 0 {
         return 0;
     }
-    let original: &[u8] = labels;
-    let changes: Vec<Vec<(usize, u8)>> =
-        (0..dims[2]).into_par_iter().map(|z| majority_plane(original, dims, z)).collect();
+    let mut visit = vec![true; dims[2]];
     let mut changed = 0;
-    for (z, plane_changes) in changes.iter().enumerate() {
-        for &(index, label) in plane_changes {
-            labels[z * plane + index] = label;
+    for _ in 0..passes {
+        let original: &[u8] = labels;
+        let changes: Vec<Vec<(usize, u8)>> = (0..dims[2])
+            .into_par_iter()
+            .map(|z| if visit[z] { majority_plane(original, dims, z) } else { Vec::new() })
+            .collect();
+        visit.fill(false);
+        let mut changed_here = 0;
+        for (z, plane_changes) in changes.iter().enumerate() {
+            for &(index, label) in plane_changes {
+                labels[z * plane + index] = label;
+            }
+            if !plane_changes.is_empty() {
+                visit[z.saturating_sub(1)..(z + 2).min(dims[2])].fill(true);
+            }
+            changed_here += plane_changes.len();
         }
-        changed += plane_changes.len();
+        changed += changed_here;
+        if changed_here == 0 {
+            break;
+        }
     }
     changed
 }
@@ -278,6 +307,32 @@ mod tests {
         let mut labels = labels;
         majority_pass(&mut labels, dims);
         assert_eq!(labels, expected);
+    }
+
+    #[test]
+    fn passes_equal_single_passes_one_after_the_other() {
+        let mut rng = crate::rng::SplitMix64::new(5);
+        let dims = [10, 8, 9];
+        // Speckle in a few planes only, so later passes skip the others.
+        let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
+            .map(|i| {
+                let z = i / (dims[0] * dims[1]);
+                let block = 1 + u8::from(i % dims[0] >= 5);
+                if (z == 2 || z == 6) && rng.next_u64() % 3 == 0 { (rng.next_u64() % 3) as u8 } else { block }
+            })
+            .collect();
+        for passes in 1..=3 {
+            let mut expected = labels.clone();
+            let mut changed = 0;
+            for _ in 0..passes {
+                let after = reference_pass(&expected, dims);
+                changed += after.iter().zip(&expected).filter(|(a, b)| a != b).count();
+                expected = after;
+            }
+            let mut passed = labels.clone();
+            assert_eq!(majority_passes(&mut passed, dims, passes), changed, "{passes} passes");
+            assert_eq!(passed, expected, "{passes} passes");
+        }
     }
 
     #[test]

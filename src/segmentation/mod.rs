@@ -159,7 +159,8 @@ pub enum Standardisation {
 pub enum Coherence {
     /// Labels as the classifier gave them.
     None,
-    /// One pass of [`coherence::majority_pass`].
+    /// [`coherence::DEFAULT_PASSES`] passes of the majority filter
+    /// ([`coherence::majority_passes`]).
     Majority,
 }
 

@@ -202,7 +202,8 @@ fn label_volume_in(
     }
     if segmenter.coherence == super::Coherence::Majority {
         let started = std::time::Instant::now();
-        let changed = super::coherence::majority_pass(&mut labels, volume.dims);
+        let passes = super::coherence::DEFAULT_PASSES;
+        let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes);
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
     }
     for &(voxel, class) in &segmenter.lassoed {
