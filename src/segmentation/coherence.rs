@@ -149,44 +149,41 @@ fn neighbourhood_majority(
     counts: &mut [u8; 256],
 ) -> u8 {
     let (columns, rows) = (x.saturating_sub(1)..(x + 2).min(size_x), y.saturating_sub(1)..(y + 2).min(size_y));
-    // The common case first: the neighbourhood holds its own label and one other.
-    let (mut own_votes, mut other, mut other_votes, mut mixed) = (0u8, 0u8, 0u8, false);
+    // The neighbourhood's labels in a fixed block, background (0, no vote) past its end, so
+    // the counts below are loops of fixed length without branches.
+    let mut block = [0u8; 32];
+    let mut filled = 0;
     for neighbour_plane in planes.into_iter().flatten() {
         for ny in rows.clone() {
             for &label in &neighbour_plane[ny * size_x..][columns.clone()] {
-                if label == own {
-                    own_votes += 1;
-                } else if label != 0 {
-                    if other == 0 {
-                        other = label;
-                    }
-                    if label == other {
-                        other_votes += 1;
-                    } else {
-                        mixed = true;
-                    }
-                }
+                block[filled] = label;
+                filled += 1;
             }
         }
     }
-    if !mixed {
+    // The common case first: the neighbourhood holds its own label and at most one other
+    // (the largest other label; it is the only one when its votes are all the others').
+    let (mut own_votes, mut voting, mut other) = (0u8, 0u8, 0u8);
+    for &label in &block {
+        own_votes += u8::from(label == own);
+        voting += u8::from(label != 0);
+        other = other.max(if label == own { 0 } else { label });
+    }
+    let other_votes: u8 = block.iter().map(|&label| u8::from(label == other) & u8::from(other != 0)).sum();
+    if voting - own_votes == other_votes {
         return if other_votes > own_votes { other } else { own };
     }
     let mut seen = [0u8; 27];
     let mut distinct = 0;
-    for neighbour_plane in planes.into_iter().flatten() {
-        for ny in rows.clone() {
-            for &label in &neighbour_plane[ny * size_x..][columns.clone()] {
-                if label == 0 {
-                    continue;
-                }
-                if counts[label as usize] == 0 {
-                    seen[distinct] = label;
-                    distinct += 1;
-                }
-                counts[label as usize] += 1;
-            }
+    for &label in &block[..filled] {
+        if label == 0 {
+            continue;
         }
+        if counts[label as usize] == 0 {
+            seen[distinct] = label;
+            distinct += 1;
+        }
+        counts[label as usize] += 1;
     }
     let mut best = own;
     for &label in &seen[..distinct] {
