@@ -14,7 +14,8 @@
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
 //! * `rendering`: what `volasso render` draws with the default class table (every class seen).
-//! * `replay`: the kiosk UI driven by touch scripts through `volasso replay`.
+//! * `replay`: the kiosk UI driven by touch scripts through `volasso replay`;
+//!   `replay_gallery`: the same for kept results and attract mode.
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
 //!   multi-frame DICOM read to the voxels of the uncompressed series; the series listing.
@@ -39,4 +40,5 @@ mod malformed;
 mod mutations;
 mod rendering;
 mod replay;
+mod replay_gallery;
 mod support;
