@@ -1,7 +1,8 @@
-//! Where to draw next: the "Unsure" toggle stripes, on the slices, the voxels the classifier
+//! Where to draw next: the "Show unsure" toggle stripes, on the slices, the voxels the classifier
 //! is least sure of, and "Draw here next" moves a panel to the slice that holds most of them
-//! (`segmentation::uncertainty`; the paper's users asked for guidance, §5). Both act on the
-//! classification shown; before there is one they say so.
+//! (`segmentation::uncertainty`; in the paper's user survey, §4.1, users could miss regions
+//! the slices do not show). Both act on the classification shown; before there is one they
+//! say so.
 //!
 //! The panel moved is the enlarged one when a slice is enlarged (the user is working there),
 //! otherwise whichever of the three panels' axes has the slice with the most unsure voxels.

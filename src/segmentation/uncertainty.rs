@@ -1,7 +1,7 @@
 //! Where the classifier is unsure: each classified voxel's margin, the voxels with the
-//! smallest margins, and the slice that holds most of them. The paper's users asked where to
-//! draw next (§5); this answers with the classifier's own doubt, so the next lasso goes where
-//! it changes the most labels.
+//! smallest margins, and the slice that holds most of them. The paper's user survey (§4.1)
+//! found that users miss regions the slices do not show; this answers where to draw next with
+//! the classifier's own doubt, so the next lasso goes where it changes the most labels.
 //!
 //! A voxel's margin is how far its vote was from going the other way, in the classifier's own
 //! units:
