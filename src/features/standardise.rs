@@ -68,6 +68,19 @@ impl Standardiser {
         Ok(Standardiser { mean, std, training_low, training_high })
     }
 
+    /// The same standardisation with feature k multiplied by `weights[k]` after it: the
+    /// feature's weight in a distance between standardised vectors (the RBF kernel's). The
+    /// training range (for clamping) stays in raw units. Weights of another length than the
+    /// features, or not finite and positive, leave it as it is.
+    pub fn weighted(mut self, weights: &[f64]) -> Standardiser {
+        if weights.len() == self.std.len() && weights.iter().all(|w| w.is_finite() && *w > 0.0) {
+            for (deviation, weight) in self.std.iter_mut().zip(weights) {
+                *deviation /= weight;
+            }
+        }
+        self
+    }
+
     /// Features per vector.
     pub fn dim(&self) -> usize {
         self.mean.len()

@@ -344,7 +344,8 @@ pub fn train(
             value: volume.value(voxels[sample]),
         });
     }
-    let standardiser = Standardiser::fit(&raw_features, dim)?;
+    let weights = options.feature_set.distance_weights();
+    let standardiser = Standardiser::fit(&raw_features, dim)?.weighted(&weights);
     let values = standardiser.apply(&raw_features)?;
     let features_seconds = started.elapsed().as_secs_f64();
     let started = Instant::now();
@@ -354,7 +355,7 @@ pub fn train(
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
-                dim,
+                &weights,
                 &labels,
                 &class_ids,
                 &classifier,

@@ -44,11 +44,12 @@ pub struct PairwiseSnSvm {
 }
 
 impl PairwiseSnSvm {
-    /// Trains on `raw` feature vectors (`dim` per row, finite) with class `labels` from
-    /// `class_ids` (sorted, each present).
+    /// Trains on `raw` feature vectors (one value per weight in a row, finite) with class
+    /// `labels` from `class_ids` (sorted, each present); each pair's standardisation weighs its
+    /// features by `weights` ([`Standardiser::weighted`]).
     pub fn train(
         raw: &[f32],
-        dim: usize,
+        weights: &[f64],
         labels: &[u8],
         class_ids: &[u8],
         params: &SnSvmParams,
@@ -65,6 +66,7 @@ impl PairwiseSnSvm {
                 pair_classes.push((first, second));
             }
         }
+        let dim = weights.len();
         let pairs = pair_classes
             .par_iter()
             .map(|&(first, second)| {
@@ -73,7 +75,7 @@ impl PairwiseSnSvm {
                 let pair_raw: Vec<f32> =
                     rows.iter().flat_map(|&i| raw[i * dim..(i + 1) * dim].iter().copied()).collect();
                 let pair_labels: Vec<u8> = rows.iter().map(|&i| labels[i]).collect();
-                let standardiser = Standardiser::fit(&pair_raw, dim)?;
+                let standardiser = Standardiser::fit(&pair_raw, dim)?.weighted(weights);
                 let values = standardiser.apply(&pair_raw)?;
                 let mut params = *params;
                 if kernel_width == KernelWidth::Automatic {
@@ -170,7 +172,8 @@ mod tests {
         let (raw, labels) = samples();
         let params = SnSvmParams::default();
         let model =
-            PairwiseSnSvm::train(&raw, 2, &labels, &[1, 2, 3, 4], &params, KernelWidth::Automatic, 0.01).unwrap();
+            PairwiseSnSvm::train(&raw, &[1.0; 2], &labels, &[1, 2, 3, 4], &params, KernelWidth::Automatic, 0.01)
+                .unwrap();
         assert_eq!(model.pairs.len(), 6);
         let mut probes = vec![0.0, 0.3, 1.0, -0.2, 2.0, 0.1, 1000.0, 0.0, 0.45, 0.0, 1.55, 0.0];
         let mut out = vec![0u8; 6];
@@ -198,7 +201,8 @@ mod tests {
         let (raw, labels) = samples();
         let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
         let params = SnSvmParams::default();
-        let model = PairwiseSnSvm::train(&raw, 2, &labels, &[1, 2], &params, KernelWidth::Automatic, 0.0).unwrap();
+        let model =
+            PairwiseSnSvm::train(&raw, &[1.0; 2], &labels, &[1, 2], &params, KernelWidth::Automatic, 0.0).unwrap();
         let standardiser = Standardiser::fit(&raw, 2).unwrap();
         assert_eq!(model.pairs[0].standardiser, standardiser);
         let values = standardiser.apply(&raw).unwrap();
@@ -226,7 +230,8 @@ mod tests {
     fn one_class_is_refused_as_the_single_model_refuses_it() {
         let (raw, labels) = samples();
         let (raw, labels) = (&raw[..80], &labels[..40]);
-        let refused = PairwiseSnSvm::train(raw, 2, labels, &[1], &SnSvmParams::default(), KernelWidth::Automatic, 0.0);
+        let refused =
+            PairwiseSnSvm::train(raw, &[1.0; 2], labels, &[1], &SnSvmParams::default(), KernelWidth::Automatic, 0.0);
         assert!(matches!(
             refused,
             Err(SegmentationError::Classify(classify::ClassifyError::TooFewClasses { found: 1, .. }))
