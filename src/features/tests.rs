@@ -215,6 +215,25 @@ fn the_standardiser_refuses_bad_training_vectors() {
 }
 
 #[test]
+fn a_weighted_standardisation_scales_each_feature_after_it_in_both_paths() {
+    let training = [0.0f32, 10.0, 2.0, 30.0, 4.0, 50.0];
+    let plain = Standardiser::fit(&training, 2).unwrap();
+    let weighted = plain.clone().weighted(&[1.0, 0.25]);
+    let (a, b) = (plain.apply(&training).unwrap(), weighted.apply(&training).unwrap());
+    for (row, (a, b)) in a.chunks(2).zip(b.chunks(2)).enumerate() {
+        assert!((a[0] - b[0]).abs() < 1e-12, "row {row}: the first feature keeps its weight");
+        assert!((0.25 * a[1] - b[1]).abs() < 1e-12, "row {row}: the second counts a quarter");
+    }
+    let mut block = [2.0f32, 30.0];
+    weighted.apply_in_place(&mut block).unwrap();
+    assert!((block[1] as f64 - b[3]).abs() < 1e-6, "the prediction path weighs as training does");
+    assert_eq!(plain.clone().weighted(&[1.0]), plain, "weights of another length change nothing");
+    assert_eq!(plain.clone().weighted(&[1.0, 0.0]), plain, "a zero weight changes nothing");
+    assert_eq!(FeatureSet::Paper5.distance_weights()[1], crate::features::PAPER5_GRADIENT_WEIGHT);
+    assert!(FeatureSet::MultiscaleFine.distance_weights().iter().all(|&w| w == 1.0));
+}
+
+#[test]
 fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughput() {
     use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
     let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
