@@ -9,6 +9,14 @@ use std::path::{Path, PathBuf};
 /// at `THREE_SIZES` (replay.rs).
 const PANEL_SIZES: [&str; 1] = ["1280x800"];
 
+/// `volasso replay SCRIPT --data-dir DATA --size SIZE` in `work`: the report.
+fn replay_on_data(script_name: &str, data: &Path, size: &str, work: &Path) -> serde_json::Value {
+    replay(
+        &["replay", script(script_name).to_str().unwrap(), "--data-dir", data.to_str().unwrap(), "--size", size],
+        work,
+    )
+}
+
 /// "Save" keeps the result in the data folder's gallery (one folder: the entry and its
 /// thumbnail); its card in the chooser restores the same classes, visibility, labels, camera
 /// and 3-D pixels (`gallery-save-open.touch`).
@@ -18,17 +26,7 @@ fn a_kept_result_opens_from_the_gallery_as_it_was_saved() {
         let work = tempfile::tempdir().unwrap();
         let data = work.path().join("data");
         std::fs::create_dir_all(&data).unwrap();
-        let report = replay(
-            &[
-                "replay",
-                script("gallery-save-open.touch").to_str().unwrap(),
-                "--data-dir",
-                data.to_str().unwrap(),
-                "--size",
-                size,
-            ],
-            work.path(),
-        );
+        let report = replay_on_data("gallery-save-open.touch", &data, size, work.path());
         assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
         let entries: Vec<PathBuf> =
             std::fs::read_dir(data.join("gallery")).unwrap().map(|e| e.unwrap().path()).collect();
@@ -74,17 +72,7 @@ fn damaged_gallery_entries_and_missing_scans_say_so_on_their_cards() {
         let work = tempfile::tempdir().unwrap();
         write_gallery_problems(work.path());
         let data = work.path().join("data");
-        let report = replay(
-            &[
-                "replay",
-                script("gallery-problems.touch").to_str().unwrap(),
-                "--data-dir",
-                data.to_str().unwrap(),
-                "--size",
-                size,
-            ],
-            work.path(),
-        );
+        let report = replay_on_data("gallery-problems.touch", &data, size, work.path());
         assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{size}: {report}");
     }
 }

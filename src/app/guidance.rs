@@ -27,7 +27,7 @@ pub const PANEL_HINT: &str = "Draw here next: the least sure slice (striped)";
 /// best slice when one is enlarged, else the best over the three panels. `None` before a
 /// classification with a survey, or when no voxel is unsure.
 pub(super) fn next_place(work: &Work) -> Option<(usize, usize, u32)> {
-    let survey = &work.classified.as_ref()?.guidance.as_ref()?.survey;
+    let survey = &work.guidance()?.survey;
     let candidates: Vec<usize> = match work.enlarged {
         Some(panel) => vec![panel],
         None => (0..work.panels.len()).collect(),
@@ -43,7 +43,7 @@ pub(super) fn next_place(work: &Work) -> Option<(usize, usize, u32)> {
 
 /// The status line for the stripes turned on or off.
 fn describe(work: &Work) -> String {
-    match work.classified.as_ref().and_then(|c| c.guidance.as_ref()) {
+    match work.guidance() {
         Some(guidance) if work.unsure_shown => {
             format!("Striped: the {:.0} % least sure voxels", 100.0 * guidance.survey.unsure_fraction())
         }
@@ -57,7 +57,7 @@ pub(super) fn toggle_unsure(window: &AppWindow, state: &Shared) {
     {
         let mut state = state.borrow_mut();
         let Some(work) = state.ctl.work.as_mut() else { return };
-        let surveyed = work.classified.as_ref().is_some_and(|c| c.guidance.is_some());
+        let surveyed = work.guidance().is_some();
         work.unsure_shown = surveyed && !work.unsure_shown;
         state.status = state.ctl.work.as_ref().map_or_else(String::new, describe);
     }
@@ -83,9 +83,7 @@ pub(super) fn draw_here_next(window: &AppWindow, state: &Shared) {
                     shown.layout.plane.map_or_else(|| format!("slice {}", shown.axis), |p| p.name().to_string());
                 format!("Draw here next: {title} {slice}")
             }
-            None if work.classified.as_ref().is_some_and(|c| c.guidance.is_some()) => {
-                "The classifier is sure of every voxel it classified".to_string()
-            }
+            None if work.guidance().is_some() => "The classifier is sure of every voxel it classified".to_string(),
             None => NOTHING_CLASSIFIED.to_string(),
         };
         state_ref.status = message;

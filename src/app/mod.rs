@@ -162,6 +162,12 @@ struct Work {
 }
 
 impl Work {
+    /// The trained classifier and the survey of where it is unsure, for the classification
+    /// shown; `None` before one (or when its survey failed).
+    fn guidance(&self) -> Option<&jobs::Guidance> {
+        self.classified.as_ref()?.guidance.as_deref()
+    }
+
     /// Work on a newly opened volume: no classes yet, each panel on its highest-ranked slice,
     /// the volume's first display window.
     fn new(loaded: LoadedVolume) -> Work {

@@ -62,7 +62,7 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
             if work?.panels[panel].slice == slice { "yes" } else { "no" }.to_string()
         }
         "unsure-share" => {
-            let guidance = work?.classified.as_ref()?.guidance.as_ref()?;
+            let guidance = work?.guidance()?;
             format!("{:.0}", 100.0 * guidance.survey.unsure_fraction())
         }
         key if key.starts_with("result") => results::query(state, key)?,

@@ -144,7 +144,7 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     session.set_pending_voxels(pending_voxels.min(i32::MAX as usize) as i32);
     session.set_can_undo(work.session.can_undo());
     session.set_can_define(work.session.can_define());
-    session.set_can_guide(work.classified.as_ref().is_some_and(|c| c.guidance.is_some()));
+    session.set_can_guide(work.guidance().is_some());
     session.set_unsure_shown(work.unsure_shown);
     session.set_template_name(template.template.name().into());
     session.set_template_rotation(template.rotation_degrees.rem_euclid(360.0) as i32);
@@ -221,9 +221,7 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
         highlights,
         clip: state_ref.ctl.look.clip,
         unsure: work
-            .classified
-            .as_ref()
-            .and_then(|c| c.guidance.as_ref())
+            .guidance()
             .filter(|_| work.unsure_shown)
             .map(|guidance| (guidance.segmenter.clone(), guidance.survey.threshold)),
     };

@@ -36,7 +36,10 @@ pub use error::ClassifyError;
 pub use forest::{Forest, ForestParams};
 pub use kernel::Kernel;
 pub use model::Model;
-pub use ovo::{ClassPair, MAX_POINTS_PER_PAIR, PairReport, TrainReport, train, train_with_classes};
+pub use ovo::{
+    ClassPair, MAX_POINTS_PER_PAIR, PairReport, TrainReport, ranks_above, tally_votes, train, train_with_classes,
+    vote_winner,
+};
 pub use params::{ScaleMode, SnSvmParams, SnSvmValidParams};
 pub use smo::SolveReport;
 pub use snsvm::PenaltySpectra;

@@ -228,5 +228,29 @@ fn train_checked(
     }))
 }
 
+/// One voxel's one-vs-one votes: each pair's decision value `values[p]` votes for the first
+/// class of `pair_positions[p]` when positive, else for the second; `votes` and `strength`
+/// (per class position, the votes won and the summed |f| of them) are overwritten.
+pub fn tally_votes(pair_positions: &[(usize, usize)], values: &[f32], votes: &mut [u32], strength: &mut [f32]) {
+    votes.fill(0);
+    strength.fill(0.0);
+    for (&(first, second), &f) in pair_positions.iter().zip(values) {
+        let winner = if f > 0.0 { first } else { second };
+        votes[winner] += 1;
+        strength[winner] += f.abs();
+    }
+}
+
+/// Whether class position `a` ranks above `b` in the vote: more votes, or as many and a larger
+/// summed |f|.
+pub fn ranks_above(votes: &[u32], strength: &[f32], a: usize, b: usize) -> bool {
+    votes[a] > votes[b] || votes[a] == votes[b] && strength[a] > strength[b]
+}
+
+/// The position of the class that wins the vote: the first that no later class ranks above.
+pub fn vote_winner(votes: &[u32], strength: &[f32]) -> usize {
+    (1..votes.len()).fold(0, |best, class| if ranks_above(votes, strength, class, best) { class } else { best })
+}
+
 #[cfg(test)]
 mod tests;

@@ -210,22 +210,8 @@ fn vote(model: &Model, values: &[f32], votes: &mut [u32], strength: &mut [f32]) 
     if values.iter().any(|v| v.is_nan()) {
         return 0;
     }
-    votes.fill(0);
-    strength.fill(0.0);
-    for (&(first, second), &f) in model.pair_positions.iter().zip(values) {
-        let winner = if f > 0.0 { first } else { second };
-        votes[winner] += 1;
-        strength[winner] += f.abs();
-    }
-    let mut best = 0;
-    for class in 1..votes.len() {
-        let more = votes[class] > votes[best];
-        let stronger = votes[class] == votes[best] && strength[class] > strength[best];
-        if more || stronger {
-            best = class;
-        }
-    }
-    model.class_ids[best]
+    super::ovo::tally_votes(&model.pair_positions, values, votes, strength);
+    model.class_ids[super::ovo::vote_winner(votes, strength)]
 }
 
 impl Model {

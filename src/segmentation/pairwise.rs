@@ -133,13 +133,7 @@ impl PairwiseSnSvm {
                 *label = 0;
                 continue;
             }
-            let mut best = 0;
-            for class in 1..classes {
-                if votes[class] > votes[best] || votes[class] == votes[best] && strength[class] > strength[best] {
-                    best = class;
-                }
-            }
-            *label = self.class_ids[best];
+            *label = self.class_ids[classify::vote_winner(votes, strength)];
         }
         Ok(())
     }

@@ -21,6 +21,7 @@
 //! Never: changes labels, or decides what is shown.
 
 use super::{SegmentationError, Segmenter, TrainedClassifier};
+use crate::classify;
 use crate::features::features_of_voxels;
 use crate::slices::{Axis, SliceGeometry};
 use crate::volume::Volume;
@@ -145,18 +146,11 @@ fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], margins: &
             *margin = f32::NAN;
             continue;
         }
-        votes.fill(0);
-        strength.fill(0.0);
-        for (&(first, second), &f) in pair_positions.iter().zip(values) {
-            let winner = if f > 0.0 { first } else { second };
-            votes[winner] += 1;
-            strength[winner] += f.abs();
-        }
-        let better = |a: usize, b: usize| votes[a] > votes[b] || votes[a] == votes[b] && strength[a] > strength[b];
-        let winner = (1..classes).fold(0, |best, class| if better(class, best) { class } else { best });
+        classify::tally_votes(&pair_positions, values, &mut votes, &mut strength);
+        let winner = classify::vote_winner(&votes, &strength);
         let runner_up = (0..classes)
             .filter(|&class| class != winner)
-            .reduce(|best, class| if better(class, best) { class } else { best })
+            .reduce(|best, class| if classify::ranks_above(&votes, &strength, class, best) { class } else { best })
             .unwrap_or(winner);
         let pair =
             pair_positions.iter().position(|&(a, b)| (a, b) == (winner, runner_up) || (b, a) == (winner, runner_up));
