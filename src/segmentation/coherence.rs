@@ -91,25 +91,29 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize) -> Vec<(usize, u8
             continue;
         }
         disagreeing_voxels(row, neighbours, &mut flags);
-        for (x, (&own, &flag)) in row.iter().zip(flags.iter()).enumerate() {
-            if flag == 0 || own == 0 {
-                continue;
-            }
-            let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &mut counts);
-            if best != own {
-                changes.push((start + x, best));
+        // Few voxels of a row are flagged: skip eight unflagged ones at a time.
+        for (chunk, eight) in flags.chunks(8).enumerate() {
+            let mut bits = eight.iter().rev().fold(0u64, |bits, &flag| bits << 8 | u64::from(flag));
+            while bits != 0 {
+                let x = chunk * 8 + bits.trailing_zeros() as usize / 8;
+                bits &= bits - 1;
+                let own = row[x];
+                let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &mut counts);
+                if best != own {
+                    changes.push((start + x, best));
+                }
             }
         }
     }
     changes
 }
 
-/// Into `flags` (one per voxel of `row`): non-zero where a face neighbour (beside it in the
-/// row, or in one of the `neighbours` rows) holds another class than the voxel (background
-/// neither agrees nor disagrees). Whole-row loops of byte operations without branches, which
-/// vectorise; the caller visits only the flagged voxels.
+/// Into `flags` (one per voxel of `row`): 1 where the voxel is classified and a face
+/// neighbour (beside it in the row, or in one of the `neighbours` rows) holds another class
+/// (background neither agrees nor disagrees), 0 elsewhere. Whole-row loops of byte operations
+/// without branches, which vectorise; the caller visits only the flagged voxels.
 fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u8]) {
-    let disagrees = |own: u8, other: u8| u8::from(other != 0) & u8::from(other != own);
+    let disagrees = |own: u8, other: u8| u8::from(own != 0) & u8::from(other != 0) & u8::from(other != own);
     flags.fill(0);
     for neighbour in neighbours.into_iter().flatten() {
         for ((flag, &own), &other) in flags.iter_mut().zip(row).zip(neighbour) {
@@ -148,16 +152,29 @@ fn neighbourhood_majority(
     own: u8,
     counts: &mut [u8; 256],
 ) -> u8 {
-    let (columns, rows) = (x.saturating_sub(1)..(x + 2).min(size_x), y.saturating_sub(1)..(y + 2).min(size_y));
     // The neighbourhood's labels in a fixed block, background (0, no vote) past its end, so
     // the counts below are loops of fixed length without branches.
     let mut block = [0u8; 32];
     let mut filled = 0;
-    for neighbour_plane in planes.into_iter().flatten() {
-        for ny in rows.clone() {
-            for &label in &neighbour_plane[ny * size_x..][columns.clone()] {
-                block[filled] = label;
-                filled += 1;
+    if let ([Some(below), Some(here), Some(above)], true) =
+        (planes, (1..size_x - 1).contains(&x) && (1..size_y - 1).contains(&y))
+    {
+        // Inside the volume (almost every voxel): nine rows of three.
+        let first = (y - 1) * size_x + x - 1;
+        for neighbour_plane in [below, here, above] {
+            for row_start in [first, first + size_x, first + 2 * size_x] {
+                block[filled..filled + 3].copy_from_slice(&neighbour_plane[row_start..row_start + 3]);
+                filled += 3;
+            }
+        }
+    } else {
+        let (columns, rows) = (x.saturating_sub(1)..(x + 2).min(size_x), y.saturating_sub(1)..(y + 2).min(size_y));
+        for neighbour_plane in planes.into_iter().flatten() {
+            for ny in rows.clone() {
+                for &label in &neighbour_plane[ny * size_x..][columns.clone()] {
+                    block[filled] = label;
+                    filled += 1;
+                }
             }
         }
     }
