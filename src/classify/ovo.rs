@@ -232,9 +232,25 @@ fn train_checked(
 /// class of `pair_positions[p]` when positive, else for the second; `votes` and `strength`
 /// (per class position, the votes won and the summed |f| of them) are overwritten.
 pub fn tally_votes(pair_positions: &[(usize, usize)], values: &[f32], votes: &mut [u32], strength: &mut [f32]) {
+    tally_votes_among(pair_positions, values, u64::MAX, votes, strength);
+}
+
+/// [`tally_votes`] with only the pairs of which both classes are in `allowed` voting (bit p for
+/// class position p; positions from 64 up always vote).
+pub fn tally_votes_among(
+    pair_positions: &[(usize, usize)],
+    values: &[f32],
+    allowed: u64,
+    votes: &mut [u32],
+    strength: &mut [f32],
+) {
+    let allows = |position: usize| position >= 64 || allowed >> position & 1 == 1;
     votes.fill(0);
     strength.fill(0.0);
     for (&(first, second), &f) in pair_positions.iter().zip(values) {
+        if !(allows(first) && allows(second)) {
+            continue;
+        }
         let winner = if f > 0.0 { first } else { second };
         votes[winner] += 1;
         strength[winner] += f.abs();

@@ -26,6 +26,7 @@ mod background;
 mod coarse_grid;
 pub mod coherence;
 pub mod face_air;
+pub mod gate;
 pub mod pairwise;
 mod refine;
 pub mod uncertainty;
@@ -353,11 +354,17 @@ pub fn train(
     let mut classifier = options.classifier;
     let trained = match options.classifier_kind {
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
+            let gate = if training.classes.len() == class_ids.len() {
+                gate::IntensityGate::from_drawn(volume, training)
+            } else {
+                gate::IntensityGate::open(class_ids.len())
+            };
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
                 &weights,
                 &labels,
                 &class_ids,
+                gate,
                 &classifier,
                 options.kernel_width,
                 options.prune_relative,

@@ -13,8 +13,12 @@
 //! decision value votes, and the vote is [`crate::classify::Model`]'s: most votes, then the
 //! larger summed |f| of the winning votes, then the smaller class id.
 //!
+//! The [`IntensityGate`] comes first: a voxel whose intensity only one class's drawn band
+//! allows is that class without a vote, and only the pairs of allowed classes vote on the rest.
+//!
 //! Never: chooses the training voxels, or the background.
 
+use super::gate::IntensityGate;
 use super::{KernelWidth, SegmentationError, median_heuristic_width};
 use crate::classify::{self, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport};
 use crate::features::Standardiser;
@@ -41,17 +45,22 @@ pub struct PairwiseSnSvm {
     /// Every pair's training report, in pair order; `expansion_points` is the sum over pairs
     /// (the kernel terms a voxel costs).
     pub report: TrainReport,
+    /// The classes each intensity allows (bands in `class_ids` order).
+    pub gate: IntensityGate,
 }
 
 impl PairwiseSnSvm {
-    /// Trains on `raw` feature vectors (one value per weight in a row, finite) with class
-    /// `labels` from `class_ids` (sorted, each present); each pair's standardisation weighs its
-    /// features by `weights` ([`Standardiser::weighted`]).
+    /// Trains on `raw` feature vectors (one value per weight in a row, finite; the first is
+    /// the intensity) with class `labels` from `class_ids` (sorted, each present); each pair's
+    /// standardisation weighs its features by `weights` ([`Standardiser::weighted`]). `gate`
+    /// holds a band per class in `class_ids` order (or is open).
+    #[allow(clippy::too_many_arguments)]
     pub fn train(
         raw: &[f32],
         weights: &[f64],
         labels: &[u8],
         class_ids: &[u8],
+        gate: IntensityGate,
         params: &SnSvmParams,
         kernel_width: KernelWidth,
         prune_relative: f64,
@@ -97,45 +106,82 @@ impl PairwiseSnSvm {
             samples: labels.len(),
             expansion_points: pairs.iter().map(|pair| pair.model.report().expansion_points).sum(),
         };
-        Ok(PairwiseSnSvm { pairs, class_ids: class_ids.to_vec(), report })
+        let gate = if gate.classes() == class_ids.len() { gate } else { IntensityGate::open(class_ids.len()) };
+        Ok(PairwiseSnSvm { pairs, class_ids: class_ids.to_vec(), report, gate })
     }
 
     /// Class ids of a block of raw feature vectors (row-major, `out.len()` rows), into `out`;
-    /// `features` is standardised in place when there is one pair.
+    /// `features` is scratch. A voxel with a non-finite feature is not classified (0).
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
+        let dim = features.len() / out.len().max(1);
+        // The gate first: most voxels' intensity allows one class only.
+        let mut undecided = Vec::new();
+        let mut allowed_sets = Vec::new();
+        for (voxel, (row, label)) in features.chunks_exact(dim.max(1)).zip(out.iter_mut()).enumerate() {
+            let allowed = self.gate.allowed(row[0]);
+            if allowed == 0 || row.iter().any(|v| !v.is_finite()) {
+                *label = 0;
+            } else if allowed.count_ones() == 1 {
+                *label = self.class_ids[allowed.trailing_zeros() as usize];
+            } else {
+                undecided.push(voxel);
+                allowed_sets.push(allowed);
+            }
+        }
+        if undecided.is_empty() {
+            return Ok(());
+        }
+        let mut gathered: Vec<f32> =
+            undecided.iter().flat_map(|&v| features[v * dim..(v + 1) * dim].iter().copied()).collect();
+        let mut decided = vec![0u8; undecided.len()];
+        self.vote_block(&mut gathered, &allowed_sets, &mut decided)?;
+        for (&voxel, &label) in undecided.iter().zip(&decided) {
+            out[voxel] = label;
+        }
+        Ok(())
+    }
+
+    /// The vote of the pairs whose classes `allowed_sets` allows, one set per row of `features`
+    /// (raw, finite; scratch).
+    fn vote_block(&self, features: &mut [f32], allowed_sets: &[u64], out: &mut [u8]) -> Result<(), SegmentationError> {
         if let [pair] = self.pairs.as_slice() {
             pair.standardiser.apply_in_place(features)?;
             pair.model.predict_block(features, out)?;
             return Ok(());
         }
         let classes = self.class_ids.len();
-        // Per voxel and class: votes, and the summed |f| of the votes won.
-        let mut votes = vec![0u32; out.len() * classes];
-        let mut strength = vec![0f32; out.len() * classes];
-        let mut scaled = vec![0f32; features.len()];
-        let mut values = vec![0f32; out.len()];
+        let pairs = self.pairs.len();
         let position = |id: u8| self.class_ids.iter().position(|&c| c == id).unwrap_or(0);
-        for pair in &self.pairs {
+        let pair_positions: Vec<(usize, usize)> =
+            self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect();
+        // Per voxel, every pair's decision value (pairs of classes the gate rules out included:
+        // a block is evaluated pair by pair).
+        let mut values = vec![0f32; out.len() * pairs];
+        let mut scaled = vec![0f32; features.len()];
+        let mut pair_values = vec![0f32; out.len()];
+        for (p, pair) in self.pairs.iter().enumerate() {
             scaled.copy_from_slice(features);
             pair.standardiser.apply_in_place(&mut scaled)?;
-            pair.model.decision_values_block(&scaled, &mut values)?;
-            let (first, second) = (position(pair.classes.0), position(pair.classes.1));
-            for (voxel, &f) in values.iter().enumerate() {
-                let winner = if f > 0.0 { first } else { second };
-                votes[voxel * classes + winner] += 1;
-                strength[voxel * classes + winner] += f.abs();
+            pair.model.decision_values_block(&scaled, &mut pair_values)?;
+            for (voxel, &f) in pair_values.iter().enumerate() {
+                values[voxel * pairs + p] = f;
             }
         }
-        for (voxel, label) in out.iter_mut().enumerate() {
-            let (votes, strength) = (&votes[voxel * classes..][..classes], &strength[voxel * classes..][..classes]);
-            if strength.iter().any(|s| s.is_nan()) {
-                // A non-finite feature: not classified, as the single model does.
-                *label = 0;
-                continue;
-            }
-            *label = self.class_ids[classify::vote_winner(votes, strength)];
+        let (mut votes, mut strength) = (vec![0u32; classes], vec![0f32; classes]);
+        for ((label, values), &allowed) in out.iter_mut().zip(values.chunks_exact(pairs)).zip(allowed_sets) {
+            classify::tally_votes_among(&pair_positions, values, allowed, &mut votes, &mut strength);
+            *label = if strength.iter().any(|s| s.is_nan()) {
+                0
+            } else {
+                self.class_ids[classify::vote_winner(&votes, &strength)]
+            };
         }
         Ok(())
+    }
+
+    /// The classes the gate allows for each row of raw `features` (`dim` values a row).
+    pub fn allowed_sets(&self, features: &[f32], dim: usize) -> Vec<u64> {
+        features.chunks_exact(dim.max(1)).map(|row| self.gate.allowed(row[0])).collect()
     }
 }
 
@@ -143,6 +189,7 @@ impl PairwiseSnSvm {
 mod tests {
     use super::*;
     use crate::rng::SplitMix64;
+    use crate::segmentation::gate::Band;
 
     /// Four classes along one feature, spaced 1, 1 and 1000 apart (muscle, liver, ..., bone),
     /// with a second feature of noise; deviation 0.2 within each class.
@@ -165,9 +212,17 @@ mod tests {
     fn close_classes_stay_apart_beside_a_far_one() {
         let (raw, labels) = samples();
         let params = SnSvmParams::default();
-        let model =
-            PairwiseSnSvm::train(&raw, &[1.0; 2], &labels, &[1, 2, 3, 4], &params, KernelWidth::Automatic, 0.01)
-                .unwrap();
+        let model = PairwiseSnSvm::train(
+            &raw,
+            &[1.0; 2],
+            &labels,
+            &[1, 2, 3, 4],
+            IntensityGate::open(4),
+            &params,
+            KernelWidth::Automatic,
+            0.01,
+        )
+        .unwrap();
         assert_eq!(model.pairs.len(), 6);
         let mut probes = vec![0.0, 0.3, 1.0, -0.2, 2.0, 0.1, 1000.0, 0.0, 0.45, 0.0, 1.55, 0.0];
         let mut out = vec![0u8; 6];
@@ -191,12 +246,65 @@ mod tests {
     }
 
     #[test]
+    fn the_gate_gives_a_voxel_its_band_s_class_and_leaves_the_rest_to_the_allowed_pairs() {
+        // Air (-1000, flat), soft tissue (0, gentle gradients) and a thin class (200, steep
+        // gradients). A voxel of soft tissue's intensity with a steep gradient: the thin class
+        // wins its pairs on the gradient and so the vote; the gate gives it to the one class
+        // whose band holds its intensity. A voxel between the bands of air and soft tissue
+        // (the skin's air) is left to their pair.
+        let mut rng = SplitMix64::new(11);
+        let (mut raw, mut labels) = (Vec::new(), Vec::new());
+        for (class, centre, gradient, spread) in
+            [(1u8, -1000.0, 0.0, 1.0), (2, 0.0, 10.0, 10.0), (3, 200.0, 300.0, 60.0)]
+        {
+            for _ in 0..40 {
+                raw.extend([centre + 5.0 * rng.next_gaussian(), gradient + spread * rng.next_gaussian().abs()]);
+                labels.push(class);
+            }
+        }
+        let train = |gate| {
+            PairwiseSnSvm::train(
+                &raw,
+                &[1.0; 2],
+                &labels,
+                &[1, 2, 3],
+                gate,
+                &SnSvmParams::default(),
+                KernelWidth::Automatic,
+                0.01,
+            )
+            .unwrap()
+        };
+        let bands = [(-1010.0, -990.0), (-10.0, 10.0), (190.0, 210.0)];
+        let gated = train(IntensityGate::from_bands(bands.iter().map(|&(low, high)| Band { low, high }).collect()));
+        let open = train(IntensityGate::open(3));
+        // The skin's air, a steep voxel inside soft tissue's band, one brighter than every band,
+        // and a NaN.
+        let probes = [-900.0, 300.0, 0.0, 300.0, 5000.0, 0.0, f32::NAN, 0.0];
+        let (mut open_labels, mut gated_labels) = ([0u8; 4], [0u8; 4]);
+        open.classify_block(&mut probes.clone(), &mut open_labels).unwrap();
+        gated.classify_block(&mut probes.clone(), &mut gated_labels).unwrap();
+        assert_eq!(open_labels[1], 3, "the vote of all pairs was expected to give the steep voxel to the thin class");
+        assert!([1, 2].contains(&gated_labels[0]));
+        assert_eq!(gated_labels[1..], [2, 3, 0]);
+    }
+
+    #[test]
     fn two_classes_are_the_single_model_on_their_standardisation() {
         let (raw, labels) = samples();
         let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
         let params = SnSvmParams::default();
-        let model =
-            PairwiseSnSvm::train(&raw, &[1.0; 2], &labels, &[1, 2], &params, KernelWidth::Automatic, 0.0).unwrap();
+        let model = PairwiseSnSvm::train(
+            &raw,
+            &[1.0; 2],
+            &labels,
+            &[1, 2],
+            IntensityGate::open(2),
+            &params,
+            KernelWidth::Automatic,
+            0.0,
+        )
+        .unwrap();
         let standardiser = Standardiser::fit(&raw, 2).unwrap();
         assert_eq!(model.pairs[0].standardiser, standardiser);
         let values = standardiser.apply(&raw).unwrap();
@@ -224,8 +332,16 @@ mod tests {
     fn one_class_is_refused_as_the_single_model_refuses_it() {
         let (raw, labels) = samples();
         let (raw, labels) = (&raw[..80], &labels[..40]);
-        let refused =
-            PairwiseSnSvm::train(raw, &[1.0; 2], labels, &[1], &SnSvmParams::default(), KernelWidth::Automatic, 0.0);
+        let refused = PairwiseSnSvm::train(
+            raw,
+            &[1.0; 2],
+            labels,
+            &[1],
+            IntensityGate::open(1),
+            &SnSvmParams::default(),
+            KernelWidth::Automatic,
+            0.0,
+        );
         assert!(matches!(
             refused,
             Err(SegmentationError::Classify(classify::ClassifyError::TooFewClasses { found: 1, .. }))

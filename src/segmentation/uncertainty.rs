@@ -20,7 +20,7 @@
 //!
 //! Never: changes labels, or decides what is shown.
 
-use super::{SegmentationError, Segmenter, TrainedClassifier};
+use super::{SegmentationError, Segmenter, TrainedClassifier, gate};
 use crate::classify;
 use crate::features::features_of_voxels;
 use crate::slices::{Axis, SliceGeometry};
@@ -90,9 +90,10 @@ pub fn margins_block(
             let pairs: Vec<(u8, u8)> = model.pairs().iter().map(|pair| (pair.first, pair.second)).collect();
             let mut values = vec![0f32; margins.len() * pairs.len()];
             model.decision_values_block(features, &mut values)?;
-            pair_margins(model.class_ids(), &pairs, &values, margins);
+            pair_margins(model.class_ids(), &pairs, &values, None, margins);
         }
         TrainedClassifier::SnSvmPerPair(model) => {
+            let allowed = model.allowed_sets(features, features.len() / margins.len().max(1));
             let pairs: Vec<(u8, u8)> = model.pairs.iter().map(|pair| pair.classes).collect();
             let mut values = vec![0f32; margins.len() * pairs.len()];
             let mut scaled = vec![0f32; features.len()];
@@ -105,7 +106,7 @@ pub fn margins_block(
                     values[voxel * pairs.len() + p] = f;
                 }
             }
-            pair_margins(&model.class_ids, &pairs, &values, margins);
+            pair_margins(&model.class_ids, &pairs, &values, Some(&allowed), margins);
         }
         TrainedClassifier::Forest(forest) => {
             let classes = forest.class_ids().len();
@@ -131,13 +132,25 @@ pub fn margins_block(
 
 /// One-vs-one margins: the winner is the class with the most votes (then the larger summed
 /// |f| of its votes), the runner-up the best of the others; the margin is |f| of their pair.
-fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], margins: &mut [f32]) {
+/// With `allowed` (a class set per voxel, [`super::gate`]), only the allowed classes vote and
+/// run up; a voxel its intensity gives to one class is sure (infinite margin), one it allows
+/// none is not classified (NaN).
+fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], allowed: Option<&[u64]>, margins: &mut [f32]) {
     let classes = class_ids.len();
     let position = |id: u8| class_ids.iter().position(|&c| c == id).unwrap_or(0);
     let pair_positions: Vec<(usize, usize)> = pairs.iter().map(|&(a, b)| (position(a), position(b))).collect();
     let mut votes = vec![0u32; classes];
     let mut strength = vec![0f32; classes];
-    for (margin, values) in margins.iter_mut().zip(values.chunks_exact(pairs.len().max(1))) {
+    for (voxel, (margin, values)) in margins.iter_mut().zip(values.chunks_exact(pairs.len().max(1))).enumerate() {
+        let allowed = allowed.map_or(u64::MAX, |sets| sets[voxel]);
+        if allowed == 0 {
+            *margin = f32::NAN;
+            continue;
+        }
+        if allowed != u64::MAX && allowed.count_ones() == 1 {
+            *margin = f32::INFINITY;
+            continue;
+        }
         if let [f] = values {
             *margin = f.abs();
             continue;
@@ -146,10 +159,10 @@ fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], margins: &
             *margin = f32::NAN;
             continue;
         }
-        classify::tally_votes(&pair_positions, values, &mut votes, &mut strength);
+        classify::tally_votes_among(&pair_positions, values, allowed, &mut votes, &mut strength);
         let winner = classify::vote_winner(&votes, &strength);
         let runner_up = (0..classes)
-            .filter(|&class| class != winner)
+            .filter(|&class| class != winner && gate::contains(allowed, class))
             .reduce(|best, class| if classify::ranks_above(&votes, &strength, class, best) { class } else { best })
             .unwrap_or(winner);
         let pair =
@@ -327,10 +340,22 @@ mod tests {
         // beats 2, so 3 is the runner-up and the margin is |f(1,3)|.
         let pairs = [(1, 2), (1, 3), (2, 3)];
         let mut margins = [0f32; 2];
-        pair_margins(&[1, 2, 3], &pairs, &[0.9, 0.2, -0.5, f32::NAN, 0.1, 0.1], &mut margins);
+        pair_margins(&[1, 2, 3], &pairs, &[0.9, 0.2, -0.5, f32::NAN, 0.1, 0.1], None, &mut margins);
         assert_eq!(margins[0], 0.2);
         assert!(margins[1].is_nan());
-        pair_margins(&[1, 2], &[(1, 2)], &[-0.3, 0.7], &mut margins);
+        pair_margins(&[1, 2], &[(1, 2)], &[-0.3, 0.7], None, &mut margins);
         assert_eq!(margins, [0.3, 0.7]);
+    }
+
+    #[test]
+    fn the_gate_limits_the_winner_and_the_runner_up_to_the_allowed_classes() {
+        let pairs = [(1, 2), (1, 3), (2, 3)];
+        let values = [0.9, 0.2, -0.5, 0.9, 0.2, -0.5, 0.9, 0.2, -0.5, 0.9, 0.2, -0.5];
+        let mut margins = [0f32; 4];
+        // All allowed: 1 wins, 3 runs up (0.2). Classes 1 and 2 only: |f(1,2)| = 0.9. Class 3
+        // only: sure. None (a non-finite intensity): not classified.
+        pair_margins(&[1, 2, 3], &pairs, &values, Some(&[0b111, 0b011, 0b100, 0]), &mut margins);
+        assert_eq!(margins[..3], [0.2, 0.9, f32::INFINITY]);
+        assert!(margins[3].is_nan());
     }
 }
