@@ -117,9 +117,8 @@ impl PairwiseSnSvm {
         // The gate first: most voxels' intensity allows one class only.
         let mut undecided = Vec::new();
         let mut allowed_sets = Vec::new();
-        for (voxel, (row, label)) in features.chunks_exact(dim.max(1)).zip(out.iter_mut()).enumerate() {
-            let allowed = self.gate.allowed(row[0]);
-            if allowed == 0 || row.iter().any(|v| !v.is_finite()) {
+        for (voxel, (&allowed, label)) in self.allowed_sets(features, dim).iter().zip(out.iter_mut()).enumerate() {
+            if allowed == 0 {
                 *label = 0;
             } else if allowed.count_ones() == 1 {
                 *label = self.class_ids[allowed.trailing_zeros() as usize];
@@ -154,19 +153,10 @@ impl PairwiseSnSvm {
         let position = |id: u8| self.class_ids.iter().position(|&c| c == id).unwrap_or(0);
         let pair_positions: Vec<(usize, usize)> =
             self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect();
-        // Per voxel, every pair's decision value (pairs of classes the gate rules out included:
-        // a block is evaluated pair by pair).
+        // Every pair's decision value, also of pairs the gate rules out: a block is evaluated
+        // pair by pair.
         let mut values = vec![0f32; out.len() * pairs];
-        let mut scaled = vec![0f32; features.len()];
-        let mut pair_values = vec![0f32; out.len()];
-        for (p, pair) in self.pairs.iter().enumerate() {
-            scaled.copy_from_slice(features);
-            pair.standardiser.apply_in_place(&mut scaled)?;
-            pair.model.decision_values_block(&scaled, &mut pair_values)?;
-            for (voxel, &f) in pair_values.iter().enumerate() {
-                values[voxel * pairs + p] = f;
-            }
-        }
+        self.pair_values_block(features, &mut values)?;
         let (mut votes, mut strength) = (vec![0u32; classes], vec![0f32; classes]);
         for ((label, values), &allowed) in out.iter_mut().zip(values.chunks_exact(pairs)).zip(allowed_sets) {
             classify::tally_votes_among(&pair_positions, values, allowed, &mut votes, &mut strength);
@@ -179,9 +169,31 @@ impl PairwiseSnSvm {
         Ok(())
     }
 
-    /// The classes the gate allows for each row of raw `features` (`dim` values a row).
+    /// Every pair's decision value for each row of raw `features`, row by row into `values`
+    /// (one value per pair, in pair order).
+    pub fn pair_values_block(&self, features: &[f32], values: &mut [f32]) -> Result<(), SegmentationError> {
+        let pairs = self.pairs.len();
+        let rows = values.len() / pairs.max(1);
+        let mut scaled = vec![0f32; features.len()];
+        let mut pair_values = vec![0f32; rows];
+        for (p, pair) in self.pairs.iter().enumerate() {
+            scaled.copy_from_slice(features);
+            pair.standardiser.apply_in_place(&mut scaled)?;
+            pair.model.decision_values_block(&scaled, &mut pair_values)?;
+            for (row, &f) in pair_values.iter().enumerate() {
+                values[row * pairs + p] = f;
+            }
+        }
+        Ok(())
+    }
+
+    /// The classes the gate allows for each row of raw `features` (`dim` values a row); none
+    /// for a row with a non-finite value (not classified).
     pub fn allowed_sets(&self, features: &[f32], dim: usize) -> Vec<u64> {
-        features.chunks_exact(dim.max(1)).map(|row| self.gate.allowed(row[0])).collect()
+        features
+            .chunks_exact(dim.max(1))
+            .map(|row| if row.iter().all(|v| v.is_finite()) { self.gate.allowed(row[0]) } else { 0 })
+            .collect()
     }
 }
 

@@ -96,16 +96,7 @@ pub fn margins_block(
             let allowed = model.allowed_sets(features, features.len() / margins.len().max(1));
             let pairs: Vec<(u8, u8)> = model.pairs.iter().map(|pair| pair.classes).collect();
             let mut values = vec![0f32; margins.len() * pairs.len()];
-            let mut scaled = vec![0f32; features.len()];
-            let mut pair_values = vec![0f32; margins.len()];
-            for (p, pair) in model.pairs.iter().enumerate() {
-                scaled.copy_from_slice(features);
-                pair.standardiser.apply_in_place(&mut scaled)?;
-                pair.model.decision_values_block(&scaled, &mut pair_values)?;
-                for (voxel, &f) in pair_values.iter().enumerate() {
-                    values[voxel * pairs.len() + p] = f;
-                }
-            }
+            model.pair_values_block(features, &mut values)?;
             pair_margins(&model.class_ids, &pairs, &values, Some(&allowed), margins);
         }
         TrainedClassifier::Forest(forest) => {
