@@ -20,7 +20,7 @@ fn the_default_beats_a_forest_on_the_paper_features_with_clean_and_leaky_lassos(
         &UserModel::default(),
         false,
         |_, _, _, _| {},
-        |outcome| println!("{}", report::row(outcome)),
+        |outcome, _| println!("{}", report::row(outcome)),
     )
     .unwrap();
     print!("{}", report::summary(&outcomes, &methods, &Hand::ALL));

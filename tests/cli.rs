@@ -214,3 +214,36 @@ fn strokes_errors_say_what_is_wrong_and_a_byte_order_mark_is_accepted() {
     );
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
 }
+
+/// `accuracy --export`: each method's result lies beside the case's truth, one truth class a
+/// voxel, and the Dice the harness printed is the Dice of those files.
+#[test]
+fn accuracy_export_writes_each_method_s_result_beside_the_truth() {
+    let folder = tempfile::tempdir().unwrap();
+    let export = folder.path().join("export");
+    let args = ["accuracy", "--quick", "--cases", "foot16", "--seeds", "5", "--hands", "clean"];
+    let output = volasso(
+        &[&args[..], &["--methods", "default", "--json", "--export", export.to_str().unwrap()]].concat(),
+        folder.path(),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let printed: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let case = export.join("foot16-5-clean");
+    // A .npy file of one u8 array: its header's length is the little-endian u16 at byte 8.
+    let array = |name: &str| {
+        let bytes = std::fs::read(case.join(name)).unwrap();
+        let header = u16::from_le_bytes([bytes[8], bytes[9]]) as usize;
+        bytes[10 + header..].to_vec()
+    };
+    let (truth, predicted) = (array("truth.npy"), array("predicted-default.npy"));
+    assert_eq!(truth.len(), predicted.len());
+    let dice = |class: u8| {
+        let (t, p) = (truth.iter().filter(|&&c| c == class).count(), predicted.iter().filter(|&&c| c == class).count());
+        let both = truth.iter().zip(&predicted).filter(|&(&t, &p)| t == class && p == class).count();
+        2.0 * both as f64 / (t + p).max(1) as f64
+    };
+    let classes = printed["dice"].as_object().unwrap().len() as u8;
+    let expected: Vec<f64> = (0..classes).map(dice).collect();
+    let macro_dice = expected.iter().sum::<f64>() / expected.len() as f64;
+    assert!((printed["macro_dice"].as_f64().unwrap() - macro_dice).abs() < 1e-9, "{printed} against {expected:?}");
+}

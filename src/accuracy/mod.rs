@@ -337,7 +337,8 @@ pub enum AccuracyError {
 /// Runs every method on every case with every hand; `quick` uses the small phantoms. Cases
 /// run one after another (each method is itself parallel), so timings are comparable.
 /// `on_training` sees each phantom and the lassos drawn on it before the methods run (to
-/// export them); `on_outcome` sees each result as it comes.
+/// export them); `on_outcome` sees each result as it comes, with the truth class it predicts
+/// for every voxel of the phantom.
 pub fn evaluate(
     cases: &[Case],
     methods: &[Method],
@@ -345,7 +346,7 @@ pub fn evaluate(
     user: &UserModel,
     quick: bool,
     mut on_training: impl FnMut(&Case, Hand, &Phantom, &TrainingSet),
-    mut on_outcome: impl FnMut(&Outcome),
+    mut on_outcome: impl FnMut(&Outcome, &[u8]),
 ) -> Result<Vec<Outcome>, AccuracyError> {
     let mut outcomes = Vec::new();
     for case in cases {
@@ -361,8 +362,8 @@ pub fn evaluate(
             let training = draw_training(&phantom, &user, crate::rng::hash64(case.seed, 0x0001_A550));
             on_training(case, hand, &phantom, &training);
             for &method in methods {
-                let outcome = run_method(&phantom, &training, &user, *case, hand, method)?;
-                on_outcome(&outcome);
+                let (outcome, predicted) = run_method(&phantom, &training, &user, *case, hand, method)?;
+                on_outcome(&outcome, &predicted);
                 outcomes.push(outcome);
             }
         }
@@ -383,7 +384,7 @@ fn run_method(
     case: Case,
     hand: Hand,
     method: Method,
-) -> Result<Outcome, AccuracyError> {
+) -> Result<(Outcome, Vec<u8>), AccuracyError> {
     let error = |source| AccuracyError::Segmentation {
         method: method.name(),
         phantom: case.kind.name(),
@@ -397,7 +398,7 @@ fn run_method(
     let seconds = started.elapsed().as_secs_f64();
     let predicted: Vec<u8> = labels.labels.iter().map(|&l| truth_of_label(l, user)).collect();
     let dice = (0..phantom.class_names.len() as u8).map(|c| phantom::dice(&phantom.truth, &predicted, c)).collect();
-    Ok(Outcome {
+    let outcome = Outcome {
         case,
         hand,
         method,
@@ -405,5 +406,6 @@ fn run_method(
         dice,
         training_voxels: training.classes.iter().map(|c| c.voxels.len()).collect(),
         seconds,
-    })
+    };
+    Ok((outcome, predicted))
 }

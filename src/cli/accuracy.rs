@@ -2,8 +2,10 @@
 //! [--json] [--export DIR]`: the accuracy harness ([`crate::accuracy`]) on the command line.
 //! Prints a table row per case, seed, hand and method as it goes (or one JSON object per line
 //! with `--json`), then the mean macro Dice per method over tuning and check cases, clean and
-//! leaky lassos side by side. `--export DIR` also writes each case's lassos and the paper's
-//! features of every voxel as `.npy` files, for `scripts/accuracy_sklearn.py`.
+//! leaky lassos side by side. `--export DIR` also writes each case's lassos, the paper's
+//! features of every voxel and each method's result as `.npy` files, for
+//! `scripts/accuracy_sklearn.py` and for looking into a case (a confusion matrix is
+//! `numpy.add.at` over truth and predicted).
 
 use super::CliError;
 use crate::accuracy::{self, Case, Hand, Method, PhantomKind, UserModel, report};
@@ -69,7 +71,13 @@ pub fn run(args: &AccuracyArgs) -> Result<(), CliError> {
     if !args.json {
         println!("{}", report::header());
     }
-    let mut export_error = None;
+    // The first export error stops further exports and is returned at the end.
+    let export_error = std::cell::RefCell::new(None);
+    let case_folder = |case: &Case, hand: Hand| {
+        let export_error = export_error.borrow();
+        let folder = args.export.as_ref().filter(|_| export_error.is_none())?;
+        Some(folder.join(format!("{}-{}-{}", case.kind.name(), case.seed, hand.name())))
+    };
     let outcomes = accuracy::evaluate(
         &cases,
         &methods,
@@ -77,22 +85,25 @@ pub fn run(args: &AccuracyArgs) -> Result<(), CliError> {
         &user,
         args.quick,
         |case, hand, phantom, training| {
-            if let Some(folder) = &args.export
-                && export_error.is_none()
-            {
-                let folder = folder.join(format!("{}-{}-{}", case.kind.name(), case.seed, hand.name()));
-                export_error = export(&folder, phantom, training, &user).err();
+            if let Some(folder) = case_folder(case, hand) {
+                *export_error.borrow_mut() = export(&folder, phantom, training, &user).err();
             }
         },
-        |outcome| {
+        |outcome, predicted| {
             if args.json {
                 println!("{}", report::json(outcome));
             } else {
                 println!("{}", report::row(outcome));
             }
+            if let Some(folder) = case_folder(&outcome.case, outcome.hand) {
+                let name = format!("predicted-{}.npy", outcome.method.name());
+                *export_error.borrow_mut() = super::npy::write(&folder.join(&name), &[predicted.len()], predicted)
+                    .map_err(|source| CliError::Output { source, path: folder.join(&name) })
+                    .err();
+            }
         },
     )?;
-    if let Some(error) = export_error {
+    if let Some(error) = export_error.into_inner() {
         return Err(error);
     }
     if !args.json {
@@ -105,7 +116,8 @@ pub fn run(args: &AccuracyArgs) -> Result<(), CliError> {
 /// Writes `train_features.npy` (paper features of the lassoed voxels), `train_labels.npy`
 /// (their class ids), `features.npy` (paper features of every voxel), `truth.npy` (the truth
 /// class of every voxel) and `case.json` (class names, how labels map to truth, Otsu's
-/// threshold) into `folder`.
+/// threshold) into `folder`. Each method's result follows as `predicted-METHOD.npy` (the
+/// truth class it gives every voxel, in `truth.npy`'s order).
 fn export(folder: &Path, phantom: &Phantom, training: &TrainingSet, user: &UserModel) -> Result<(), CliError> {
     let output = |source: std::io::Error, name: &str| CliError::Output { source, path: folder.join(name) };
     std::fs::create_dir_all(folder).map_err(|e| output(e, ""))?;
