@@ -37,8 +37,8 @@ pub use forest::{Forest, ForestParams};
 pub use kernel::Kernel;
 pub use model::Model;
 pub use ovo::{
-    ClassPair, MAX_POINTS_PER_PAIR, PairReport, TrainReport, ranks_above, tally_votes, tally_votes_among, train,
-    train_with_classes, vote_winner,
+    CLASS_SET_CAPACITY, ClassPair, ClassSet, MAX_POINTS_PER_PAIR, PairReport, TrainReport, class_set_contains,
+    ranks_above, tally_votes, tally_votes_among, train, train_with_classes, vote_winner,
 };
 pub use params::{ScaleMode, SnSvmParams, SnSvmValidParams};
 pub use smo::SolveReport;

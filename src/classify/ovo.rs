@@ -232,23 +232,33 @@ fn train_checked(
 /// class of `pair_positions[p]` when positive, else for the second; `votes` and `strength`
 /// (per class position, the votes won and the summed |f| of them) are overwritten.
 pub fn tally_votes(pair_positions: &[(usize, usize)], values: &[f32], votes: &mut [u32], strength: &mut [f32]) {
-    tally_votes_among(pair_positions, values, u64::MAX, votes, strength);
+    tally_votes_among(pair_positions, values, ClassSet::MAX, votes, strength);
 }
 
-/// [`tally_votes`] with only the pairs of which both classes are in `allowed` voting (bit p for
-/// class position p; positions from 64 up always vote).
+/// A set of class positions: bit p is position p. Positions from [`CLASS_SET_CAPACITY`] up
+/// are in every set.
+pub type ClassSet = u64;
+
+/// Class positions a [`ClassSet`] can tell apart.
+pub const CLASS_SET_CAPACITY: usize = ClassSet::BITS as usize;
+
+/// Whether class position `position` is in `set`.
+pub fn class_set_contains(set: ClassSet, position: usize) -> bool {
+    position >= CLASS_SET_CAPACITY || set >> position & 1 == 1
+}
+
+/// [`tally_votes`] with only the pairs of which both classes are in `allowed` voting.
 pub fn tally_votes_among(
     pair_positions: &[(usize, usize)],
     values: &[f32],
-    allowed: u64,
+    allowed: ClassSet,
     votes: &mut [u32],
     strength: &mut [f32],
 ) {
-    let allows = |position: usize| position >= 64 || allowed >> position & 1 == 1;
     votes.fill(0);
     strength.fill(0.0);
     for (&(first, second), &f) in pair_positions.iter().zip(values) {
-        if !(allows(first) && allows(second)) {
+        if !(class_set_contains(allowed, first) && class_set_contains(allowed, second)) {
             continue;
         }
         let winner = if f > 0.0 { first } else { second };

@@ -23,6 +23,7 @@
 //! Never: trains, or looks at a voxel's other features; with more than [`MAX_CLASSES`] classes
 //! every class is allowed everywhere.
 
+pub use crate::classify::ClassSet;
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
 
@@ -35,11 +36,8 @@ pub const BAND_TRIM: f64 = 0.02;
 /// 1/4 had the best worst case with leaky ones.
 pub const BAND_MARGIN: f64 = 0.25;
 
-/// Classes a gate can tell apart (one bit each in a [`ClassSet`]).
-pub const MAX_CLASSES: usize = 64;
-
-/// A set of class positions (in the model's class order): bit p is position p.
-pub type ClassSet = u64;
+/// Classes a gate can tell apart (one bit each in a [`ClassSet`], in the model's class order).
+pub const MAX_CLASSES: usize = crate::classify::CLASS_SET_CAPACITY;
 
 /// One class's band of intensities, inclusive.
 #[derive(Clone, Copy, Debug, PartialEq)]
@@ -143,11 +141,6 @@ fn band_of(values: &mut [f64]) -> Option<Band> {
     Some(Band { low: (quantile(BAND_TRIM) - margin) as f32, high: (quantile(1.0 - BAND_TRIM) + margin) as f32 })
 }
 
-/// Whether class position `position` is in `set` (positions past [`MAX_CLASSES`] always are).
-pub fn contains(set: ClassSet, position: usize) -> bool {
-    position >= MAX_CLASSES || set >> position & 1 == 1
-}
-
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -180,6 +173,7 @@ mod tests {
         let gate = IntensityGate::open(3);
         assert_eq!(gate.allowed(12.0), 0b111);
         assert_eq!(IntensityGate::open(70).every_class(), ClassSet::MAX);
+        let contains = crate::classify::class_set_contains;
         assert!(contains(ClassSet::MAX, 65) && contains(0b10, 1) && !contains(0b10, 0));
     }
 

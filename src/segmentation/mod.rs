@@ -354,11 +354,9 @@ pub fn train(
     let mut classifier = options.classifier;
     let trained = match options.classifier_kind {
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
-            let gate = if training.classes.len() == class_ids.len() {
-                gate::IntensityGate::from_drawn(volume, training)
-            } else {
-                gate::IntensityGate::open(class_ids.len())
-            };
+            // The drawn classes are the trained ones, in order (the background rule and the
+            // cap keep every class); `PairwiseSnSvm::train` opens a gate that does not fit.
+            let gate = gate::IntensityGate::from_drawn(volume, training);
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
                 &weights,

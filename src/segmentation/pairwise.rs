@@ -18,7 +18,7 @@
 //!
 //! Never: chooses the training voxels, or the background.
 
-use super::gate::IntensityGate;
+use super::gate::{ClassSet, IntensityGate};
 use super::{KernelWidth, SegmentationError, median_heuristic_width};
 use crate::classify::{self, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport};
 use crate::features::Standardiser;
@@ -142,7 +142,12 @@ impl PairwiseSnSvm {
 
     /// The vote of the pairs whose classes `allowed_sets` allows, one set per row of `features`
     /// (raw, finite; scratch).
-    fn vote_block(&self, features: &mut [f32], allowed_sets: &[u64], out: &mut [u8]) -> Result<(), SegmentationError> {
+    fn vote_block(
+        &self,
+        features: &mut [f32],
+        allowed_sets: &[ClassSet],
+        out: &mut [u8],
+    ) -> Result<(), SegmentationError> {
         if let [pair] = self.pairs.as_slice() {
             pair.standardiser.apply_in_place(features)?;
             pair.model.predict_block(features, out)?;
@@ -189,7 +194,7 @@ impl PairwiseSnSvm {
 
     /// The classes the gate allows for each row of raw `features` (`dim` values a row); none
     /// for a row with a non-finite value (not classified).
-    pub fn allowed_sets(&self, features: &[f32], dim: usize) -> Vec<u64> {
+    pub fn allowed_sets(&self, features: &[f32], dim: usize) -> Vec<ClassSet> {
         features
             .chunks_exact(dim.max(1))
             .map(|row| if row.iter().all(|v| v.is_finite()) { self.gate.allowed(row[0]) } else { 0 })

@@ -20,7 +20,8 @@
 //!
 //! Never: changes labels, or decides what is shown.
 
-use super::{SegmentationError, Segmenter, TrainedClassifier, gate};
+use super::gate::ClassSet;
+use super::{SegmentationError, Segmenter, TrainedClassifier};
 use crate::classify;
 use crate::features::features_of_voxels;
 use crate::slices::{Axis, SliceGeometry};
@@ -126,19 +127,25 @@ pub fn margins_block(
 /// With `allowed` (a class set per voxel, [`super::gate`]), only the allowed classes vote and
 /// run up; a voxel its intensity gives to one class is sure (infinite margin), one it allows
 /// none is not classified (NaN).
-fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], allowed: Option<&[u64]>, margins: &mut [f32]) {
+fn pair_margins(
+    class_ids: &[u8],
+    pairs: &[(u8, u8)],
+    values: &[f32],
+    allowed: Option<&[ClassSet]>,
+    margins: &mut [f32],
+) {
     let classes = class_ids.len();
     let position = |id: u8| class_ids.iter().position(|&c| c == id).unwrap_or(0);
     let pair_positions: Vec<(usize, usize)> = pairs.iter().map(|&(a, b)| (position(a), position(b))).collect();
     let mut votes = vec![0u32; classes];
     let mut strength = vec![0f32; classes];
     for (voxel, (margin, values)) in margins.iter_mut().zip(values.chunks_exact(pairs.len().max(1))).enumerate() {
-        let allowed = allowed.map_or(u64::MAX, |sets| sets[voxel]);
+        let allowed = allowed.map_or(ClassSet::MAX, |sets| sets[voxel]);
         if allowed == 0 {
             *margin = f32::NAN;
             continue;
         }
-        if allowed != u64::MAX && allowed.count_ones() == 1 {
+        if allowed.count_ones() == 1 {
             *margin = f32::INFINITY;
             continue;
         }
@@ -153,7 +160,7 @@ fn pair_margins(class_ids: &[u8], pairs: &[(u8, u8)], values: &[f32], allowed: O
         classify::tally_votes_among(&pair_positions, values, allowed, &mut votes, &mut strength);
         let winner = classify::vote_winner(&votes, &strength);
         let runner_up = (0..classes)
-            .filter(|&class| class != winner && gate::contains(allowed, class))
+            .filter(|&class| class != winner && classify::class_set_contains(allowed, class))
             .reduce(|best, class| if classify::ranks_above(&votes, &strength, class, best) { class } else { best })
             .unwrap_or(winner);
         let pair =
