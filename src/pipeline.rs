@@ -159,13 +159,7 @@ pub fn training_from_scribbles(scribbles: ArrayView3<'_, u8>) -> Result<Training
     let classes = voxels
         .into_iter()
         .enumerate()
-        .map(|(k, voxels)| ClassSamples {
-            name: format!("Class {}", k + 1),
-            stroke_of_voxel: vec![0; voxels.len()],
-            stroke_voxel_counts: vec![voxels.len()],
-            voxels,
-            dropped_by_cap: 0,
-        })
+        .map(|(k, voxels)| ClassSamples::one_stroke(format!("Class {}", k + 1), voxels))
         .collect();
     let set = TrainingSet { classes, contested_voxels: 0 };
     set.check_every_class_has_voxels()?;

@@ -158,6 +158,18 @@ impl TrainingSet {
 }
 
 impl ClassSamples {
+    /// A class named `name` of `voxels` (volume indices, sorted and unique), all from one
+    /// stroke: scribbles painted into a label volume, or a box in a test.
+    pub fn one_stroke(name: String, voxels: Vec<usize>) -> ClassSamples {
+        ClassSamples {
+            name,
+            stroke_of_voxel: vec![0; voxels.len()],
+            stroke_voxel_counts: vec![voxels.len()],
+            voxels,
+            dropped_by_cap: 0,
+        }
+    }
+
     fn count_per_stroke(&mut self) {
         self.stroke_voxel_counts.iter_mut().for_each(|c| *c = 0);
         for &stroke in &self.stroke_of_voxel {

@@ -40,13 +40,7 @@ fn stored(voxel_type: VoxelType, scale: ValueScale, value: impl Fn(usize, usize,
 fn class(x: std::ops::Range<usize>, y: std::ops::Range<usize>) -> ClassSamples {
     let mut voxels: Vec<usize> = y.flat_map(|y| x.clone().map(move |x| index(x, y, 12))).collect();
     voxels.sort_unstable();
-    ClassSamples {
-        name: "class".into(),
-        stroke_of_voxel: vec![0; voxels.len()],
-        stroke_voxel_counts: vec![voxels.len()],
-        voxels,
-        dropped_by_cap: 0,
-    }
+    ClassSamples::one_stroke("class".into(), voxels)
 }
 
 fn training(classes: Vec<ClassSamples>) -> TrainingSet {

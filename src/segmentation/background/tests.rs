@@ -40,13 +40,7 @@ fn index(x: usize, y: usize, z: usize) -> usize {
 fn class(name: &str, x: std::ops::Range<usize>, y: std::ops::Range<usize>, z: usize) -> ClassSamples {
     let mut voxels: Vec<usize> = y.flat_map(|y| x.clone().map(move |x| index(x, y, z))).collect();
     voxels.sort_unstable();
-    ClassSamples {
-        name: name.into(),
-        stroke_of_voxel: vec![0; voxels.len()],
-        stroke_voxel_counts: vec![voxels.len()],
-        voxels,
-        dropped_by_cap: 0,
-    }
+    ClassSamples::one_stroke(name.into(), voxels)
 }
 
 fn training(classes: Vec<ClassSamples>) -> TrainingSet {
