@@ -114,13 +114,14 @@ impl IntensityGate {
                 return IntensityGate::open(classes);
             };
             let core = lasso_core(&class.voxels, volume.dims);
-            let (core_band, rim) = match band_of(&mut values_of(&core)) {
-                Some(band) if core.len() >= MIN_CORE_VOXELS => {
+            let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut values_of(&core))).flatten();
+            let (core_band, rim) = match core_band {
+                Some(band) => {
                     let rim: Vec<usize> =
                         class.voxels.iter().copied().filter(|voxel| core.binary_search(voxel).is_err()).collect();
                     (band, values_of(&rim))
                 }
-                _ => (whole, Vec::new()),
+                None => (whole, Vec::new()),
             };
             drawn.push(DrawnClass { whole, core: core_band, rim });
         }
@@ -284,13 +285,7 @@ mod tests {
     fn square(x: std::ops::Range<usize>, y: std::ops::Range<usize>) -> crate::strokes::ClassSamples {
         let mut voxels: Vec<usize> = y.flat_map(|y| x.clone().map(move |x| x + DIMS[0] * (y + DIMS[1]))).collect();
         voxels.sort_unstable();
-        crate::strokes::ClassSamples {
-            name: "class".into(),
-            stroke_of_voxel: vec![0; voxels.len()],
-            stroke_voxel_counts: vec![voxels.len()],
-            voxels,
-            dropped_by_cap: 0,
-        }
+        crate::strokes::ClassSamples::one_stroke("class".into(), voxels)
     }
 
     /// Muscle (40) everywhere, a bone of `marrow` inside x, y 10..20 with a cortex of `cortex`
