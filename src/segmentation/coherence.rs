@@ -74,28 +74,33 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize) -> Vec<(usize, u8
     let mut counts = [0u8; 256];
     let mut flags = vec![0u8; size_x];
     for (y, row) in here.chunks_exact(size_x).enumerate() {
-        // Most rows of a scan are background: an OR over the row vectorises.
-        if row.iter().fold(0u8, |any, &label| any | label) == 0 {
+        // Only the span from the row's first to its last classified voxel can hold a flagged
+        // voxel: most rows of a scan are background, and a body fills a fraction of each row
+        // it crosses.
+        let Some((first, last)) = classified_span(row) else {
             continue;
-        }
+        };
+        let span = first..last + 1;
         let start = y * size_x;
         let neighbours = [
-            (y > 0).then(|| &here[start - size_x..start]),
-            (y + 1 < size_y).then(|| &here[start + size_x..][..size_x]),
-            below.map(|p| &p[start..][..size_x]),
-            above.map(|p| &p[start..][..size_x]),
+            (y > 0).then(|| &here[start - size_x..start][span.clone()]),
+            (y + 1 < size_y).then(|| &here[start + size_x..][..size_x][span.clone()]),
+            below.map(|p| &p[start..][..size_x][span.clone()]),
+            above.map(|p| &p[start..][..size_x][span.clone()]),
         ];
-        if uniform_and_unopposed(row, neighbours) {
+        let row_span = &row[span.clone()];
+        if unopposed(row_span, row[first], neighbours) {
             // Inside a structure or a classified air (every voxel of a scan with air as a
             // class): nothing here disagrees with a face neighbour.
             continue;
         }
-        disagreeing_voxels(row, neighbours, &mut flags);
+        let flags = &mut flags[..row_span.len()];
+        disagreeing_voxels(row_span, neighbours, flags);
         // Few voxels of a row are flagged: skip eight unflagged ones at a time.
         for (chunk, eight) in flags.chunks(8).enumerate() {
             let mut bits = eight.iter().rev().fold(0u64, |bits, &flag| bits << 8 | u64::from(flag));
             while bits != 0 {
-                let x = chunk * 8 + bits.trailing_zeros() as usize / 8;
+                let x = first + chunk * 8 + bits.trailing_zeros() as usize / 8;
                 bits &= bits - 1;
                 let own = row[x];
                 let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &mut counts);
@@ -106,6 +111,30 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize) -> Vec<(usize, u8
         }
     }
     changes
+}
+
+/// The first and the last position of a non-zero label in `row`; `None` when it has none.
+/// Rows are mostly background: an OR over the row (which vectorises) finds the empty ones,
+/// and the span's ends are searched eight labels at a time.
+fn classified_span(row: &[u8]) -> Option<(usize, usize)> {
+    if row.iter().fold(0u8, |any, &label| any | label) == 0 {
+        return None;
+    }
+    let words = row.chunks_exact(8).map(|word| u64::from_le_bytes(word.try_into().unwrap_or_default()));
+    let whole_words = row.len() / 8 * 8;
+    // A little-endian word's first label is its lowest byte.
+    let first = match words.clone().position(|word| word != 0) {
+        Some(index) => index * 8 + (words.clone().nth(index).unwrap_or(0).trailing_zeros() / 8) as usize,
+        None => whole_words + row[whole_words..].iter().position(|&label| label != 0)?,
+    };
+    let last = match row[whole_words..].iter().rposition(|&label| label != 0) {
+        Some(offset) => whole_words + offset,
+        None => {
+            let index = words.clone().rposition(|word| word != 0)?;
+            index * 8 + 7 - (words.clone().nth(index).unwrap_or(0).leading_zeros() / 8) as usize
+        }
+    };
+    Some((first, last))
 }
 
 /// Into `flags` (one per voxel of `row`): 1 where the voxel is classified and a face
@@ -129,16 +158,13 @@ fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u
     }
 }
 
-/// Whether `row` holds one label and each neighbouring row (the rows beside it in y and in
-/// z, where they exist) holds only that label or background. Folds without early exit, which
-/// vectorise.
-fn uniform_and_unopposed(row: &[u8], neighbours: [Option<&[u8]>; 4]) -> bool {
-    let Some(&label) = row.first() else { return true };
-    row.iter().fold(true, |same, &other| same & (other == label))
-        && neighbours
-            .into_iter()
-            .flatten()
-            .all(|neighbour| neighbour.iter().fold(true, |agrees, &other| agrees & ((other == label) | (other == 0))))
+/// Whether `row` and each neighbouring row (the rows beside it in y and in z, where they
+/// exist, over the same columns) hold only `label` or background: then no voxel of `row`
+/// disagrees with a face neighbour. Folds without early exit, which vectorise.
+fn unopposed(row: &[u8], label: u8, neighbours: [Option<&[u8]>; 4]) -> bool {
+    let agrees = |agrees: bool, &other: &u8| agrees & ((other == label) | (other == 0));
+    row.iter().fold(true, agrees)
+        && neighbours.into_iter().flatten().all(|neighbour| neighbour.iter().fold(true, agrees))
 }
 
 /// The non-zero label with the most votes in the 3 x 3 x 3 neighbourhood of (x, y) over
@@ -369,6 +395,23 @@ mod tests {
             assert!((0..dims[0]).all(|x| expected[index(x, 2, 2)] == 2), "({dy}, {dz})");
             majority_pass(&mut labels, dims);
             assert_eq!(labels, expected, "({dy}, {dz})");
+        }
+    }
+
+    #[test]
+    fn a_row_s_classified_span_runs_from_its_first_to_its_last_label() {
+        let mut rng = crate::rng::SplitMix64::new(7);
+        for length in [0, 1, 7, 8, 9, 16, 17, 31, 301] {
+            for _ in 0..50 {
+                let mut row = vec![0u8; length];
+                for _ in 0..rng.below(4) {
+                    if length > 0 {
+                        row[rng.below(length as u64) as usize] = 1 + rng.below(3) as u8;
+                    }
+                }
+                let expected = row.iter().position(|&label| label != 0).zip(row.iter().rposition(|&label| label != 0));
+                assert_eq!(classified_span(&row), expected, "{row:?}");
+            }
         }
     }
 }

@@ -152,6 +152,7 @@ fn label_volume_in(
 ) -> Result<LabelVolume, SegmentationError> {
     let size_z = volume.dims[2];
     let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32;
+    let started = std::time::Instant::now();
     let job = Job {
         volume,
         segmenter,
@@ -169,6 +170,7 @@ fn label_volume_in(
         steps: size_z + if order == Order::Exact { 0 } else { size_z.div_ceil(2) },
         evaluated: AtomicUsize::new(0),
     };
+    log::debug!("foreground rows found in {:?}", started.elapsed());
     let mut labels = vec![0u8; volume.voxel_count()];
     let started = std::time::Instant::now();
     let classified = match order {
