@@ -77,6 +77,15 @@ impl FeatureSet {
         }
     }
 
+    /// One flag per feature: whether it is an intensity (the voxel's, or an average or a
+    /// smoothing of intensities) rather than a gradient, a curvature or a difference.
+    pub fn intensity_features(self) -> Vec<bool> {
+        self.names()
+            .iter()
+            .map(|name| *name == "intensity" || name.starts_with("mean ") || name.starts_with("smoothed "))
+            .collect()
+    }
+
     /// Features per voxel.
     pub fn dim(self) -> usize {
         match self {

@@ -290,3 +290,15 @@ fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughpu
     }
     assert!(slabs.iter().map(|(_, g)| g).sum::<f64>() > 0.0);
 }
+
+#[test]
+fn intensities_are_told_from_gradients_and_curvatures_in_every_set() {
+    assert_eq!(FeatureSet::Paper5.intensity_features(), [true, false, true, true, true]);
+    let fine = FeatureSet::MultiscaleFine.intensity_features();
+    let marked: Vec<&str> =
+        FeatureSet::MultiscaleFine.names().iter().zip(&fine).filter(|(_, m)| **m).map(|(n, _)| *n).collect();
+    assert_eq!(marked, ["intensity", "smoothed s0.8", "smoothed s1.2"]);
+    let full = FeatureSet::Multiscale.intensity_features();
+    assert_eq!(full.len(), FeatureSet::Multiscale.dim());
+    assert_eq!(full.iter().filter(|&&m| m).count(), 5, "the intensity and four smoothings");
+}

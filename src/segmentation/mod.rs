@@ -366,7 +366,8 @@ pub fn train(
                 &classifier,
                 options.kernel_width,
                 options.prune_relative,
-            )?;
+            )?
+            .with_intensity_features(options.feature_set.intensity_features());
             // The first pair's parameters stand for the model's (two classes: the only pair).
             if let Some(first) = model.pairs.first() {
                 classifier = first.params;

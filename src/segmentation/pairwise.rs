@@ -47,6 +47,9 @@ pub struct PairwiseSnSvm {
     pub report: TrainReport,
     /// The classes each intensity allows (bands in `class_ids` order).
     pub gate: IntensityGate,
+    /// Which features are intensities (the voxel's or averages of them, as opposed to
+    /// gradients): a voxel beyond every band is voted on with them moved into the drawn range.
+    pub intensity_features: Vec<bool>,
 }
 
 impl PairwiseSnSvm {
@@ -107,7 +110,14 @@ impl PairwiseSnSvm {
             expansion_points: pairs.iter().map(|pair| pair.model.report().expansion_points).sum(),
         };
         let gate = if gate.classes() == class_ids.len() { gate } else { IntensityGate::open(class_ids.len()) };
-        Ok(PairwiseSnSvm { pairs, class_ids: class_ids.to_vec(), report, gate })
+        let intensity_features = (0..dim).map(|feature| feature == 0).collect();
+        Ok(PairwiseSnSvm { pairs, class_ids: class_ids.to_vec(), report, gate, intensity_features })
+    }
+
+    /// The same model, with `intensity_features` (one flag per feature) marking the features
+    /// that are intensities; [`train`](Self::train) marks the first alone.
+    pub fn with_intensity_features(self, intensity_features: Vec<bool>) -> PairwiseSnSvm {
+        PairwiseSnSvm { intensity_features, ..self }
     }
 
     /// Class ids of a block of raw feature vectors (row-major, `out.len()` rows), into `out`;
@@ -132,12 +142,31 @@ impl PairwiseSnSvm {
         }
         let mut gathered: Vec<f32> =
             undecided.iter().flat_map(|&v| features[v * dim..(v + 1) * dim].iter().copied()).collect();
+        self.move_into_drawn_range(&mut gathered, dim);
         let mut decided = vec![0u8; undecided.len()];
         self.vote_block(&mut gathered, &allowed_sets, &mut decided)?;
         for (&voxel, &label) in undecided.iter().zip(&decided) {
             out[voxel] = label;
         }
         Ok(())
+    }
+
+    /// Moves the intensity features of each row of `features` whose intensity lies beyond
+    /// every band to the nearer end of the drawn range: far from every training voxel a
+    /// kernel's value is little more than its pair's bias, and at the range's end the vote
+    /// among the classes the gate leaves (those drawn nearest that end) sees their voxels.
+    fn move_into_drawn_range(&self, features: &mut [f32], dim: usize) {
+        let Some(range) = self.gate.drawn_range() else { return };
+        for row in features.chunks_exact_mut(dim.max(1)) {
+            if range.holds(row[0]) {
+                continue;
+            }
+            for (value, &is_intensity) in row.iter_mut().zip(&self.intensity_features) {
+                if is_intensity {
+                    *value = range.clamp(*value);
+                }
+            }
+        }
     }
 
     /// The vote of the pairs whose classes `allowed_sets` allows, one set per row of `features`
@@ -304,6 +333,36 @@ mod tests {
         assert_eq!(open_labels[1], 3, "the vote of all pairs was expected to give the steep voxel to the thin class");
         assert!([1, 2].contains(&gated_labels[0]));
         assert_eq!(gated_labels[1..], [2, 3, 0]);
+    }
+
+    #[test]
+    fn a_voxel_beyond_every_band_is_voted_on_at_the_drawn_range_s_end_with_its_own_gradient() {
+        let (raw, labels) = samples();
+        let bands = vec![Band { low: -10.0, high: 10.0 }, Band { low: 5.0, high: 40.0 }];
+        let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
+        let model = PairwiseSnSvm::train(
+            &raw,
+            &[1.0; 2],
+            &labels,
+            &[1, 2],
+            IntensityGate::from_bands(bands),
+            &SnSvmParams::default(),
+            KernelWidth::Automatic,
+            0.01,
+        )
+        .unwrap();
+        // Intensity and gradient: brighter than every band, darker, and inside the range.
+        let mut features = [1300.0, 7.0, -500.0, 3.0, 20.0, 9.0];
+        model.move_into_drawn_range(&mut features, 2);
+        assert_eq!(features, [40.0, 7.0, -10.0, 3.0, 20.0, 9.0]);
+        let mut both = model.with_intensity_features(vec![true, true]);
+        let mut bright = [1300.0, 700.0];
+        both.move_into_drawn_range(&mut bright, 2);
+        assert_eq!(bright, [40.0, 40.0], "every feature marked an intensity moves");
+        both.gate = IntensityGate::open(2);
+        let mut bright = [1300.0, 700.0];
+        both.move_into_drawn_range(&mut bright, 2);
+        assert_eq!(bright, [1300.0, 700.0], "an open gate moves nothing");
     }
 
     #[test]
