@@ -312,6 +312,17 @@ impl Segmenter {
         Ok(())
     }
 
+    /// The class a voxel of `intensity` gets whatever its other features (the intensity gate
+    /// allows one class only), so that its features need not be computed; `None` when the
+    /// classifier must see them. Only for a voxel whose features are all finite: one with a
+    /// non-finite feature is not classified (label 0) by [`classify_block`](Self::classify_block).
+    pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
+        match &self.classifier {
+            TrainedClassifier::SnSvmPerPair(model) if intensity.is_finite() => model.class_by_intensity(intensity),
+            _ => None,
+        }
+    }
+
     /// The SN-SVM's training report; `None` for a forest.
     pub fn report(&self) -> Option<&TrainReport> {
         match &self.classifier {

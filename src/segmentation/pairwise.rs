@@ -120,6 +120,13 @@ impl PairwiseSnSvm {
         PairwiseSnSvm { intensity_features, ..self }
     }
 
+    /// The class a voxel of `intensity` (finite) is whatever its other features: the one class
+    /// the gate allows; `None` when the vote decides.
+    pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
+        let allowed = self.gate.allowed(intensity);
+        (allowed.count_ones() == 1).then(|| self.class_ids[allowed.trailing_zeros() as usize])
+    }
+
     /// Class ids of a block of raw feature vectors (row-major, `out.len()` rows), into `out`;
     /// `features` is scratch. A voxel with a non-finite feature is not classified (0).
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {

@@ -309,6 +309,14 @@ struct Worker<'a> {
     row_selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
+    /// Whether the intensity alone may decide a voxel ([`Segmenter::class_by_intensity`]):
+    /// every feature of a volume without non-finite values is finite.
+    intensity_decides: bool,
+    /// Positions in `selected` of the voxels the intensity left undecided, their plane indices,
+    /// and their labels.
+    undecided: Vec<usize>,
+    undecided_indices: Vec<usize>,
+    undecided_predicted: Vec<u8>,
 }
 
 impl<'a> Worker<'a> {
@@ -323,6 +331,10 @@ impl<'a> Worker<'a> {
             row_selected: vec![0; volume.dims[0]],
             features: Vec::new(),
             predicted: Vec::new(),
+            intensity_decides: volume.value_range().non_finite_voxels == 0,
+            undecided: Vec::new(),
+            undecided_indices: Vec::new(),
+            undecided_predicted: Vec::new(),
         }
     }
 
@@ -420,9 +432,35 @@ impl<'a> Worker<'a> {
         if self.selected.is_empty() {
             return Ok(());
         }
-        self.reader.compute_selected(z, &self.selected, &mut self.features)?;
         self.predicted.resize(self.selected.len(), 0);
-        self.segmenter.classify_block(&mut self.features, &mut self.predicted)?;
+        if !self.intensity_decides {
+            self.reader.compute_selected(z, &self.selected, &mut self.features)?;
+            self.segmenter.classify_block(&mut self.features, &mut self.predicted)?;
+            return Ok(());
+        }
+        // Most voxels' intensity allows one class: only the others' features are computed.
+        let values = self.reader.plane(z)?;
+        self.undecided.clear();
+        self.undecided_indices.clear();
+        for (position, (&index, label)) in self.selected.iter().zip(&mut self.predicted).enumerate() {
+            match self.segmenter.class_by_intensity(values[index]) {
+                Some(class) => *label = class,
+                None => {
+                    self.undecided.push(position);
+                    self.undecided_indices.push(index);
+                }
+            }
+        }
+        if self.undecided.is_empty() {
+            return Ok(());
+        }
+        self.reader.compute_selected(z, &self.undecided_indices, &mut self.features)?;
+        self.undecided_predicted.clear();
+        self.undecided_predicted.resize(self.undecided.len(), 0);
+        self.segmenter.classify_block(&mut self.features, &mut self.undecided_predicted)?;
+        for (&position, &label) in self.undecided.iter().zip(&self.undecided_predicted) {
+            self.predicted[position] = label;
+        }
         Ok(())
     }
 }

@@ -37,9 +37,12 @@
 //! Never: trains, or looks at a voxel's other features; with more than [`MAX_CLASSES`] classes
 //! every class is allowed everywhere.
 
+mod regions;
+
 pub use crate::classify::ClassSet;
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
+use regions::Regions;
 
 /// Share of a class's drawn voxels left out at each end of its band.
 pub const BAND_TRIM: f64 = 0.02;
@@ -109,19 +112,27 @@ impl Band {
 #[derive(Clone, Debug, PartialEq)]
 pub struct IntensityGate {
     bands: Vec<Band>,
+    /// What [`allowed`](Self::allowed) answers, tabulated (empty when the gate is open).
+    table: Regions,
     classes: usize,
 }
 
 impl IntensityGate {
     /// Every class allowed for every voxel.
     pub fn open(classes: usize) -> IntensityGate {
-        IntensityGate { bands: Vec::new(), classes }
+        IntensityGate { bands: Vec::new(), table: Regions::tabulate([], |_| 0), classes }
     }
 
     /// A gate of the given bands, one per class in class order.
     pub fn from_bands(bands: Vec<Band>) -> IntensityGate {
         let classes = bands.len();
-        if classes > MAX_CLASSES { IntensityGate::open(classes) } else { IntensityGate { bands, classes } }
+        if classes > MAX_CLASSES {
+            return IntensityGate::open(classes);
+        }
+        let mut gate = IntensityGate { bands, table: Regions::tabulate([], |_| 0), classes };
+        let ends: Vec<f32> = gate.bands.iter().flat_map(|band| [band.low, band.high]).collect();
+        gate.table = Regions::tabulate(ends, |intensity| gate.allowed_by_bands(intensity));
+        gate
     }
 
     /// The bands of `training`'s classes, in its order, from their voxels' values in `volume`.
@@ -158,7 +169,7 @@ impl IntensityGate {
             .map(|(position, class)| if class.rim_leaked(position, &cores) { class.core } else { class.whole })
             .collect();
         log::debug!("intensity bands: {bands:?}");
-        IntensityGate { bands, classes }
+        IntensityGate::from_bands(bands)
     }
 
     /// Number of classes.
@@ -187,6 +198,11 @@ impl IntensityGate {
         if self.bands.is_empty() {
             return self.every_class();
         }
+        self.table.set_of(intensity)
+    }
+
+    /// [`allowed`](Self::allowed) from the bands (finite `intensity`, a closed gate).
+    fn allowed_by_bands(&self, intensity: f32) -> ClassSet {
         let mut holding: ClassSet = 0;
         let (mut below, mut above) = ((f32::NEG_INFINITY, None), (f32::INFINITY, None));
         for (position, band) in self.bands.iter().enumerate() {
@@ -329,6 +345,23 @@ mod tests {
         assert_eq!(gate.allowed(2000.0), 0b100, "brighter than every band");
         assert_eq!(gate.allowed(-3000.0), 0b001, "darker than every band");
         assert_eq!(gate.allowed(f32::NAN), 0);
+    }
+
+    #[test]
+    fn the_tabulated_gate_answers_as_its_bands_do() {
+        let mut rng = crate::rng::SplitMix64::new(9);
+        for _ in 0..200 {
+            let bands: Vec<(f32, f32)> = (0..1 + rng.below(6))
+                .map(|_| {
+                    let low = rng.below(200) as f32 - 100.0;
+                    (low, low + rng.below(80) as f32)
+                })
+                .collect();
+            let gate = gate(&bands);
+            for intensity in (-120..=200).map(|v| v as f32).chain([0.5, -99.25, 1e9, -1e9]) {
+                assert_eq!(gate.allowed(intensity), gate.allowed_by_bands(intensity), "{bands:?} at {intensity}");
+            }
+        }
     }
 
     #[test]
