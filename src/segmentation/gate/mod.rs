@@ -188,9 +188,9 @@ impl IntensityGate {
     }
 
     /// The classes `intensity` allows: those whose band holds it; else the nearest band below
-    /// and the nearest above, with the bands that end within [`BETWEEN_REACH`] of them; beyond
-    /// every band, the outermost band's class and those whose
-    /// band reaches [`BEYOND_REACH`] into it. Empty for a non-finite intensity.
+    /// and the nearest above, with the bands that end near them ([`BETWEEN_REACH`]); beyond
+    /// every band, the outermost band's class and the classes whose bands end near its end
+    /// ([`BEYOND_REACH`]). Empty for a non-finite intensity.
     pub fn allowed(&self, intensity: f32) -> ClassSet {
         if !intensity.is_finite() {
             return 0;
@@ -240,9 +240,10 @@ impl IntensityGate {
         }
     }
 
-    /// The classes whose band `holds`.
-    fn classes_where(&self, holds: impl Fn(&Band) -> bool) -> ClassSet {
-        self.bands.iter().enumerate().filter(|(_, band)| holds(band)).fold(0, |set, (position, _)| set | 1 << position)
+    /// The classes whose band `qualifies`.
+    fn classes_where(&self, qualifies: impl Fn(&Band) -> bool) -> ClassSet {
+        let qualifying = self.bands.iter().enumerate().filter(|(_, band)| qualifies(band));
+        qualifying.fold(0, |set, (position, _)| set | 1 << position)
     }
 
     /// From the lowest band's low to the highest band's high: a voxel beyond it is voted on as
