@@ -24,15 +24,17 @@ impl Regions {
         let mut ends: Vec<f32> = ends.into_iter().filter(|end| end.is_finite()).collect();
         ends.sort_by(f32::total_cmp);
         ends.dedup();
+        // Midway between two floats, in f64: the difference of two large f32 overflows. A
+        // stretch between two adjacent floats holds no intensity; its set is never read.
+        let midway = |low: f32, high: f32| ((f64::from(low) + f64::from(high)) / 2.0) as f32;
         let mut sets = Vec::with_capacity(2 * ends.len() + 1);
         let mut below = f32::MIN;
         for &end in &ends {
-            // A stretch between two adjacent floats holds no intensity; its set is never read.
-            sets.push(rule(if below < end { below + (end - below) / 2.0 } else { end }));
+            sets.push(rule(midway(below, end)));
             sets.push(rule(end));
             below = end;
         }
-        sets.push(rule(if below < f32::MAX { below + (f32::MAX - below) / 2.0 } else { below }));
+        sets.push(rule(midway(below, f32::MAX)));
         Regions { ends, sets }
     }
 
@@ -69,6 +71,27 @@ mod tests {
         for _ in 0..1000 {
             let v = (rng.next_f64() * 40.0 - 10.0) as f32;
             assert_eq!(table.set_of(v), rule(v), "{v}");
+        }
+    }
+
+    #[test]
+    fn ends_near_the_largest_floats_keep_their_stretches_apart() {
+        // A lying file's values reach the float range's ends: the stretches below the first
+        // end and above the last still get the rule's sets there.
+        for end in [1e38, -1e38] {
+            let rule = |v: f32| {
+                if v < end {
+                    1
+                } else if v > end {
+                    4
+                } else {
+                    2
+                }
+            };
+            let table = Regions::tabulate([end], rule);
+            for v in [f32::MIN, -2e38, -1e38, 0.0, 1e38, 3e38, f32::MAX] {
+                assert_eq!(table.set_of(v), rule(v), "{v} with the end at {end}");
+            }
         }
     }
 
