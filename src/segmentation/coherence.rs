@@ -120,18 +120,19 @@ fn classified_span(row: &[u8]) -> Option<(usize, usize)> {
     if row.iter().fold(0u8, |any, &label| any | label) == 0 {
         return None;
     }
-    let words = row.chunks_exact(8).map(|word| u64::from_le_bytes(word.try_into().unwrap_or_default()));
-    let whole_words = row.len() / 8 * 8;
     // A little-endian word's first label is its lowest byte.
-    let first = match words.clone().position(|word| word != 0) {
-        Some(index) => index * 8 + (words.clone().nth(index).unwrap_or(0).trailing_zeros() / 8) as usize,
-        None => whole_words + row[whole_words..].iter().position(|&label| label != 0)?,
+    let word = |index: usize| u64::from_le_bytes(row[8 * index..][..8].try_into().unwrap_or_default());
+    let words = row.len() / 8;
+    let tail = &row[8 * words..];
+    let first = match (0..words).find(|&index| word(index) != 0) {
+        Some(index) => 8 * index + (word(index).trailing_zeros() / 8) as usize,
+        None => 8 * words + tail.iter().position(|&label| label != 0)?,
     };
-    let last = match row[whole_words..].iter().rposition(|&label| label != 0) {
-        Some(offset) => whole_words + offset,
+    let last = match tail.iter().rposition(|&label| label != 0) {
+        Some(offset) => 8 * words + offset,
         None => {
-            let index = words.clone().rposition(|word| word != 0)?;
-            index * 8 + 7 - (words.clone().nth(index).unwrap_or(0).leading_zeros() / 8) as usize
+            let index = (0..words).rev().find(|&index| word(index) != 0)?;
+            8 * index + 7 - (word(index).leading_zeros() / 8) as usize
         }
     };
     Some((first, last))

@@ -318,7 +318,7 @@ impl Segmenter {
     /// non-finite feature is not classified (label 0) by [`classify_block`](Self::classify_block).
     pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
         match &self.classifier {
-            TrainedClassifier::SnSvmPerPair(model) if intensity.is_finite() => model.class_by_intensity(intensity),
+            TrainedClassifier::SnSvmPerPair(model) => model.class_by_intensity(intensity),
             _ => None,
         }
     }

@@ -123,7 +123,11 @@ impl PairwiseSnSvm {
     /// The class a voxel of `intensity` (finite) is whatever its other features: the one class
     /// the gate allows; `None` when the vote decides.
     pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
-        let allowed = self.gate.allowed(intensity);
+        self.only_class(self.gate.allowed(intensity))
+    }
+
+    /// The class id of a set that holds one class; `None` for an empty set or several.
+    fn only_class(&self, allowed: ClassSet) -> Option<u8> {
         (allowed.count_ones() == 1).then(|| self.class_ids[allowed.trailing_zeros() as usize])
     }
 
@@ -137,8 +141,8 @@ impl PairwiseSnSvm {
         for (voxel, (&allowed, label)) in self.allowed_sets(features, dim).iter().zip(out.iter_mut()).enumerate() {
             if allowed == 0 {
                 *label = 0;
-            } else if allowed.count_ones() == 1 {
-                *label = self.class_ids[allowed.trailing_zeros() as usize];
+            } else if let Some(class) = self.only_class(allowed) {
+                *label = class;
             } else {
                 undecided.push(voxel);
                 allowed_sets.push(allowed);

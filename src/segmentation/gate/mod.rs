@@ -129,10 +129,9 @@ impl IntensityGate {
         if classes > MAX_CLASSES {
             return IntensityGate::open(classes);
         }
-        let mut gate = IntensityGate { bands, table: Regions::tabulate([], |_| 0), classes };
-        let ends: Vec<f32> = gate.bands.iter().flat_map(|band| [band.low, band.high]).collect();
-        gate.table = Regions::tabulate(ends, |intensity| gate.allowed_by_bands(intensity));
-        gate
+        let ends: Vec<f32> = bands.iter().flat_map(|band| [band.low, band.high]).collect();
+        let table = Regions::tabulate(ends, |intensity| allowed_by_bands(&bands, intensity));
+        IntensityGate { bands, table, classes }
     }
 
     /// The bands of `training`'s classes, in its order, from their voxels' values in `volume`.
@@ -201,51 +200,6 @@ impl IntensityGate {
         self.table.set_of(intensity)
     }
 
-    /// [`allowed`](Self::allowed) from the bands (finite `intensity`, a closed gate).
-    fn allowed_by_bands(&self, intensity: f32) -> ClassSet {
-        let mut holding: ClassSet = 0;
-        let (mut below, mut above) = ((f32::NEG_INFINITY, None), (f32::INFINITY, None));
-        for (position, band) in self.bands.iter().enumerate() {
-            if band.holds(intensity) {
-                holding |= 1 << position;
-            } else if band.high < intensity && band.high > below.0 {
-                below = (band.high, Some(position));
-            } else if band.low > intensity && band.low < above.0 {
-                above = (band.low, Some(position));
-            }
-        }
-        if holding != 0 {
-            return holding;
-        }
-        match (below.1, above.1) {
-            (Some(top), None) => {
-                let outermost = self.bands[top];
-                let reach = outermost.high - BEYOND_REACH * (outermost.high - outermost.low);
-                self.classes_where(|band| band.high >= reach)
-            }
-            (None, Some(bottom)) => {
-                let outermost = self.bands[bottom];
-                let reach = outermost.low + BEYOND_REACH * (outermost.high - outermost.low);
-                self.classes_where(|band| band.low <= reach)
-            }
-            (Some(below), Some(above)) => {
-                let (below, above) = (self.bands[below], self.bands[above]);
-                let reach_below = below.high - BETWEEN_REACH * (below.high - below.low);
-                let reach_above = above.low + BETWEEN_REACH * (above.high - above.low);
-                self.classes_where(|band| {
-                    (reach_below..intensity).contains(&band.high) || (intensity..=reach_above).contains(&band.low)
-                })
-            }
-            (None, None) => 0,
-        }
-    }
-
-    /// The classes whose band `qualifies`.
-    fn classes_where(&self, qualifies: impl Fn(&Band) -> bool) -> ClassSet {
-        let qualifying = self.bands.iter().enumerate().filter(|(_, band)| qualifies(band));
-        qualifying.fold(0, |set, (position, _)| set | 1 << position)
-    }
-
     /// From the lowest band's low to the highest band's high: a voxel beyond it is voted on as
     /// if it lay at its nearer end ([`Band::clamp`]); `None` when the gate is open.
     pub fn drawn_range(&self) -> Option<Band> {
@@ -253,6 +207,51 @@ impl IntensityGate {
         let high = self.bands.iter().map(|band| band.high).max_by(f32::total_cmp)?;
         Some(Band { low, high })
     }
+}
+
+/// [`IntensityGate::allowed`] from `bands` (at least one; a finite `intensity`).
+fn allowed_by_bands(bands: &[Band], intensity: f32) -> ClassSet {
+    let mut holding: ClassSet = 0;
+    let (mut below, mut above) = ((f32::NEG_INFINITY, None), (f32::INFINITY, None));
+    for (position, band) in bands.iter().enumerate() {
+        if band.holds(intensity) {
+            holding |= 1 << position;
+        } else if band.high < intensity && band.high > below.0 {
+            below = (band.high, Some(position));
+        } else if band.low > intensity && band.low < above.0 {
+            above = (band.low, Some(position));
+        }
+    }
+    if holding != 0 {
+        return holding;
+    }
+    match (below.1, above.1) {
+        (Some(top), None) => {
+            let outermost = bands[top];
+            let reach = outermost.high - BEYOND_REACH * (outermost.high - outermost.low);
+            classes_where(bands, |band| band.high >= reach)
+        }
+        (None, Some(bottom)) => {
+            let outermost = bands[bottom];
+            let reach = outermost.low + BEYOND_REACH * (outermost.high - outermost.low);
+            classes_where(bands, |band| band.low <= reach)
+        }
+        (Some(below), Some(above)) => {
+            let (below, above) = (bands[below], bands[above]);
+            let reach_below = below.high - BETWEEN_REACH * (below.high - below.low);
+            let reach_above = above.low + BETWEEN_REACH * (above.high - above.low);
+            classes_where(bands, |band| {
+                (reach_below..intensity).contains(&band.high) || (intensity..=reach_above).contains(&band.low)
+            })
+        }
+        (None, None) => 0,
+    }
+}
+
+/// The classes whose band `qualifies`.
+fn classes_where(bands: &[Band], qualifies: impl Fn(&Band) -> bool) -> ClassSet {
+    let qualifying = bands.iter().enumerate().filter(|(_, band)| qualifies(band));
+    qualifying.fold(0, |set, (position, _)| set | 1 << position)
 }
 
 /// One class's drawn intensities: the band of all its voxels, the band of its lassos' core
@@ -360,7 +359,11 @@ mod tests {
                 .collect();
             let gate = gate(&bands);
             for intensity in (-120..=200).map(|v| v as f32).chain([0.5, -99.25, 1e9, -1e9]) {
-                assert_eq!(gate.allowed(intensity), gate.allowed_by_bands(intensity), "{bands:?} at {intensity}");
+                assert_eq!(
+                    gate.allowed(intensity),
+                    allowed_by_bands(&gate.bands, intensity),
+                    "{bands:?} at {intensity}"
+                );
             }
         }
     }
