@@ -312,10 +312,7 @@ fn render(
     while let Some(reply) = ctl.renderer.poll() {
         match reply {
             RenderReply::Failed(error) => return stopped(&error.to_string()),
-            // Previews come first with the same id: only the whole frame is kept.
-            RenderReply::Picture(picture)
-                if Some(picture.id) == awaited && picture.image.dimensions() == (size[0], size[1]) =>
-            {
+            RenderReply::Picture(picture) if Some(picture.id) == awaited && picture.whole => {
                 let image = &picture.image;
                 let buffer = slint::SharedPixelBuffer::<slint::Rgba8Pixel>::clone_from_slice(
                     image.as_raw(),
@@ -338,7 +335,7 @@ fn render(
     if awaited.is_none() {
         let mut camera = showing.camera;
         camera.azimuth_degrees += 360.0 * frames.len() as f32 / FRAMES as f32;
-        awaited = Some(ctl.renderer.request_frame(camera, size));
+        awaited = Some(ctl.renderer.request_whole_frame(camera, size));
     }
     Phase::Rendering { showing, ctl, frames, size, awaited }
 }

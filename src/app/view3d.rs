@@ -4,7 +4,8 @@
 //! Requests are coalesced: while a frame is drawn, newer cameras replace older ones.
 //! Frames are progressive ([`crate::render::progressive`]): each request is answered at once
 //! with a preview sized to 150 ms, then, while no new request comes, the full frame is drawn
-//! band by band and sent with the same id; any request abandons it.
+//! band by band and sent with the same id; any request abandons it. A caller that keeps only
+//! whole frames (attract mode's turntable) asks for them without a preview.
 //!
 //! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
 //! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
@@ -37,11 +38,16 @@ enum Request {
     /// Class `label`'s opacity factor (`RayCaster::set_class_opacity`).
     ClassOpacity(u8, f32),
     Clip(Option<ClipPlane>),
-    Frame {
-        id: u64,
-        camera: Camera,
-        size: [u32; 2],
-    },
+    Frame(FrameRequest),
+}
+
+/// A frame asked for: its id, camera and size, and whether a preview comes first.
+#[derive(Clone, Copy, Debug)]
+struct FrameRequest {
+    id: u64,
+    camera: Camera,
+    size: [u32; 2],
+    preview: bool,
 }
 
 /// A drawn picture.
@@ -153,12 +159,24 @@ impl ViewRenderer {
         let _ = self.requests.send(Request::Clip(clip));
     }
 
-    /// Asks for a frame of `size` pixels; returns its id.
+    /// Asks for a frame of `size` pixels: its preview comes first, then the whole frame, with
+    /// the same id; returns the id.
     pub fn request_frame(&mut self, camera: Camera, size: [u32; 2]) -> u64 {
+        self.send_frame_request(camera, size, true)
+    }
+
+    /// Asks for the whole frame only (no preview before it); returns its id. For pictures
+    /// that are kept rather than watched: on a slow GPU the preview costs a third as much
+    /// again.
+    pub fn request_whole_frame(&mut self, camera: Camera, size: [u32; 2]) -> u64 {
+        self.send_frame_request(camera, size, false)
+    }
+
+    fn send_frame_request(&mut self, camera: Camera, size: [u32; 2], preview: bool) -> u64 {
         self.next_id += 1;
         let scale = (MAX_PICTURE_SIDE as f32 / size[0].max(size[1]).max(1) as f32).min(1.0);
         let size = size.map(|side| ((side as f32 * scale) as u32).max(1));
-        let _ = self.requests.send(Request::Frame { id: self.next_id, camera, size });
+        let _ = self.requests.send(Request::Frame(FrameRequest { id: self.next_id, camera, size, preview }));
         self.awaited = Some(self.next_id);
         self.settled = false;
         self.next_id
@@ -210,8 +228,8 @@ impl Drop for ViewRenderer {
 struct GpuScene {
     ray_caster: RayCaster,
     view: ProgressiveView,
-    /// The frame being refined: its id, size and when its preview started.
-    refining: Option<(u64, Camera, [u32; 2], Instant)>,
+    /// The frame being refined, and when it was asked for.
+    refining: Option<(FrameRequest, Instant)>,
     has_volume: bool,
     has_labels: bool,
     clip: Option<ClipPlane>,
@@ -261,7 +279,7 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
         let Some(scene) = scene.as_mut() else { continue };
         // The scene or the camera changes: the full frame being refined is out of date; without
         // a new camera it is started again.
-        let mut frame = scene.refining.take().map(|(id, camera, size, _)| (id, camera, size));
+        let mut frame = scene.refining.take().map(|(frame, _)| frame);
         scene.view.cancel_full();
         for request in batch {
             let result = match request {
@@ -291,8 +309,8 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                     scene.clip = clip;
                     Ok(())
                 }
-                Request::Frame { id, camera, size } => {
-                    frame = Some((id, camera, size));
+                Request::Frame(request) => {
+                    frame = Some(request);
                     Ok(())
                 }
             };
@@ -300,14 +318,15 @@ fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
                 let _ = replies.send(RenderReply::Failed(ViewError::Render(error)));
             }
         }
-        if let Some((id, camera, size)) = frame {
+        if let Some(frame) = frame {
             if !(scene.has_volume && scene.has_labels) {
                 continue;
             }
-            match draw(scene, id, &camera, size) {
-                Ok(picture) => {
+            match draw(scene, frame) {
+                Ok(Some(picture)) => {
                     let _ = replies.send(RenderReply::Picture(picture));
                 }
+                Ok(None) => {}
                 Err(error) => {
                     let _ = replies.send(RenderReply::Failed(error));
                 }
@@ -335,7 +354,7 @@ fn settings(clip: Option<ClipPlane>) -> RenderSettings {
 
 /// Draws the next band of the full frame; sends the frame once it is whole.
 fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
-    let Some((id, _, _, started)) = scene.refining else { return };
+    let Some((FrameRequest { id, .. }, started)) = scene.refining else { return };
     match scene.view.refine(&mut scene.ray_caster) {
         Ok(None) if scene.view.refining() => {}
         Ok(None) => scene.refining = None,
@@ -355,22 +374,28 @@ fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
     }
 }
 
-/// Draws the preview of a frame and starts its full frame.
-fn draw(scene: &mut GpuScene, id: u64, camera: &Camera, size: [u32; 2]) -> Result<Picture, ViewError> {
+/// Starts the full frame, and draws its preview first when one was asked for.
+fn draw(scene: &mut GpuScene, frame: FrameRequest) -> Result<Option<Picture>, ViewError> {
     let started = Instant::now();
     let settings = settings(scene.clip);
-    let image = scene.view.preview(&mut scene.ray_caster, camera, &settings, size).map_err(ViewError::Render)?;
-    scene.view.start_full(camera, &settings, size);
-    scene.refining = Some((id, *camera, size, started));
-    Ok(Picture { id, image, seconds: started.elapsed().as_secs_f64(), whole: false })
+    let FrameRequest { id, camera, size, preview } = frame;
+    let picture = if preview {
+        let image = scene.view.preview(&mut scene.ray_caster, &camera, &settings, size).map_err(ViewError::Render)?;
+        Some(Picture { id, image, seconds: started.elapsed().as_secs_f64(), whole: false })
+    } else {
+        None
+    };
+    scene.view.start_full(&camera, &settings, size);
+    scene.refining = Some((frame, started));
+    Ok(picture)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
 
-    #[test]
-    fn a_frame_comes_back_as_a_preview_then_whole() {
+    /// A renderer holding a 24-voxel sphere of one class.
+    fn sphere_renderer() -> ViewRenderer {
         let dims = [24usize; 3];
         let inside = |i: usize| {
             let p = [i % 24, (i / 24) % 24, i / 576].map(|c| c as f32 - 11.5);
@@ -391,17 +416,32 @@ mod tests {
         let mut renderer = ViewRenderer::new();
         renderer.set_volume(Arc::new(volume));
         renderer.set_labels(Arc::new(labels), vec![style]);
-        let size = [160, 100];
-        let id = renderer.request_frame(Camera::default(), size);
+        renderer
+    }
+
+    /// The pictures that come back within `wait` of the first, up to `count` of them.
+    fn pictures(renderer: &mut ViewRenderer, count: usize, wait: Duration) -> Vec<Picture> {
         let mut pictures = Vec::new();
-        let deadline = Instant::now() + Duration::from_secs(120);
-        while pictures.len() < 2 && Instant::now() < deadline {
+        let mut deadline = Instant::now() + Duration::from_secs(120);
+        while pictures.len() < count && Instant::now() < deadline {
             match renderer.poll() {
-                Some(RenderReply::Picture(picture)) => pictures.push(picture),
+                Some(RenderReply::Picture(picture)) => {
+                    pictures.push(picture);
+                    deadline = deadline.min(Instant::now() + wait);
+                }
                 Some(RenderReply::Failed(error)) => panic!("{error}"),
                 None => std::thread::sleep(Duration::from_millis(5)),
             }
         }
+        pictures
+    }
+
+    #[test]
+    fn a_frame_comes_back_as_a_preview_then_whole() {
+        let mut renderer = sphere_renderer();
+        let size = [160, 100];
+        let id = renderer.request_frame(Camera::default(), size);
+        let pictures = pictures(&mut renderer, 2, Duration::from_secs(120));
         assert_eq!(pictures.len(), 2, "a preview and the full frame");
         assert!(pictures.iter().all(|picture| picture.id == id));
         let (preview, full) = (&pictures[0].image, &pictures[1].image);
@@ -410,5 +450,19 @@ mod tests {
         assert!(full.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
         assert!(!renderer.busy());
         assert!(!pictures[0].whole && pictures[1].whole && renderer.settled());
+    }
+
+    #[test]
+    fn a_whole_frame_comes_back_without_a_preview() {
+        let mut renderer = sphere_renderer();
+        let size = [160, 100];
+        let id = renderer.request_whole_frame(Camera::default(), size);
+        // Anything after the whole frame would come within a second of it.
+        let pictures = pictures(&mut renderer, 2, Duration::from_secs(1));
+        assert_eq!(pictures.len(), 1, "the whole frame alone");
+        assert!(pictures[0].id == id && pictures[0].whole);
+        assert_eq!(pictures[0].image.dimensions(), (size[0], size[1]));
+        assert!(pictures[0].image.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
+        assert!(!renderer.busy() && renderer.settled());
     }
 }

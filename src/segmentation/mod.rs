@@ -8,10 +8,11 @@
 //! ([`crate::classify::Model::predict_block`]) is the only hot part and a GPU can replace it.
 //!
 //! Speed beyond the paper: [`Refinement::CoarseToFine`] evaluates the classifier on every
-//! second voxel along each axis, and then only where the eight coarse neighbours of a voxel
-//! disagree, touch background, or where the voxel's intensity leaves their range (thin
-//! structures that the coarse grid straddles). Elsewhere the voxel takes its neighbours'
-//! common label. [`Refinement::Exact`] evaluates every foreground voxel.
+//! second voxel along each axis, and then only where the foreground ones among the eight
+//! coarse neighbours of a voxel disagree or are none, or where the voxel's intensity leaves
+//! their range (thin structures that the coarse grid straddles). Elsewhere the voxel takes
+//! its neighbours' common label; background neighbours do not veto it, as its own intensity
+//! says it is foreground. [`Refinement::Exact`] evaluates every foreground voxel.
 //!
 //! The classifier is a [`ClassifierKind`]: the paper's SN-SVM on the 5-D features (the
 //! default, [`SegmentationOptions::default`]) or a random forest ([`SegmentationOptions::forest`]).
