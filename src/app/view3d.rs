@@ -436,6 +436,12 @@ mod tests {
         pictures
     }
 
+    /// `image` is a whole frame of `size` showing the sphere.
+    fn assert_shows_the_sphere(image: &image::RgbaImage, size: [u32; 2]) {
+        assert_eq!(image.dimensions(), (size[0], size[1]));
+        assert!(image.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
+    }
+
     #[test]
     fn a_frame_comes_back_as_a_preview_then_whole() {
         let mut renderer = sphere_renderer();
@@ -446,8 +452,7 @@ mod tests {
         assert!(pictures.iter().all(|picture| picture.id == id));
         let (preview, full) = (&pictures[0].image, &pictures[1].image);
         assert!(preview.width() < size[0], "the first preview is smaller: {:?}", preview.dimensions());
-        assert_eq!(full.dimensions(), (size[0], size[1]));
-        assert!(full.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
+        assert_shows_the_sphere(full, size);
         assert!(!renderer.busy());
         assert!(!pictures[0].whole && pictures[1].whole && renderer.settled());
     }
@@ -461,8 +466,7 @@ mod tests {
         let pictures = pictures(&mut renderer, 2, Duration::from_secs(1));
         assert_eq!(pictures.len(), 1, "the whole frame alone");
         assert!(pictures[0].id == id && pictures[0].whole);
-        assert_eq!(pictures[0].image.dimensions(), (size[0], size[1]));
-        assert!(pictures[0].image.pixels().filter(|p| p[0] > 60).count() > 500, "the sphere is drawn");
+        assert_shows_the_sphere(&pictures[0].image, size);
         assert!(!renderer.busy() && renderer.settled());
     }
 }
