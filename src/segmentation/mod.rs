@@ -324,6 +324,15 @@ impl Segmenter {
         }
     }
 
+    /// The band of intensities drawn for label `label` (the intensity gate's); `None` for a
+    /// classifier without a gate, or a label it does not give.
+    pub fn band(&self, label: u8) -> Option<gate::Band> {
+        match &self.classifier {
+            TrainedClassifier::SnSvmPerPair(model) => model.band(label),
+            _ => None,
+        }
+    }
+
     /// The SN-SVM's training report; `None` for a forest.
     pub fn report(&self) -> Option<&TrainReport> {
         match &self.classifier {

@@ -18,7 +18,7 @@
 //!
 //! Never: chooses the training voxels, or the background.
 
-use super::gate::{ClassSet, IntensityGate};
+use super::gate::{Band, ClassSet, IntensityGate};
 use super::{KernelWidth, SegmentationError, median_heuristic_width};
 use crate::classify::{self, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport};
 use crate::features::Standardiser;
@@ -124,6 +124,12 @@ impl PairwiseSnSvm {
     /// the gate allows; `None` when the vote decides.
     pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
         self.only_class(self.gate.allowed(intensity))
+    }
+
+    /// The drawn intensity band of class `class_id`; `None` for an open gate or an unknown id.
+    pub fn band(&self, class_id: u8) -> Option<Band> {
+        let position = self.class_ids.iter().position(|&id| id == class_id)?;
+        self.gate.bands().get(position).copied()
     }
 
     /// The class id of a set that holds one class; `None` for an empty set or several.
@@ -246,7 +252,6 @@ impl PairwiseSnSvm {
 mod tests {
     use super::*;
     use crate::rng::SplitMix64;
-    use crate::segmentation::gate::Band;
 
     /// Four classes along one feature, spaced 1, 1 and 1000 apart (muscle, liver, ..., bone),
     /// with a second feature of noise; deviation 0.2 within each class.

@@ -205,7 +205,12 @@ fn label_volume_in(
     if segmenter.coherence == super::Coherence::Majority {
         let started = std::time::Instant::now();
         let passes = super::coherence::DEFAULT_PASSES;
-        let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes);
+        let intensity = |voxel: usize| volume.value(voxel) as f32;
+        let bands = super::coherence::LabelBands::new(
+            (0..=u8::MAX).map(|label| segmenter.band(label).map(|band| (band.low, band.high))).collect(),
+            &intensity,
+        );
+        let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands));
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
     }
     for &(voxel, class) in &segmenter.lassoed {

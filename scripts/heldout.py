@@ -1,0 +1,395 @@
+#!/usr/bin/env python3
+"""An accuracy check volasso's own harness cannot be tuned to.
+
+`volasso accuracy` draws its phantoms (src/phantom) and its user (src/accuracy/user.rs) with
+the same code base that chooses the defaults. This script makes everything again without that
+code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias field and Rician
+noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI), its own
+finger (loops on the three slices `volasso info` ranks first, drawn inside each structure or
+leaking 2 voxels over its border, into air too), and its own scoring. It runs the volasso binary
+as a user would (`volasso info`, `volasso classify` on an NRRD file) and scikit-learn's random
+forest (100 trees) on the paper's 5 features computed here, on the same lassoed voxels.
+
+It prints, per case and hand, the macro Dice of both, the share of the air connected to the
+volume's faces that got a class when the air was not lassoed, and the share of lassoed voxels
+that kept their class; then the means per hand and the worst difference to the forest.
+
+Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
+                                  [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
+Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn).
+"""
+import argparse
+import json
+import os
+import subprocess
+import sys
+import tempfile
+
+import numpy as np
+from scipy import ndimage as ndi
+
+AIR = 0
+
+
+def smooth_field(shape, sigma, rng):
+    """Zero-mean, unit-deviation noise smoothed over `sigma` voxels."""
+    field = ndi.gaussian_filter(rng.standard_normal(shape), sigma)
+    return (field - field.mean()) / (field.std() + 1e-12)
+
+
+def grid(shape):
+    return np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij")
+
+
+def finish(mean_values, truth, noise, blur, rng, dtype, rician=False):
+    """The image of a truth map: class means, a point spread, noise, rounding to `dtype`."""
+    image = ndi.gaussian_filter(mean_values[truth].astype(np.float64), blur)
+    if rician:
+        image = np.hypot(image + noise * rng.standard_normal(image.shape), noise * rng.standard_normal(image.shape))
+    else:
+        image = image + noise * rng.standard_normal(image.shape)
+    info = np.iinfo(dtype)
+    return np.clip(np.rint(image), info.min, info.max).astype(dtype)
+
+
+# Each phantom returns (image z,y,x; truth z,y,x; class names by truth id; spacing x,y,z).
+
+
+def abdomen_ct16(rng):
+    shape = (40, 112, 128)
+    z, y, x = grid(shape)
+    wobble = 0.06 * smooth_field(shape, 10, rng)
+    body = ((x - 64) / 58) ** 2 + ((y - 56) / 44) ** 2 < 1 + wobble
+    truth = np.zeros(shape, np.uint8)
+    truth[body] = 1  # fat
+    muscle = ((x - 64) / 52) ** 2 + ((y - 56) / 38) ** 2 < 1 + wobble
+    truth[muscle] = 2
+    liver = (((x - 40) / 24) ** 2 + ((y - 50) / 20) ** 2 + ((z - 20) / 26) ** 2
+             < 1 + 0.15 * smooth_field(shape, 6, rng))
+    truth[liver & muscle] = 3
+    aorta = ((x - 70) ** 2 + (y - 66) ** 2) < (4.0 + 0.5 * np.sin(z / 6)) ** 2
+    truth[aorta] = 4
+    spine = ((x - 64) / 10) ** 2 + ((y - 84) / 8) ** 2 < 1
+    truth[spine] = 5
+    values = np.array([-1000, -95, 45, 115, 260, 650], np.float64)
+    image = finish(values, truth, 22, 0.8, rng, np.int16)
+    return image, truth, ["air", "fat", "muscle", "liver", "aorta", "spine"], (0.8, 0.8, 2.5)
+
+
+def head_t1_16(rng):
+    shape = (72, 88, 76)
+    z, y, x = grid(shape)
+    r = np.sqrt(((x - 38) / 34) ** 2 + ((y - 44) / 40) ** 2 + ((z - 40) / 34) ** 2)
+    r = r + 0.03 * smooth_field(shape, 8, rng)
+    truth = np.zeros(shape, np.uint8)
+    truth[r < 1.0] = 1  # scalp
+    truth[r < 0.92] = 2  # skull
+    truth[r < 0.85] = 3  # CSF
+    folds = 0.07 * smooth_field(shape, 2.5, rng)
+    truth[r < 0.81 + 0.5 * folds] = 4  # grey matter
+    truth[r < 0.68 + folds] = 5  # white matter
+    ventricles = ((np.abs(x - 38) - 6) / 4) ** 2 + ((y - 46) / 12) ** 2 + ((z - 42) / 8) ** 2 < 1
+    truth[ventricles & (r < 0.6)] = 3
+    truth[z < 8] = np.where(truth[z < 8] > 0, 1, 0)  # the neck: soft tissue down to the face
+    values = np.array([0, 820, 120, 260, 520, 720], np.float64)
+    image = ndi.gaussian_filter(values[truth].astype(np.float64), 0.7)
+    image *= 1 + 0.22 * smooth_field(shape, 25, rng)
+    sigma = 28
+    image = np.hypot(image + sigma * rng.standard_normal(shape), sigma * rng.standard_normal(shape))
+    image = np.clip(np.rint(image), 0, 65535).astype(np.uint16)
+    return image, truth, ["background", "scalp", "skull", "csf", "grey", "white"], (1.0, 1.0, 1.2)
+
+
+def vessels_ct8(rng):
+    shape = (64, 96, 96)
+    z, y, x = grid(shape)
+    truth = np.zeros(shape, np.uint8)
+    body = ((x - 48) / 44) ** 2 + ((y - 48) / 42) ** 2 < 1 + 0.05 * smooth_field(shape, 10, rng)
+    truth[body] = 1  # soft tissue
+    organ = ((x - 34) / 18) ** 2 + ((y - 40) / 16) ** 2 + ((z - 30) / 20) ** 2 < 1
+    truth[organ & body] = 2
+    # A branching tree of tubes, radius 1.2 to 3 voxels.
+    tubes = np.zeros(shape, bool)
+    walkers = [(np.array([32.0, 48.0, 60.0]), np.array([1.0, 0.0, 0.0]), 3.0)]
+    steps = 0
+    while walkers and steps < 400:
+        steps += 1
+        pos, direction, radius = walkers.pop(0)
+        for _ in range(int(rng.integers(12, 28))):
+            direction = direction + 0.25 * rng.standard_normal(3)
+            direction /= np.linalg.norm(direction)
+            pos = pos + direction
+            if not all(2 <= pos[i] < shape[i] - 2 for i in range(3)):
+                break
+            lo = np.maximum(np.floor(pos - radius - 1).astype(int), 0)
+            hi = np.minimum(np.ceil(pos + radius + 2).astype(int), shape)
+            sub = tuple(slice(lo[i], hi[i]) for i in range(3))
+            zz, yy, xx = np.meshgrid(*[np.arange(lo[i], hi[i]) for i in range(3)], indexing="ij")
+            tubes[sub] |= (zz - pos[0]) ** 2 + (yy - pos[1]) ** 2 + (xx - pos[2]) ** 2 <= radius ** 2
+        else:
+            if radius > 1.3:
+                for turn in (-1, 1):
+                    side = direction + 0.8 * turn * np.cross(direction, rng.standard_normal(3))
+                    walkers.append((pos.copy(), side / np.linalg.norm(side), max(1.2, radius * 0.75)))
+    truth[tubes & body] = 3
+    bone = (((x - 66) / 7) ** 2 + ((y - 70) / 7) ** 2 < 1) & body
+    truth[bone] = 4
+    values = np.array([8, 92, 124, 182, 236], np.float64)
+    image = finish(values, truth, 9, 0.7, rng, np.uint8)
+    return image, truth, ["air", "soft tissue", "organ", "vessels", "bone"], (0.7, 0.7, 1.0)
+
+
+def knee_ct16(rng):
+    shape = (96, 72, 72)
+    z, y, x = grid(shape)
+    truth = np.zeros(shape, np.uint8)
+    leg = ((x - 36) / 30) ** 2 + ((y - 36) / 28) ** 2 < 1 + 0.05 * smooth_field(shape, 10, rng)
+    truth[leg] = 1
+    gap = 48 + 3 * np.sin(x / 9) + 2 * np.cos(y / 11)
+    shaft = ((x - 36) / 16) ** 2 + ((y - 37) / 14) ** 2 < 1
+    femur = shaft & (z > gap + 2)
+    tibia = shaft & (z < gap - 2)
+    joint = shaft & ~femur & ~tibia
+    truth[femur | tibia] = 2
+    truth[joint] = 3
+    marrow = ((x - 36) / 12.5) ** 2 + ((y - 37) / 10.5) ** 2 < 1
+    values = np.array([-1000, 40, 1150, 90], np.float64)
+    mean = values[truth].astype(np.float64)
+    mean[(truth == 2) & marrow & (np.abs(z - gap) > 6)] = 320  # marrow is bone too, but darker
+    image = ndi.gaussian_filter(mean, 0.8) + 25 * rng.standard_normal(shape)
+    image = np.clip(np.rint(image), -32768, 32767).astype(np.int16)
+    return image, truth, ["air", "soft tissue", "bone", "joint"], (0.6, 0.6, 0.6)
+
+
+def cells_mri8(rng):
+    shape = (48, 96, 96)
+    z, y, x = grid(shape)
+    truth = np.zeros(shape, np.uint8)  # culture medium
+    for _ in range(14):
+        c = rng.uniform([6, 10, 10], [42, 86, 86])
+        radii = rng.uniform([5, 7, 7], [8, 12, 12])
+        cell = (((z - c[0]) / radii[0]) ** 2 + ((y - c[1]) / radii[1]) ** 2 + ((x - c[2]) / radii[2]) ** 2) < 1
+        truth[cell] = 1
+        nucleus = (((z - c[0]) / (radii[0] * 0.45)) ** 2 + ((y - c[1]) / (radii[1] * 0.45)) ** 2
+                   + ((x - c[2]) / (radii[2] * 0.45)) ** 2) < 1
+        truth[nucleus] = 2
+    granules = rng.uniform(0, 1, shape) < 0.0003
+    truth[ndi.binary_dilation(granules, iterations=2) & (truth == 0)] = 3
+    values = np.array([40, 105, 165, 250], np.float64)
+    image = values[truth] * (1 + 0.15 * smooth_field(shape, 20, rng))
+    image = finish(np.arange(256, dtype=np.float64), np.clip(np.rint(image), 0, 255).astype(np.uint8), 16, 0.6,
+                   rng, np.uint8, rician=True)
+    return image, truth, ["medium", "cell", "nucleus", "granules"], (0.5, 0.5, 1.0)
+
+
+PHANTOMS = {"abdomen-ct16": abdomen_ct16, "head-t1-16": head_t1_16, "vessels-ct8": vessels_ct8,
+            "knee-ct16": knee_ct16, "cells-mri8": cells_mri8}
+# Phantoms whose class 0 is air around a body: the user may leave it unlassoed.
+WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16"}
+
+
+def write_nrrd(path, image, spacing):
+    kind = {np.dtype(np.uint8): "uint8", np.dtype(np.int16): "int16", np.dtype(np.uint16): "uint16"}[image.dtype]
+    z, y, x = image.shape
+    header = (f"NRRD0004\ntype: {kind}\ndimension: 3\nsizes: {x} {y} {z}\n"
+              f"spacings: {spacing[0]} {spacing[1]} {spacing[2]}\nencoding: raw\nendian: little\n\n")
+    with open(path, "wb") as f:
+        f.write(header.encode())
+        f.write(np.ascontiguousarray(image).astype(image.dtype.newbyteorder("<")).tobytes())
+
+
+def read_nrrd_labels(path, shape):
+    data = open(path, "rb").read()
+    body = data[data.index(b"\n\n") + 2:]
+    return np.frombuffer(body, np.uint8).reshape(shape)
+
+
+def plane(volume, axis, index):
+    """The slice image as the strokes file addresses it: [row j][column i] for point (i, j)."""
+    if axis == "z":
+        return volume[index, :, :]  # (y, x): point [x, y]
+    if axis == "y":
+        return volume[:, index, :]  # (z, x): point [x, z]
+    return volume[:, :, index]  # (z, y): point [y, z]
+
+
+def finger_loop(component, hand, rng):
+    """A closed polygon (points [i, j]) a finger draws around part of a 2-D region."""
+    from skimage.measure import find_contours
+
+    depth = ndi.distance_transform_edt(component)
+    j0, i0 = np.unravel_index(np.argmax(depth), depth.shape)
+    jj, ii = np.indices(component.shape)
+    reach = 14 if depth.max() >= 5 else 22
+    region = component & ((jj - j0) ** 2 + (ii - i0) ** 2 <= reach ** 2)
+    region = ndi.label(region)[0] == ndi.label(region)[0][j0, i0]
+    if hand == "clean":
+        inner = ndi.binary_erosion(region, iterations=1)
+        if inner.sum() >= 3:
+            region = inner
+        jitter = 0.3
+    else:
+        region = ndi.binary_dilation(region, structure=np.ones((3, 3)), iterations=2)
+        jitter = 0.8
+    padded = np.pad(region.astype(float), 1)
+    contour = max(find_contours(padded, 0.5), key=len) - 1  # (row j, column i)
+    step = max(1, len(contour) // 48)
+    points = contour[::step] + jitter * rng.standard_normal((len(contour[::step]), 2))
+    return [[float(p[1]), float(p[0])] for p in points]
+
+
+def draw_strokes(truth, names, lasso_air, top_slices, hand, rng):
+    classes, class_truth = [], []
+    for cls, name in enumerate(names):
+        if cls == AIR and not lasso_air:
+            continue
+        strokes = []
+        for axis, index in zip("xyz", top_slices):
+            mask = plane(truth, axis, index) == cls
+            parts, count = ndi.label(mask)
+            if count == 0:
+                continue
+            sizes = ndi.sum(mask, parts, range(1, count + 1))
+            if sizes.max() < 4:
+                continue
+            component = parts == 1 + int(np.argmax(sizes))
+            strokes.append({"axis": axis, "slice": int(index), "points": finger_loop(component, hand, rng)})
+        if not strokes:  # not on the ranked slices: the user pages to the z slice that shows most of it
+            index = int(np.argmax((truth == cls).sum(axis=(1, 2))))
+            parts, count = ndi.label(plane(truth, "z", index) == cls)
+            sizes = ndi.sum(parts > 0, parts, range(1, count + 1))
+            component = parts == 1 + int(np.argmax(sizes))
+            strokes.append({"axis": "z", "slice": index, "points": finger_loop(component, hand, rng)})
+        classes.append({"name": name, "strokes": strokes})
+        class_truth.append(cls)
+    return {"format": "volasso-strokes/1", "classes": classes}, class_truth
+
+
+def inside_polygon(points, ii, jj):
+    """Even-odd rule for voxel centres (ii, jj), as the strokes contract says."""
+    inside = np.zeros(ii.shape, bool)
+    p = np.asarray(points)
+    for (xa, ya), (xb, yb) in zip(p, np.roll(p, -1, axis=0)):
+        crosses = (ya > jj) != (yb > jj)
+        with np.errstate(divide="ignore", invalid="ignore"):
+            x_at = xa + (jj - ya) * (xb - xa) / (yb - ya)
+        inside ^= crosses & (ii < x_at)
+    return inside
+
+
+def lassoed_voxels(strokes, shape):
+    """Per class, a mask of the voxels inside its polygons."""
+    masks = []
+    for entry in strokes["classes"]:
+        mask = np.zeros(shape, bool)
+        for stroke in entry["strokes"]:
+            view = plane(mask, stroke["axis"], stroke["slice"])
+            jj, ii = np.indices(view.shape)
+            view |= inside_polygon(stroke["points"], ii, jj)
+        masks.append(mask)
+    return masks
+
+
+def paper_features(image):
+    """Intensity, gradient magnitude, and the 8-neighbour means in the xy, xz and yz planes."""
+    v = image.astype(np.float32)
+    gz, gy, gx = np.gradient(v)
+    ring = np.ones((3, 3), np.float32)
+    ring[1, 1] = 0
+    ring /= 8
+    means = [ndi.convolve(v, ring[axis_shape], mode="nearest") for axis_shape in
+             (np.s_[None, :, :], np.s_[:, None, :], np.s_[:, :, None])]
+    return np.stack([v, np.sqrt(gx ** 2 + gy ** 2 + gz ** 2)] + means, axis=-1).reshape(-1, 5)
+
+
+def forest_labels(image, masks, lasso_air):
+    from sklearn.ensemble import RandomForestClassifier
+    from skimage.filters import threshold_otsu
+
+    features = paper_features(image)
+    train = np.concatenate([np.flatnonzero(m) for m in masks])
+    target = np.concatenate([np.full(int(m.sum()), k + 1) for k, m in enumerate(masks)])
+    forest = RandomForestClassifier(n_estimators=100, random_state=0, n_jobs=-1)
+    labels = forest.fit(features[train], target).predict(features).astype(np.uint8)
+    if not lasso_air:
+        labels[features[:, 0] < threshold_otsu(image)] = 0
+    return labels.reshape(image.shape)
+
+
+def dice(truth, predicted, cls):
+    t, p = truth == cls, predicted == cls
+    total = t.sum() + p.sum()
+    return 1.0 if total == 0 else 2.0 * np.logical_and(t, p).sum() / total
+
+
+def score(truth, labels, class_truth, names, masks, lasso_air):
+    lookup = np.zeros(256, np.uint8)
+    for k, cls in enumerate(class_truth):
+        lookup[k + 1] = cls
+    predicted = lookup[labels]
+    per_class = [dice(truth, predicted, c) for c in range(len(names))]
+    outside = ndi.label(truth == AIR)[0]
+    face_ids = np.unique(np.concatenate([outside[0].ravel(), outside[-1].ravel(), outside[:, 0].ravel(),
+                                         outside[:, -1].ravel(), outside[:, :, 0].ravel(), outside[:, :, -1].ravel()]))
+    face_air = np.isin(outside, face_ids[face_ids > 0])
+    air_classed = float((labels[face_air] > 0).mean()) if (not lasso_air and face_air.any()) else None
+    kept = min(float((labels[m] == k + 1).mean()) for k, m in enumerate(masks))
+    return float(np.mean(per_class)), per_class, air_classed, kept
+
+
+def main():
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--volasso", default="target/release/volasso")
+    parser.add_argument("--seeds", default="101,102,103")
+    parser.add_argument("--only", default=None)
+    parser.add_argument("--classify-args", default="", help="extra arguments for volasso classify")
+    parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
+    args = parser.parse_args()
+    folder = args.keep or tempfile.mkdtemp(prefix="volasso-heldout-")
+    os.makedirs(folder, exist_ok=True)
+    rows = []
+    print(f"{'case':<14}{'seed':>5} {'hand':<6}{'air':<5}{'volasso':>8}{'forest':>8}{'diff':>8}"
+          f"{'air classed':>12}{'lasso kept':>11}   per class (volasso)")
+    for name, make in PHANTOMS.items():
+        if args.only and args.only != name:
+            continue
+        for seed in [int(s) for s in args.seeds.split(",")]:
+            rng = np.random.default_rng(seed * 7919 + len(name))
+            image, truth, names, spacing = make(rng)
+            lasso_air = name not in WITH_AIR or seed % 2 == 0
+            volume = os.path.join(folder, f"{name}-{seed}.nrrd")
+            write_nrrd(volume, image, spacing)
+            info = json.loads(subprocess.run([args.volasso, "info", volume, "--json"], check=True,
+                                             capture_output=True, text=True).stdout)
+            for hand in ["clean", "leaky"]:
+                strokes, class_truth = draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)
+                stroke_path = os.path.join(folder, f"{name}-{seed}-{hand}.strokes.json")
+                json.dump(strokes, open(stroke_path, "w"))
+                out = os.path.join(folder, f"{name}-{seed}-{hand}.labels.nrrd")
+                subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out] + args.classify_args.split(),
+                               check=True, capture_output=True, text=True)
+                masks = lassoed_voxels(strokes, truth.shape)
+                ours = score(truth, read_nrrd_labels(out, truth.shape), class_truth, names, masks, lasso_air)
+                theirs = score(truth, forest_labels(image, masks, lasso_air), class_truth, names, masks, lasso_air)
+                air = "-" if ours[2] is None else f"{ours[2]:.3f}"
+                print(f"{name:<14}{seed:>5} {hand:<6}{'yes' if lasso_air else 'no':<5}{ours[0]:>8.3f}{theirs[0]:>8.3f}"
+                      f"{ours[0] - theirs[0]:>+8.3f}{air:>12}{ours[3]:>11.3f}   "
+                      + " ".join(f"{d:.2f}" for d in ours[1]), flush=True)
+                rows.append((name, seed, hand, ours[0], theirs[0], ours[2], ours[3]))
+    print()
+    for hand in ["clean", "leaky"]:
+        sel = [r for r in rows if r[2] == hand]
+        if sel:
+            worst = min(sel, key=lambda r: r[3] - r[4])
+            print(f"{hand:<6} volasso {np.mean([r[3] for r in sel]):.3f}  forest {np.mean([r[4] for r in sel]):.3f}"
+                  f"  mean diff {np.mean([r[3] - r[4] for r in sel]):+.3f}"
+                  f"  worst {worst[3] - worst[4]:+.3f} ({worst[0]} seed {worst[1]})")
+    air = [r[5] for r in rows if r[5] is not None]
+    if air:
+        print(f"air connected to the faces that got a class: worst {max(air):.3f} over {len(air)} runs")
+    print(f"lassoed voxels that kept their class: worst {min(r[6] for r in rows):.3f}")
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,238 @@
+//! The majority filter: its passes against the rule voxel by voxel, at borders and the air, and with label bands.
+
+use super::*;
+
+#[test]
+fn an_isolated_voxel_joins_its_surroundings_and_background_stays() {
+    let dims = [5, 5, 5];
+    let mut labels = vec![1u8; 125];
+    labels[62] = 2; // the centre
+    labels[0] = 0;
+    let changed = majority_pass(&mut labels, dims);
+    assert_eq!(changed, 1);
+    assert_eq!(labels[62], 1);
+    assert_eq!(labels[0], 0, "background is never changed");
+}
+
+#[test]
+fn a_flat_border_between_two_classes_stays_where_it_is() {
+    // Half the block class 1, half class 2, split at x = 3: every voxel at the border has
+    // 18 of its own and 9 of the other in its neighbourhood.
+    let dims = [6, 4, 4];
+    let mut labels: Vec<u8> = (0..96).map(|i| if i % 6 < 3 { 1 } else { 2 }).collect();
+    let before = labels.clone();
+    assert_eq!(majority_pass(&mut labels, dims), 0);
+    assert_eq!(labels, before);
+}
+
+#[test]
+fn a_class_next_to_the_air_is_not_eroded_by_it() {
+    // A one-voxel-thick sheet of class 3 between air (0) and class 1: the air does not
+    // vote, so the sheet has 9 votes of its own against 9 of class 1 and keeps its label.
+    let dims = [5, 5, 5];
+    let mut labels: Vec<u8> = (0..125).map(|i| [0, 0, 3, 1, 1][i % 5]).collect();
+    assert_eq!(majority_pass(&mut labels, dims), 0);
+    assert!(labels.iter().enumerate().all(|(i, &l)| l == [0, 0, 3, 1, 1][i % 5]));
+}
+
+/// The pass as the module doc states it, voxel by voxel, without any shortcut.
+fn reference_pass(labels: &[u8], dims: [usize; 3]) -> Vec<u8> {
+    let at = |x: usize, y: usize, z: usize| labels[(z * dims[1] + y) * dims[0] + x];
+    let mut out = labels.to_vec();
+    for z in 0..dims[2] {
+        for y in 0..dims[1] {
+            for x in 0..dims[0] {
+                let own = at(x, y, z);
+                if own == 0 {
+                    continue;
+                }
+                let mut counts = [0u32; 256];
+                let mut seen = Vec::new();
+                let mut face = false;
+                for (dz, dy, dx) in (0..27).map(|i| (i / 9, i / 3 % 3, i % 3)) {
+                    let (nx, ny, nz) = ((x + dx).wrapping_sub(1), (y + dy).wrapping_sub(1), (z + dz).wrapping_sub(1));
+                    if nx >= dims[0] || ny >= dims[1] || nz >= dims[2] {
+                        continue;
+                    }
+                    let label = at(nx, ny, nz);
+                    if label != 0 {
+                        if counts[label as usize] == 0 {
+                            seen.push(label);
+                        }
+                        counts[label as usize] += 1;
+                        face |= label != own && (dx == 1) as u8 + (dy == 1) as u8 + (dz == 1) as u8 == 2;
+                    }
+                }
+                if face {
+                    // Ties keep the label seen first (own before the others).
+                    let mut best = own;
+                    for &label in &seen {
+                        if counts[label as usize] > counts[best as usize] {
+                            best = label;
+                        }
+                    }
+                    out[(z * dims[1] + y) * dims[0] + x] = best;
+                }
+            }
+        }
+    }
+    out
+}
+
+#[test]
+fn the_pass_equals_the_voxel_by_voxel_rule_on_uniform_and_mixed_rows() {
+    // Large uniform blocks (rows the shortcut skips), background, and speckle.
+    let mut rng = crate::rng::SplitMix64::new(17);
+    let dims = [12, 9, 7];
+    let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
+        .map(|i| {
+            let (y, z) = (i / dims[0] % dims[1], i / (dims[0] * dims[1]));
+            let block = if z < 3 {
+                1
+            } else if y < 4 {
+                2
+            } else {
+                0
+            };
+            // Speckle in plane 1 and rows 6 up: the rows beside them in y and z are
+            // uniform and must still see it.
+            let speckled = z == 1 || y >= 6;
+            if speckled && rng.next_u64() % 5 == 0 { (rng.next_u64() % 4) as u8 } else { block }
+        })
+        .collect();
+    let expected = reference_pass(&labels, dims);
+    let mut labels = labels;
+    majority_pass(&mut labels, dims);
+    assert_eq!(labels, expected);
+}
+
+#[test]
+fn passes_equal_single_passes_one_after_the_other() {
+    let mut rng = crate::rng::SplitMix64::new(5);
+    let dims = [10, 8, 9];
+    // Speckle in a few planes only, so later passes skip the others.
+    let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
+        .map(|i| {
+            let z = i / (dims[0] * dims[1]);
+            let block = 1 + u8::from(i % dims[0] >= 5);
+            if (z == 2 || z == 6) && rng.next_u64() % 3 == 0 { (rng.next_u64() % 3) as u8 } else { block }
+        })
+        .collect();
+    for passes in 1..=3 {
+        let mut expected = labels.clone();
+        let mut changed = 0;
+        for _ in 0..passes {
+            let after = reference_pass(&expected, dims);
+            changed += after.iter().zip(&expected).filter(|(a, b)| a != b).count();
+            expected = after;
+        }
+        let mut passed = labels.clone();
+        assert_eq!(majority_passes(&mut passed, dims, passes, None), changed, "{passes} passes");
+        assert_eq!(passed, expected, "{passes} passes");
+    }
+}
+
+#[test]
+fn a_uniform_row_outvoted_by_a_neighbouring_row_in_any_direction_changes() {
+    // A line of class 1 in the air, along x at (y 2, z 2), beside a sheet of class 2 on one
+    // side: 3 votes of its own against 9, in each of the four directions a row has
+    // neighbours.
+    let dims = [6, 5, 5];
+    let index = |x: usize, y: usize, z: usize| (z * dims[1] + y) * dims[0] + x;
+    for (dy, dz) in [(0, -1), (0, 1), (-1, 0), (1, 0)] {
+        let mut labels = vec![0u8; dims.iter().product()];
+        for x in 0..dims[0] {
+            labels[index(x, 2, 2)] = 1;
+            for offset in [-1, 0, 1] {
+                let (y, z) = if dz != 0 { (2 + offset, 2 + dz) } else { (2 + dy, 2 + offset) };
+                labels[index(x, y as usize, z as usize)] = 2;
+            }
+        }
+        let expected = reference_pass(&labels, dims);
+        assert!((0..dims[0]).all(|x| expected[index(x, 2, 2)] == 2), "({dy}, {dz})");
+        majority_pass(&mut labels, dims);
+        assert_eq!(labels, expected, "({dy}, {dz})");
+    }
+}
+
+#[test]
+fn a_row_s_classified_span_runs_from_its_first_to_its_last_label() {
+    let mut rng = crate::rng::SplitMix64::new(7);
+    for length in [0, 1, 7, 8, 9, 16, 17, 31, 301] {
+        for _ in 0..50 {
+            let mut row = vec![0u8; length];
+            for _ in 0..rng.below(4) {
+                if length > 0 {
+                    row[rng.below(length as u64) as usize] = 1 + rng.below(3) as u8;
+                }
+            }
+            let expected = row.iter().position(|&label| label != 0).zip(row.iter().rposition(|&label| label != 0));
+            assert_eq!(classified_span(&row), expected, "{row:?}");
+        }
+    }
+}
+
+/// Bands per label, as [`LabelBands::new`] takes them.
+type Bands = Vec<Option<(f32, f32)>>;
+
+/// A 7 x 7 x 7 volume of label 1 at intensity 10 (band 0-20), with the given voxels set to a
+/// label and an intensity; label 2's band is 180-220.
+fn banded_scene(voxels: &[([usize; 3], u8, f32)]) -> (Vec<u8>, Vec<f32>, Bands) {
+    let mut labels = vec![1u8; 343];
+    let mut intensities = vec![10.0f32; 343];
+    for &([x, y, z], label, intensity) in voxels {
+        labels[x + 7 * (y + 7 * z)] = label;
+        intensities[x + 7 * (y + 7 * z)] = intensity;
+    }
+    let mut bands = vec![None; 256];
+    bands[1] = Some((0.0, 20.0));
+    bands[2] = Some((180.0, 220.0));
+    (labels, intensities, bands)
+}
+
+#[test]
+fn with_bands_a_small_structure_unlike_its_surroundings_keeps_its_label() {
+    // A bright cross of seven voxels: the majority alone votes it away.
+    let cross = [[3, 3, 3], [2, 3, 3], [4, 3, 3], [3, 2, 3], [3, 4, 3], [3, 3, 2], [3, 3, 4]];
+    let voxels: Vec<_> = cross.iter().map(|&at| (at, 2u8, 200.0f32)).collect();
+    let (labels, intensities, bands) = banded_scene(&voxels);
+    let mut plain = labels.clone();
+    majority_passes(&mut plain, [7, 7, 7], DEFAULT_PASSES, None);
+    assert!(plain.iter().all(|&label| label == 1), "without bands the cross is voted away");
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut kept = labels.clone();
+    assert_eq!(majority_passes(&mut kept, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands)), 0);
+    assert_eq!(kept, labels);
+}
+
+#[test]
+fn with_bands_noisy_and_partial_volume_voxels_still_join_their_surroundings() {
+    // Label 2 above z = 3. At z = 3: a voxel of label 2 as dark as label 1's band reaches (a
+    // noisy one), and one of a third label halfway between the bands (a partial-volume one).
+    let mut voxels = Vec::new();
+    for z in 4..7 {
+        for y in 0..7 {
+            for x in 0..7 {
+                voxels.push(([x, y, z], 2u8, 200.0f32));
+            }
+        }
+    }
+    voxels.push(([2, 3, 2], 2, 25.0));
+    voxels.push(([4, 3, 3], 3, 100.0));
+    let (labels, intensities, mut bands) = banded_scene(&voxels);
+    bands[3] = Some((95.0, 105.0));
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut filtered = labels.clone();
+    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    assert_eq!(filtered[2 + 7 * (3 + 7 * 2)], 1, "a noisy voxel within reach of its surroundings' band");
+    assert_eq!(filtered[4 + 7 * (3 + 7 * 3)], 1, "a partial-volume voxel between its neighbours' bands");
+    // A voxel of label 2 as bright as its band, in label 1: nothing around it could make it.
+    let (labels, intensities, bands) = banded_scene(&[([3, 3, 1], 2, 200.0)]);
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut filtered = labels.clone();
+    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    assert_eq!(filtered, labels);
+}
