@@ -52,6 +52,9 @@ pub struct NrrdHeader {
     pub header_length: Option<usize>,
     /// From `space`, `space directions` and `space origin` (see [`super::orientation`]).
     pub orientation: Option<super::PatientOrientation>,
+    /// What the reader assumed where the header is silent, one sentence each (a spatial
+    /// axis without a spacing), for [`Volume::warnings`].
+    pub warnings: Vec<String>,
 }
 
 /// Maps every NRRD type spelling to a voxel type; `None` for names this product does not
@@ -166,7 +169,8 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
     }
     checked_voxel_count(dims, voxel_type, path)?;
 
-    let spacing_mm = parse_spacing(get("space directions"), get("spacings"), &spatial_axes, dimension, path)?;
+    let (spacing_mm, spacing_warning) =
+        parse_spacing(get("space directions"), get("spacings"), &spatial_axes, dimension, path)?;
     let orientation =
         super::orientation::from_nrrd(get("space"), get("space directions"), get("space origin"), &spatial_axes, path);
 
@@ -233,6 +237,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
         line_skip,
         header_length,
         orientation,
+        warnings: spacing_warning.into_iter().collect(),
     })
 }
 
@@ -318,6 +323,7 @@ pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<NrrdRead, VolumeErr
     let mut volume =
         Volume::new(header.dims, header.spacing_mm, header.voxel_type, order, ValueScale::IDENTITY, bytes, path)?;
     volume.orientation = header.orientation;
+    volume.warnings = header.warnings;
     Ok(NrrdRead { volume, decoded })
 }
 

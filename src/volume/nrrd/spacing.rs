@@ -6,15 +6,17 @@ use crate::volume::VolumeError;
 use std::path::Path;
 
 /// Spacing per spatial axis from `space directions` (vector norms) or `spacings`; 1 where
-/// neither says.
+/// neither says. With it, a warning (for the user: the shape may be wrong) when `spacings`
+/// marks a spatial axis as non-spatial (NaN) beside axes whose spacing it gives.
 pub(super) fn parse_spacing(
     directions: Option<&str>,
     spacings: Option<&str>,
     spatial_axes: &[usize],
     dimension: usize,
     path: &Path,
-) -> Result<[f64; 3], VolumeError> {
+) -> Result<([f64; 3], Option<String>), VolumeError> {
     let mut spacing = [1.0f64; 3];
+    let mut unknown = Vec::new();
     if let Some(value) = directions {
         let vectors = split_direction_vectors(value);
         if vectors.len() != dimension {
@@ -64,14 +66,27 @@ pub(super) fn parse_spacing(
             })?;
             // NaN marks a non-spatial axis; treat as unknown (1).
             spacing[i] = if parsed.is_nan() { 1.0 } else { parsed };
+            if parsed.is_nan() {
+                unknown.push(i);
+            }
         }
     }
+    let known: Vec<String> =
+        (0..spatial_axes.len()).filter(|i| !unknown.contains(i)).map(|i| format!("{} mm", spacing[i])).collect();
+    let warning = (!unknown.is_empty() && !known.is_empty()).then(|| {
+        let names: Vec<&str> = unknown.iter().map(|&i| ["x", "y", "z"][i]).collect();
+        format!(
+            "the file gives no spacing for axis {} (NaN); shown at 1 mm beside {}, so the scan may look stretched or squashed along it",
+            names.join(" and "),
+            known.join(" and ")
+        )
+    });
     for (axis, &s) in spacing.iter().enumerate() {
         if !(s.is_finite() && s > 0.0) {
             return Err(VolumeError::BadSpacing { axis, value: s, path: path.to_path_buf() });
         }
     }
-    Ok(spacing)
+    Ok((spacing, warning))
 }
 
 /// Splits `(1,0,0) (0,1,0) none` into its entries, allowing spaces inside the parentheses.

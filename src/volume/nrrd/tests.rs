@@ -37,7 +37,10 @@ fn every_type_spelling_is_known() {
 #[test]
 fn spacings_and_none_directions() {
     let text = HEADER.replace("space directions: (0.5,0,0) (0,0.5,0) (0,0,2)", "spacings: 0.7 0.8 NaN");
-    assert_eq!(parse_header(text.as_bytes(), Path::new("t")).unwrap().spacing_mm, [0.7, 0.8, 1.0]);
+    let header = parse_header(text.as_bytes(), Path::new("t")).unwrap();
+    assert_eq!(header.spacing_mm, [0.7, 0.8, 1.0]);
+    assert_eq!(header.warnings.len(), 1, "a spatial axis without spacing beside known ones is said");
+    assert!(header.warnings[0].contains("axis z") && header.warnings[0].contains("0.7 mm"), "{:?}", header.warnings);
     let vector = HEADER
         .replace("dimension: 3\nsizes: 4 3 2", "dimension: 4\nsizes: 1 4 3 2")
         .replace("space directions: (0.5,0,0)", "space directions: none (0.5, 0, 0)");
