@@ -11,12 +11,13 @@
 //! than a scan of the label volume.
 //!
 //! Given each label's band of drawn intensities ([`LabelBands`], the intensity gate's), a voxel
-//! takes a neighbour's label only where its intensity could be a mix of the labels around it:
-//! within the span of their bands (its own label left out), each widened by
-//! [`PARTIAL_VOLUME_REACH`] of its width. A partial-volume shell between two structures, or a
-//! noisy voxel inside one, still joins its surroundings; a small structure far brighter or
-//! darker than everything around it (a calcification, a contrast-filled vessel two voxels
-//! wide) is not voted away by its sheer size.
+//! whose intensity lies in its own label's band takes a neighbour's label only where its
+//! intensity could be a mix of the labels around it: within the span of their bands (its own
+//! label left out), each widened by [`PARTIAL_VOLUME_REACH`] of its width. A partial-volume
+//! shell between two structures, a noisy voxel inside one, or a voxel outside its own label's
+//! band (streaks on a CT table between the brain's and the bone's bands) still joins its
+//! surroundings; a small structure far brighter or darker than everything around it (a
+//! calcification, a contrast-filled vessel two voxels wide) is not voted away by its sheer size.
 //!
 //! Never: changes background voxels (label 0) or counts them as votes, so it never grows a
 //! class into the air or erodes it there.
@@ -49,18 +50,27 @@ impl<'a> LabelBands<'a> {
 impl LabelBands<'_> {
     /// Whether the voxel `voxel` of label `own` may take a label of its 3 x 3 x 3
     /// neighbourhood `block`: its intensity lies within the span of the widened bands of the
-    /// block's labels other than `own` and background.
+    /// block's labels other than `own` and background, or outside its own label's band (then
+    /// its own label is no surer than its neighbours').
     fn allows(&self, voxel: usize, own: u8, block: &[u8]) -> bool {
+        let widened = |label: u8| -> Option<(f32, f32)> {
+            let (low, high) = (*self.bands.get(label as usize)?)?;
+            let reach = PARTIAL_VOLUME_REACH * (high - low);
+            Some((low - reach, high + reach))
+        };
+        let intensity = (self.intensity)(voxel);
+        match self.bands.get(own as usize) {
+            Some(Some((low, high))) if *low <= intensity && intensity <= *high => {}
+            _ => return true,
+        }
         let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
         for &label in block.iter().filter(|&&label| label != 0 && label != own) {
-            let Some(Some((band_low, band_high))) = self.bands.get(label as usize) else {
+            let Some((band_low, band_high)) = widened(label) else {
                 return true;
             };
-            let reach = PARTIAL_VOLUME_REACH * (band_high - band_low);
-            low = low.min(band_low - reach);
-            high = high.max(band_high + reach);
+            low = low.min(band_low);
+            high = high.max(band_high);
         }
-        let intensity = (self.intensity)(voxel);
         low <= intensity && intensity <= high
     }
 }

@@ -228,11 +228,14 @@ fn with_bands_noisy_and_partial_volume_voxels_still_join_their_surroundings() {
     majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
     assert_eq!(filtered[2 + 7 * (3 + 7 * 2)], 1, "a noisy voxel within reach of its surroundings' band");
     assert_eq!(filtered[4 + 7 * (3 + 7 * 3)], 1, "a partial-volume voxel between its neighbours' bands");
-    // A voxel of label 2 as bright as its band, in label 1: nothing around it could make it.
-    let (labels, intensities, bands) = banded_scene(&[([3, 3, 1], 2, 200.0)]);
+    // In label 1: a voxel of label 2 as bright as its band (nothing around it could make it)
+    // keeps its label; one far from both bands (its own label no surer than its neighbours')
+    // joins them.
+    let (labels, intensities, bands) = banded_scene(&[([3, 3, 1], 2, 200.0), ([3, 3, 5], 2, 100.0)]);
     let intensity = |voxel: usize| intensities[voxel];
     let with_bands = LabelBands::new(bands, &intensity);
     let mut filtered = labels.clone();
     majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
-    assert_eq!(filtered, labels);
+    assert_eq!(filtered[3 + 7 * (3 + 7)], 2, "a voxel within its own band, unlike its surroundings");
+    assert_eq!(filtered[3 + 7 * (3 + 7 * 5)], 1, "a voxel outside its own band");
 }
