@@ -134,6 +134,7 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
     let mut changes = Vec::new();
     let mut counts = [0u8; 256];
     let mut flags = vec![0u8; size_x];
+    let mut votes = vec![0u8; size_x];
     for (y, row) in here.chunks_exact(size_x).enumerate() {
         // Only the span from the row's first to its last classified voxel can hold a flagged
         // voxel: most rows of a scan are background, and a body fills a fraction of each row
@@ -157,6 +158,14 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
         }
         let flags = &mut flags[..row_span.len()];
         disagreeing_voxels(row_span, neighbours, flags);
+        let flagged: usize = flags.iter().map(|&flag| usize::from(flag)).sum();
+        if flagged * ROW_COUNT_SHARE >= flags.len() {
+            let rows_around = [below, Some(here), above].map(|neighbour_plane| {
+                [y.checked_sub(1), Some(y), (y + 1 < size_y).then_some(y + 1)]
+                    .map(|row_y| Some(&neighbour_plane?[row_y? * size_x..][..size_x]))
+            });
+            unflag_unbeatable(row, first, rows_around.as_flattened(), flags, &mut votes[..row_span.len()]);
+        }
         // Few voxels of a row are flagged: skip eight unflagged ones at a time.
         for (chunk, eight) in flags.chunks(8).enumerate() {
             let mut bits = eight.iter().rev().fold(0u64, |bits, &flag| bits << 8 | u64::from(flag));
@@ -228,6 +237,48 @@ fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u
     }
     for ((flag, &own), &right) in flags[..last].iter_mut().zip(&row[..last]).zip(&row[1..]) {
         *flag |= disagrees(own, right);
+    }
+}
+
+/// A row's flagged voxels are first cleared of unbeatable ones ([`unflag_unbeatable`]) when
+/// at least one in this many of its span is flagged: the row-wise count costs about as much
+/// as counting a few voxels label by label. Measured with `RUST_LOG=volasso::segmentation::refine=debug`
+/// (median filter time over `classify --repeat 21`): 1 in 8 took the Visible Male head's
+/// filter from 53.6 to 37.7 ms and the lobster's from 3.2 to 3.3 ms; 1 in 4, 16 and 32 were no
+/// better on either.
+const ROW_COUNT_SHARE: usize = 8;
+
+/// Votes a voxel's own label needs in its 3 x 3 x 3 neighbourhood (itself included) so that
+/// no other label can have strictly more: the other 13 of 27 at most.
+const UNBEATABLE_VOTES: u8 = 14;
+
+/// Clears the flag of every voxel of `row` (flags and `votes` from position `first` on) whose
+/// own label holds [`UNBEATABLE_VOTES`] of its neighbourhood in `rows_around` (the nine rows
+/// at y - 1, y, y + 1 in the planes below, here and above; `None` past the volume): the
+/// majority cannot change it, so it need not be counted label by label. Counted row-wise, in
+/// byte loops that vectorise; most flagged voxels lie on smooth borders and are cleared here.
+fn unflag_unbeatable(row: &[u8], first: usize, rows_around: &[Option<&[u8]>], flags: &mut [u8], votes: &mut [u8]) {
+    let span = first..first + flags.len();
+    votes.fill(0);
+    for neighbour in rows_around.iter().flatten() {
+        // dx = 0, -1 (the voxel at x - 1 exists from x = 1 on), +1 (up to x = size_x - 2).
+        for ((vote, &own), &other) in votes.iter_mut().zip(&row[span.clone()]).zip(&neighbour[span.clone()]) {
+            *vote += u8::from(own == other);
+        }
+        let left = span.start.max(1)..span.end;
+        let offset = left.start - span.start;
+        for ((vote, &own), &other) in
+            votes[offset..].iter_mut().zip(&row[left.clone()]).zip(&neighbour[left.start - 1..])
+        {
+            *vote += u8::from(own == other);
+        }
+        let right = span.start..span.end.min(row.len() - 1);
+        for ((vote, &own), &other) in votes.iter_mut().zip(&row[right.clone()]).zip(&neighbour[right.start + 1..]) {
+            *vote += u8::from(own == other);
+        }
+    }
+    for (flag, &vote) in flags.iter_mut().zip(votes.iter()) {
+        *flag &= u8::from(vote < UNBEATABLE_VOTES);
     }
 }
 

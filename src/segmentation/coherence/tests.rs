@@ -107,6 +107,28 @@ fn the_pass_equals_the_voxel_by_voxel_rule_on_uniform_and_mixed_rows() {
 }
 
 #[test]
+fn the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes() {
+    // Borders between labels with speckle from sparse to dense: rows with few flagged voxels
+    // count them label by label, rows with many first drop those their own label holds.
+    for seed in 0..300u64 {
+        let mut rng = crate::rng::SplitMix64::new(seed);
+        let dims = [3 + (seed % 17) as usize, 2 + (seed % 7) as usize, 1 + (seed % 5) as usize];
+        let speckle = 2 + seed % 9;
+        let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
+            .map(|i| {
+                let (x, y) = (i % dims[0], i / dims[0] % dims[1]);
+                let block = 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
+                if rng.next_u64() % speckle == 0 { (rng.next_u64() % 5) as u8 } else { block }
+            })
+            .collect();
+        let expected = reference_pass(&labels, dims);
+        let mut passed = labels;
+        majority_pass(&mut passed, dims);
+        assert_eq!(passed, expected, "seed {seed}, dims {dims:?}");
+    }
+}
+
+#[test]
 fn passes_equal_single_passes_one_after_the_other() {
     let mut rng = crate::rng::SplitMix64::new(5);
     let dims = [10, 8, 9];
