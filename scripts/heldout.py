@@ -41,9 +41,9 @@ def grid(shape):
     return np.meshgrid(*[np.arange(n, dtype=np.float64) for n in shape], indexing="ij")
 
 
-def finish(mean_values, truth, noise, blur, rng, dtype, rician=False):
-    """The image of a truth map: class means, a point spread, noise, rounding to `dtype`."""
-    image = ndi.gaussian_filter(mean_values[truth].astype(np.float64), blur)
+def finish(mean, noise, blur, rng, dtype, rician=False):
+    """The image of a noise-free `mean` image: a point spread, noise, rounding to `dtype`."""
+    image = ndi.gaussian_filter(mean.astype(np.float64), blur)
     if rician:
         image = np.hypot(image + noise * rng.standard_normal(image.shape), noise * rng.standard_normal(image.shape))
     else:
@@ -72,7 +72,7 @@ def abdomen_ct16(rng):
     spine = ((x - 64) / 10) ** 2 + ((y - 84) / 8) ** 2 < 1
     truth[spine] = 5
     values = np.array([-1000, -95, 45, 115, 260, 650], np.float64)
-    image = finish(values, truth, 22, 0.8, rng, np.int16)
+    image = finish(values[truth], 22, 0.8, rng, np.int16)
     return image, truth, ["air", "fat", "muscle", "liver", "aorta", "spine"], (0.8, 0.8, 2.5)
 
 
@@ -135,7 +135,7 @@ def vessels_ct8(rng):
     bone = (((x - 66) / 7) ** 2 + ((y - 70) / 7) ** 2 < 1) & body
     truth[bone] = 4
     values = np.array([8, 92, 124, 182, 236], np.float64)
-    image = finish(values, truth, 9, 0.7, rng, np.uint8)
+    image = finish(values[truth], 9, 0.7, rng, np.uint8)
     return image, truth, ["air", "soft tissue", "organ", "vessels", "bone"], (0.7, 0.7, 1.0)
 
 
@@ -156,8 +156,7 @@ def knee_ct16(rng):
     values = np.array([-1000, 40, 1150, 90], np.float64)
     mean = values[truth].astype(np.float64)
     mean[(truth == 2) & marrow & (np.abs(z - gap) > 6)] = 320  # marrow is bone too, but darker
-    image = ndi.gaussian_filter(mean, 0.8) + 25 * rng.standard_normal(shape)
-    image = np.clip(np.rint(image), -32768, 32767).astype(np.int16)
+    image = finish(mean, 25, 0.8, rng, np.int16)
     return image, truth, ["air", "soft tissue", "bone", "joint"], (0.6, 0.6, 0.6)
 
 
@@ -176,9 +175,8 @@ def cells_mri8(rng):
     granules = rng.uniform(0, 1, shape) < 0.0003
     truth[ndi.binary_dilation(granules, iterations=2) & (truth == 0)] = 3
     values = np.array([40, 105, 165, 250], np.float64)
-    image = values[truth] * (1 + 0.15 * smooth_field(shape, 20, rng))
-    image = finish(np.arange(256, dtype=np.float64), np.clip(np.rint(image), 0, 255).astype(np.uint8), 16, 0.6,
-                   rng, np.uint8, rician=True)
+    biased = np.clip(np.rint(values[truth] * (1 + 0.15 * smooth_field(shape, 20, rng))), 0, 255)
+    image = finish(biased, 16, 0.6, rng, np.uint8, rician=True)
     return image, truth, ["medium", "cell", "nucleus", "granules"], (0.5, 0.5, 1.0)
 
 
@@ -238,6 +236,15 @@ def finger_loop(component, hand, rng):
     return [[float(p[1]), float(p[0])] for p in points]
 
 
+def largest_component(mask):
+    """The largest connected part of a 2-D mask; None when the mask is empty."""
+    parts, count = ndi.label(mask)
+    if count == 0:
+        return None
+    sizes = ndi.sum(mask, parts, range(1, count + 1))
+    return parts == 1 + int(np.argmax(sizes))
+
+
 def draw_strokes(truth, names, lasso_air, top_slices, hand, rng):
     classes, class_truth = [], []
     for cls, name in enumerate(names):
@@ -246,19 +253,13 @@ def draw_strokes(truth, names, lasso_air, top_slices, hand, rng):
         strokes = []
         for axis, index in zip("xyz", top_slices):
             mask = plane(truth, axis, index) == cls
-            parts, count = ndi.label(mask)
-            if count == 0:
+            component = largest_component(mask)
+            if component is None or component.sum() < 4:
                 continue
-            sizes = ndi.sum(mask, parts, range(1, count + 1))
-            if sizes.max() < 4:
-                continue
-            component = parts == 1 + int(np.argmax(sizes))
             strokes.append({"axis": axis, "slice": int(index), "points": finger_loop(component, hand, rng)})
         if not strokes:  # not on the ranked slices: the user pages to the z slice that shows most of it
             index = int(np.argmax((truth == cls).sum(axis=(1, 2))))
-            parts, count = ndi.label(plane(truth, "z", index) == cls)
-            sizes = ndi.sum(parts > 0, parts, range(1, count + 1))
-            component = parts == 1 + int(np.argmax(sizes))
+            component = largest_component(plane(truth, "z", index) == cls)
             strokes.append({"axis": "z", "slice": index, "points": finger_loop(component, hand, rng)})
         classes.append({"name": name, "strokes": strokes})
         class_truth.append(cls)
