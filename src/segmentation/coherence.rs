@@ -45,9 +45,7 @@ impl<'a> LabelBands<'a> {
     pub fn new(bands: Vec<Option<(f32, f32)>>, intensity: &'a (dyn Fn(usize) -> f32 + Sync)) -> LabelBands<'a> {
         LabelBands { bands, intensity }
     }
-}
 
-impl LabelBands<'_> {
     /// Whether the voxel `voxel` of label `own` may take a label of its 3 x 3 x 3
     /// neighbourhood `block`: its intensity lies within the span of the widened bands of the
     /// block's labels other than `own` and background, or outside its own label's band (then
@@ -260,22 +258,19 @@ const UNBEATABLE_VOTES: u8 = 14;
 fn unflag_unbeatable(row: &[u8], first: usize, rows_around: &[Option<&[u8]>], flags: &mut [u8], votes: &mut [u8]) {
     let span = first..first + flags.len();
     votes.fill(0);
+    // One vote where a voxel's own label equals the neighbour's at the same position in `other`.
+    let count = |votes: &mut [u8], own: &[u8], other: &[u8]| {
+        for ((vote, &own), &other) in votes.iter_mut().zip(own).zip(other) {
+            *vote += u8::from(own == other);
+        }
+    };
     for neighbour in rows_around.iter().flatten() {
-        // dx = 0, -1 (the voxel at x - 1 exists from x = 1 on), +1 (up to x = size_x - 2).
-        for ((vote, &own), &other) in votes.iter_mut().zip(&row[span.clone()]).zip(&neighbour[span.clone()]) {
-            *vote += u8::from(own == other);
-        }
+        // dx = 0; -1 (the voxel at x - 1 exists from x = 1 on); +1 (up to x = size_x - 2).
+        count(votes, &row[span.clone()], &neighbour[span.clone()]);
         let left = span.start.max(1)..span.end;
-        let offset = left.start - span.start;
-        for ((vote, &own), &other) in
-            votes[offset..].iter_mut().zip(&row[left.clone()]).zip(&neighbour[left.start - 1..])
-        {
-            *vote += u8::from(own == other);
-        }
+        count(&mut votes[left.start - span.start..], &row[left.clone()], &neighbour[left.start - 1..]);
         let right = span.start..span.end.min(row.len() - 1);
-        for ((vote, &own), &other) in votes.iter_mut().zip(&row[right.clone()]).zip(&neighbour[right.start + 1..]) {
-            *vote += u8::from(own == other);
-        }
+        count(votes, &row[right.clone()], &neighbour[right.start + 1..]);
     }
     for (flag, &vote) in flags.iter_mut().zip(votes.iter()) {
         *flag &= u8::from(vote < UNBEATABLE_VOTES);

@@ -79,27 +79,44 @@ fn reference_pass(labels: &[u8], dims: [usize; 3]) -> Vec<u8> {
     out
 }
 
+/// A label volume of `dims`: `block(x, y, z)`, except that where `speckled(x, y, z)` one voxel
+/// in `one_in` (drawn from `seed`) takes a random label below `labels`, background included.
+fn speckled_volume(
+    dims: [usize; 3],
+    seed: u64,
+    one_in: u64,
+    labels: u64,
+    block: impl Fn(usize, usize, usize) -> u8,
+    speckled: impl Fn(usize, usize, usize) -> bool,
+) -> Vec<u8> {
+    let mut rng = crate::rng::SplitMix64::new(seed);
+    (0..dims[0] * dims[1] * dims[2])
+        .map(|i| {
+            let (x, y, z) = (i % dims[0], i / dims[0] % dims[1], i / (dims[0] * dims[1]));
+            if speckled(x, y, z) && rng.next_u64() % one_in == 0 {
+                (rng.next_u64() % labels) as u8
+            } else {
+                block(x, y, z)
+            }
+        })
+        .collect()
+}
+
 #[test]
 fn the_pass_equals_the_voxel_by_voxel_rule_on_uniform_and_mixed_rows() {
-    // Large uniform blocks (rows the shortcut skips), background, and speckle.
-    let mut rng = crate::rng::SplitMix64::new(17);
+    // Large uniform blocks (rows the shortcut skips), background, and speckle in plane 1 and
+    // rows 6 up: the rows beside them in y and z are uniform and must still see it.
     let dims = [12, 9, 7];
-    let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
-        .map(|i| {
-            let (y, z) = (i / dims[0] % dims[1], i / (dims[0] * dims[1]));
-            let block = if z < 3 {
-                1
-            } else if y < 4 {
-                2
-            } else {
-                0
-            };
-            // Speckle in plane 1 and rows 6 up: the rows beside them in y and z are
-            // uniform and must still see it.
-            let speckled = z == 1 || y >= 6;
-            if speckled && rng.next_u64() % 5 == 0 { (rng.next_u64() % 4) as u8 } else { block }
-        })
-        .collect();
+    let block = |_, y, z| {
+        if z < 3 {
+            1
+        } else if y < 4 {
+            2
+        } else {
+            0
+        }
+    };
+    let labels = speckled_volume(dims, 17, 5, 4, block, |_, y, z| z == 1 || y >= 6);
     let expected = reference_pass(&labels, dims);
     let mut labels = labels;
     majority_pass(&mut labels, dims);
@@ -111,16 +128,9 @@ fn the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes() {
     // Borders between labels with speckle from sparse to dense: rows with few flagged voxels
     // count them label by label, rows with many first drop those their own label holds.
     for seed in 0..300u64 {
-        let mut rng = crate::rng::SplitMix64::new(seed);
         let dims = [3 + (seed % 17) as usize, 2 + (seed % 7) as usize, 1 + (seed % 5) as usize];
-        let speckle = 2 + seed % 9;
-        let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
-            .map(|i| {
-                let (x, y) = (i % dims[0], i / dims[0] % dims[1]);
-                let block = 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
-                if rng.next_u64() % speckle == 0 { (rng.next_u64() % 5) as u8 } else { block }
-            })
-            .collect();
+        let block = |x, y, _| 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
+        let labels = speckled_volume(dims, seed, 2 + seed % 9, 5, block, |_, _, _| true);
         let expected = reference_pass(&labels, dims);
         let mut passed = labels;
         majority_pass(&mut passed, dims);
@@ -130,16 +140,9 @@ fn the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes() {
 
 #[test]
 fn passes_equal_single_passes_one_after_the_other() {
-    let mut rng = crate::rng::SplitMix64::new(5);
     let dims = [10, 8, 9];
     // Speckle in a few planes only, so later passes skip the others.
-    let labels: Vec<u8> = (0..dims[0] * dims[1] * dims[2])
-        .map(|i| {
-            let z = i / (dims[0] * dims[1]);
-            let block = 1 + u8::from(i % dims[0] >= 5);
-            if (z == 2 || z == 6) && rng.next_u64() % 3 == 0 { (rng.next_u64() % 3) as u8 } else { block }
-        })
-        .collect();
+    let labels = speckled_volume(dims, 5, 3, 3, |x, _, _| 1 + u8::from(x >= 5), |_, _, z| z == 2 || z == 6);
     for passes in 1..=3 {
         let mut expected = labels.clone();
         let mut changed = 0;
