@@ -4,7 +4,8 @@
 `volasso accuracy` draws its phantoms (src/phantom) and its user (src/accuracy/user.rs) with
 the same code base that chooses the defaults. This script makes everything again without that
 code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias field and Rician
-noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI), its own
+noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI; and a real
+brain, the ICBM 152 T1 template that nilearn ships, with its tissue maps as truth), its own
 finger (loops on the three slices `volasso info` ranks first, drawn inside each structure or
 leaking 2 voxels over its border, into air too), and its own scoring. It runs the volasso binary
 as a user would (`volasso info`, `volasso classify` on an NRRD file) and scikit-learn's random
@@ -16,7 +17,10 @@ that kept their class; then the means per hand and the worst difference to the f
 
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
                                   [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
-Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn).
+Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn);
+the real brain (mni-t1) also nilearn's data files: pip install nilearn, or unpack its wheel
+(pip download nilearn --no-deps) and set VOLASSO_MNI_DIR to its nilearn/datasets/data folder.
+Without them that case is skipped.
 """
 import argparse
 import json
@@ -180,10 +184,66 @@ def cells_mri8(rng):
     return image, truth, ["medium", "cell", "nucleus", "granules"], (0.5, 0.5, 1.0)
 
 
+MNI_FILES = "mni_icbm152_{}_tal_nlin_sym_09a_converted.nii.gz"
+
+
+def mni_folder():
+    """The folder of the ICBM 152 2009a template nilearn ships (its T1 image and its grey and
+    white matter maps), from $VOLASSO_MNI_DIR or the installed nilearn; None when neither."""
+    folder = os.environ.get("VOLASSO_MNI_DIR")
+    if not folder:
+        try:
+            import nilearn
+        except ImportError:
+            return None
+        folder = os.path.join(os.path.dirname(nilearn.__file__), "datasets", "data")
+    return folder if os.path.exists(os.path.join(folder, MNI_FILES.format("t1"))) else None
+
+
+def read_nifti_gz(path):
+    """A gzipped NIfTI-1 volume as (z, y, x), read without nibabel."""
+    import gzip
+
+    data = gzip.open(path, "rb").read()
+    if int(np.frombuffer(data[:4], "<i4")[0]) != 348:
+        raise ValueError(f"{path}: not a little-endian NIfTI-1 file")
+    dims = np.frombuffer(data[40:56], "<i2")
+    datatype = int(np.frombuffer(data[70:72], "<i2")[0])
+    offset = int(np.frombuffer(data[108:112], "<f4")[0])
+    kind = {2: np.uint8, 4: np.int16, 16: np.float32, 512: np.uint16}[datatype]
+    x, y, z = (int(n) for n in dims[1:4])
+    return np.frombuffer(data[offset:], kind, count=x * y * z).reshape(z, y, x)
+
+
+def mni_t1(rng):
+    """A real brain: the ICBM 152 template (an average of 152 T1 MRIs, skull-stripped, 1 mm) with
+    its tissue maps as truth (cerebrospinal fluid where grey and white matter leave the most
+    probability), scanned again with a bias field (a deviation of 2 to 6 %, about BrainWeb's 20 % field) and Rician
+    noise of 3 to 5 % of the white matter."""
+    folder = mni_folder()
+    t1, grey, white = (read_nifti_gz(os.path.join(folder, MNI_FILES.format(n))).astype(np.float64)
+                       for n in ("t1", "gm", "wm"))
+    inside = t1 > 0
+    csf = np.clip(255 - grey - white, 0, None)
+    truth = (np.argmax(np.stack([csf, grey, white]), 0) + 1).astype(np.uint8)
+    truth[~inside] = 0
+    # The brain's box and 6 voxels around it (the template's brain stem reaches its lowest plane).
+    lo = np.maximum(np.argwhere(inside).min(0) - 6, 0)
+    hi = np.argwhere(inside).max(0) + 7
+    box = tuple(slice(a, b) for a, b in zip(lo, hi))
+    t1, truth = t1[box], truth[box]
+    shape = t1.shape
+    image = 8 * t1 * (1 + rng.uniform(0.02, 0.06) * smooth_field(shape, 30, rng))
+    sigma = 8 * 215 * rng.uniform(0.03, 0.05)
+    image = np.hypot(image + sigma * rng.standard_normal(shape), sigma * rng.standard_normal(shape))
+    image = np.clip(np.rint(image), 0, 65535).astype(np.uint16)
+    return image, truth, ["background", "csf", "grey", "white"], (1.0, 1.0, 1.0)
+
+
 PHANTOMS = {"abdomen-ct16": abdomen_ct16, "head-t1-16": head_t1_16, "vessels-ct8": vessels_ct8,
-            "knee-ct16": knee_ct16, "cells-mri8": cells_mri8}
+            "knee-ct16": knee_ct16, "cells-mri8": cells_mri8, "mni-t1": mni_t1}
 # Phantoms whose class 0 is air around a body: the user may leave it unlassoed.
-WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16"}
+WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16", "mni-t1"}
 
 
 def write_nrrd(path, image, spacing):
@@ -353,6 +413,10 @@ def main():
           f"{'air classed':>12}{'lasso kept':>11}   per class (volasso)")
     for name, make in PHANTOMS.items():
         if args.only and args.only != name:
+            continue
+        if name == "mni-t1" and mni_folder() is None:
+            print("mni-t1: skipped (pip install nilearn, or set VOLASSO_MNI_DIR to a folder with the "
+                  "ICBM 152 2009a files)", flush=True)
             continue
         for seed in [int(s) for s in args.seeds.split(",")]:
             rng = np.random.default_rng(seed * 7919 + len(name))
