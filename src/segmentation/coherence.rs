@@ -19,6 +19,16 @@
 //! surroundings; a small structure far brighter or darker than everything around it (a
 //! calcification, a contrast-filled vessel two voxels wide) is not voted away by its sheer size.
 //!
+//! With the bands, a voxel whose own label holds [`FACE_ANCHOR`] of its six face neighbours
+//! keeps its label where its intensity speaks for it: its own band holds the intensity and the
+//! band of the label that outvotes it does not. A 3 x 3 x 3 majority erases whatever is one
+//! voxel thin (a sheet holds 9 of its 27 neighbours but 4 of its 6 faces, a line 3 and 2): the
+//! cerebrospinal fluid in a brain's sulci, a nucleus's rim, a granule, a small vessel. Specks
+//! of one or two voxels, or of labels whose bands overlap (noise between brain and scalp on a
+//! CT), still go, and so does a partial-volume shell (a third label where two structures
+//! meet): its intensity lies between the band centres of two labels around it, and there the
+//! majority decides however many faces the shell holds.
+//!
 //! Never: changes background voxels (label 0) or counts them as votes, so it never grows a
 //! class into the air or erodes it there.
 
@@ -30,6 +40,12 @@ use rayon::prelude::*;
 /// too narrow for noise and the own harness lost 0.01 on every mean; 1/2 was the only value
 /// that did not lose on any mean of either (benches/README.md).
 pub const PARTIAL_VOLUME_REACH: f32 = 0.5;
+
+/// Face neighbours of its own label that anchor a voxel whose intensity speaks for its label
+/// (module doc). Chosen with `scripts/heldout.py` seeds 101-103 (the phantoms and the real
+/// brain) among 2 and 3, checked on its seeds 201-203 and on `volasso accuracy` seeds 1-8
+/// (benches/README.md): 2 keeps a one-voxel line as well as a sheet.
+pub const FACE_ANCHOR: usize = 2;
 
 /// Each label's band of intensities and each voxel's intensity, for the filter's rule that a
 /// voxel takes only a label its intensity could be mixed from.
@@ -70,6 +86,28 @@ impl<'a> LabelBands<'a> {
             high = high.max(band_high);
         }
         low <= intensity && intensity <= high
+    }
+
+    /// Whether a voxel that [`FACE_ANCHOR`] of its faces hold in label `own` may still take
+    /// label `best`: when its intensity does not set the two apart (its own label's band does
+    /// not hold it, or `best`'s does), or when it lies between the band centres of two other
+    /// labels of its neighbourhood `block` (a mix of them, as on a partial-volume shell).
+    fn releases_anchored(&self, voxel: usize, own: u8, best: u8, block: &[u8]) -> bool {
+        let intensity = (self.intensity)(voxel);
+        let holds = |label: u8| matches!(self.bands.get(label as usize), Some(Some((low, high))) if *low <= intensity && intensity <= *high);
+        if !holds(own) || holds(best) {
+            return true;
+        }
+        let (mut darker, mut brighter) = (false, false);
+        for &label in block.iter().filter(|&&label| label != 0 && label != own) {
+            let Some(Some((low, high))) = self.bands.get(label as usize) else {
+                return true;
+            };
+            let centre = (low + high) / 2.0;
+            darker |= centre <= intensity;
+            brighter |= centre >= intensity;
+        }
+        darker && brighter
     }
 }
 
@@ -172,7 +210,13 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
                 bits &= bits - 1;
                 let own = row[x];
                 let voxel = z * plane + start + x;
-                let allowed = |block: &[u8]| bands.is_none_or(|bands| bands.allows(voxel, own, block));
+                let allowed = |block: &[u8], best: u8| {
+                    bands.is_none_or(|bands| {
+                        bands.allows(voxel, own, block)
+                            && (own_faces(below, here, above, size_x, size_y, x, y) < FACE_ANCHOR
+                                || bands.releases_anchored(voxel, own, best, block))
+                    })
+                };
                 let best = neighbourhood_majority(
                     [below, Some(here), above],
                     size_x,
@@ -190,6 +234,30 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
         }
     }
     changes
+}
+
+/// How many of the six face neighbours of (x, y) (in the plane `here`, and at the same place
+/// in the planes below and above where they exist) hold the voxel's own label.
+fn own_faces(
+    below: Option<&[u8]>,
+    here: &[u8],
+    above: Option<&[u8]>,
+    size_x: usize,
+    size_y: usize,
+    x: usize,
+    y: usize,
+) -> usize {
+    let index = y * size_x + x;
+    let own = here[index];
+    let neighbours = [
+        (x > 0).then(|| here[index - 1]),
+        (x + 1 < size_x).then(|| here[index + 1]),
+        (y > 0).then(|| here[index - size_x]),
+        (y + 1 < size_y).then(|| here[index + size_x]),
+        below.map(|plane| plane[index]),
+        above.map(|plane| plane[index]),
+    ];
+    neighbours.into_iter().filter(|&label| label == Some(own)).count()
 }
 
 /// The first and the last position of a non-zero label in `row`; `None` when it has none.
@@ -297,7 +365,7 @@ fn neighbourhood_majority(
     x: usize,
     y: usize,
     own: u8,
-    allowed: &dyn Fn(&[u8]) -> bool,
+    allowed: &dyn Fn(&[u8], u8) -> bool,
     counts: &mut [u8; 256],
 ) -> u8 {
     // The neighbourhood's labels in a fixed block, background (0, no vote) past its end, so
@@ -336,7 +404,7 @@ fn neighbourhood_majority(
     }
     let other_votes: u8 = block.iter().map(|&label| u8::from(label == other) & u8::from(other != 0)).sum();
     if voting - own_votes == other_votes {
-        return if other_votes > own_votes && allowed(&block) { other } else { own };
+        return if other_votes > own_votes && allowed(&block, other) { other } else { own };
     }
     let mut seen = [0u8; 27];
     let mut distinct = 0;
@@ -359,7 +427,7 @@ fn neighbourhood_majority(
     for &label in &seen[..distinct] {
         counts[label as usize] = 0;
     }
-    if best != own && allowed(&block) { best } else { own }
+    if best != own && allowed(&block, best) { best } else { own }
 }
 
 #[cfg(test)]

@@ -264,3 +264,68 @@ fn with_bands_noisy_and_partial_volume_voxels_still_join_their_surroundings() {
     assert_eq!(filtered[3 + 7 * (3 + 7)], 2, "a voxel within its own band, unlike its surroundings");
     assert_eq!(filtered[3 + 7 * (3 + 7 * 5)], 1, "a voxel outside its own band");
 }
+
+/// Label 2 (intensity 200, band 180-220) on the plane z = 3 of the scene, label 1 elsewhere.
+fn sheet_scene(intensity_of_sheet: f32) -> (Vec<u8>, Vec<f32>, Bands) {
+    let mut voxels = Vec::new();
+    for y in 0..7 {
+        for x in 0..7 {
+            voxels.push(([x, y, 3], 2u8, intensity_of_sheet));
+        }
+    }
+    banded_scene(&voxels)
+}
+
+#[test]
+fn with_bands_a_sheet_one_voxel_thin_keeps_its_label() {
+    // A sheet of label 2 holds 9 of each of its voxels' 27 neighbours, 4 of its 6 faces; a
+    // 3 x 3 x 3 majority erases it. Its intensity is within label 1's widened band (a
+    // partial-volume sheet, as the fluid in a brain's sulci), so the band rule alone would let
+    // it go.
+    let (labels, intensities, mut bands) = sheet_scene(25.0);
+    bands[2] = Some((22.0, 40.0));
+    let mut plain = labels.clone();
+    majority_passes(&mut plain, [7, 7, 7], DEFAULT_PASSES, None);
+    assert!(plain.iter().all(|&label| label == 1), "without bands the sheet is voted away");
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut kept = labels.clone();
+    majority_passes(&mut kept, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    // Its corners at the volume's sides hold only 2 faces and go, and with them a little of
+    // its rim; the middle stays.
+    let sheet = |x: usize, y: usize| kept[x + 7 * (y + 7 * 3)];
+    assert!((2..5).all(|y| (2..5).all(|x| sheet(x, y) == 2)), "the sheet's middle keeps its label");
+}
+
+#[test]
+fn with_bands_a_sheet_between_two_structures_or_outside_its_band_still_goes() {
+    // A partial-volume shell: a 3 x 3 patch of label 3 (band 95-105) one voxel thin on the
+    // plane z = 3, between label 1 (band 0-20, below and around it) and label 2 (band
+    // 180-220, above), its intensity between theirs. Its middle voxel holds 4 of its faces.
+    let mut voxels = Vec::new();
+    for y in 0..7 {
+        for x in 0..7 {
+            if (2..5).contains(&x) && (2..5).contains(&y) {
+                voxels.push(([x, y, 3], 3u8, 100.0f32));
+            }
+            for z in 4..7 {
+                voxels.push(([x, y, z], 2u8, 200.0f32));
+            }
+        }
+    }
+    let (labels, intensities, mut bands) = banded_scene(&voxels);
+    bands[3] = Some((95.0, 105.0));
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut filtered = labels.clone();
+    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    assert!(!filtered.contains(&3), "the shell joins the structures on either side");
+    // A sheet whose intensity its own band does not hold is not anchored.
+    let (labels, intensities, mut bands) = sheet_scene(21.0);
+    bands[2] = Some((22.0, 40.0));
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut filtered = labels.clone();
+    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    assert!(filtered.iter().all(|&label| label == 1), "a sheet outside its own band joins its surroundings");
+}
