@@ -62,20 +62,29 @@ impl<'a> LabelBands<'a> {
         LabelBands { bands, intensity }
     }
 
+    /// The band of `label`; `None`: any intensity.
+    fn band(&self, label: u8) -> Option<(f32, f32)> {
+        self.bands.get(label as usize).copied().flatten()
+    }
+
+    /// Whether the band of `label` holds `intensity` (a label without a band holds none).
+    fn holds(&self, label: u8, intensity: f32) -> bool {
+        self.band(label).is_some_and(|(low, high)| low <= intensity && intensity <= high)
+    }
+
     /// Whether the voxel `voxel` of label `own` may take a label of its 3 x 3 x 3
     /// neighbourhood `block`: its intensity lies within the span of the widened bands of the
     /// block's labels other than `own` and background, or outside its own label's band (then
     /// its own label is no surer than its neighbours').
     fn allows(&self, voxel: usize, own: u8, block: &[u8]) -> bool {
         let widened = |label: u8| -> Option<(f32, f32)> {
-            let (low, high) = (*self.bands.get(label as usize)?)?;
+            let (low, high) = self.band(label)?;
             let reach = PARTIAL_VOLUME_REACH * (high - low);
             Some((low - reach, high + reach))
         };
         let intensity = (self.intensity)(voxel);
-        match self.bands.get(own as usize) {
-            Some(Some((low, high))) if *low <= intensity && intensity <= *high => {}
-            _ => return true,
+        if !self.holds(own, intensity) {
+            return true;
         }
         let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
         for &label in block.iter().filter(|&&label| label != 0 && label != own) {
@@ -94,13 +103,12 @@ impl<'a> LabelBands<'a> {
     /// labels of its neighbourhood `block` (a mix of them, as on a partial-volume shell).
     fn releases_anchored(&self, voxel: usize, own: u8, best: u8, block: &[u8]) -> bool {
         let intensity = (self.intensity)(voxel);
-        let holds = |label: u8| matches!(self.bands.get(label as usize), Some(Some((low, high))) if *low <= intensity && intensity <= *high);
-        if !holds(own) || holds(best) {
+        if !self.holds(own, intensity) || self.holds(best, intensity) {
             return true;
         }
         let (mut darker, mut brighter) = (false, false);
         for &label in block.iter().filter(|&&label| label != 0 && label != own) {
-            let Some(Some((low, high))) = self.bands.get(label as usize) else {
+            let Some((low, high)) = self.band(label) else {
                 return true;
             };
             let centre = (low + high) / 2.0;

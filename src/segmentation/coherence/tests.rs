@@ -215,6 +215,16 @@ fn banded_scene(voxels: &[([usize; 3], u8, f32)]) -> (Vec<u8>, Vec<f32>, Bands) 
     (labels, intensities, bands)
 }
 
+/// The majority filter's passes with `bands` over `labels` and `intensities`: the filtered
+/// labels and the voxels changed.
+fn filter_with_bands(labels: &[u8], intensities: &[f32], bands: Bands) -> (Vec<u8>, usize) {
+    let intensity = |voxel: usize| intensities[voxel];
+    let with_bands = LabelBands::new(bands, &intensity);
+    let mut filtered = labels.to_vec();
+    let changed = majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    (filtered, changed)
+}
+
 #[test]
 fn with_bands_a_small_structure_unlike_its_surroundings_keeps_its_label() {
     // A bright cross of seven voxels: the majority alone votes it away.
@@ -224,10 +234,8 @@ fn with_bands_a_small_structure_unlike_its_surroundings_keeps_its_label() {
     let mut plain = labels.clone();
     majority_passes(&mut plain, [7, 7, 7], DEFAULT_PASSES, None);
     assert!(plain.iter().all(|&label| label == 1), "without bands the cross is voted away");
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut kept = labels.clone();
-    assert_eq!(majority_passes(&mut kept, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands)), 0);
+    let (kept, changed) = filter_with_bands(&labels, &intensities, bands);
+    assert_eq!(changed, 0);
     assert_eq!(kept, labels);
 }
 
@@ -247,25 +255,19 @@ fn with_bands_noisy_and_partial_volume_voxels_still_join_their_surroundings() {
     voxels.push(([4, 3, 3], 3, 100.0));
     let (labels, intensities, mut bands) = banded_scene(&voxels);
     bands[3] = Some((95.0, 105.0));
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut filtered = labels.clone();
-    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
     assert_eq!(filtered[2 + 7 * (3 + 7 * 2)], 1, "a noisy voxel within reach of its surroundings' band");
     assert_eq!(filtered[4 + 7 * (3 + 7 * 3)], 1, "a partial-volume voxel between its neighbours' bands");
     // In label 1: a voxel of label 2 as bright as its band (nothing around it could make it)
     // keeps its label; one far from both bands (its own label no surer than its neighbours')
     // joins them.
     let (labels, intensities, bands) = banded_scene(&[([3, 3, 1], 2, 200.0), ([3, 3, 5], 2, 100.0)]);
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut filtered = labels.clone();
-    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
     assert_eq!(filtered[3 + 7 * (3 + 7)], 2, "a voxel within its own band, unlike its surroundings");
     assert_eq!(filtered[3 + 7 * (3 + 7 * 5)], 1, "a voxel outside its own band");
 }
 
-/// Label 2 (intensity 200, band 180-220) on the plane z = 3 of the scene, label 1 elsewhere.
+/// [`banded_scene`] with label 2 at `intensity_of_sheet` on its plane z = 3.
 fn sheet_scene(intensity_of_sheet: f32) -> (Vec<u8>, Vec<f32>, Bands) {
     let mut voxels = Vec::new();
     for y in 0..7 {
@@ -287,10 +289,7 @@ fn with_bands_a_sheet_one_voxel_thin_keeps_its_label() {
     let mut plain = labels.clone();
     majority_passes(&mut plain, [7, 7, 7], DEFAULT_PASSES, None);
     assert!(plain.iter().all(|&label| label == 1), "without bands the sheet is voted away");
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut kept = labels.clone();
-    majority_passes(&mut kept, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    let (kept, _) = filter_with_bands(&labels, &intensities, bands);
     // Its corners at the volume's sides hold only 2 faces and go, and with them a little of
     // its rim; the middle stays.
     let sheet = |x: usize, y: usize| kept[x + 7 * (y + 7 * 3)];
@@ -315,17 +314,11 @@ fn with_bands_a_sheet_between_two_structures_or_outside_its_band_still_goes() {
     }
     let (labels, intensities, mut bands) = banded_scene(&voxels);
     bands[3] = Some((95.0, 105.0));
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut filtered = labels.clone();
-    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
     assert!(!filtered.contains(&3), "the shell joins the structures on either side");
     // A sheet whose intensity its own band does not hold is not anchored.
     let (labels, intensities, mut bands) = sheet_scene(21.0);
     bands[2] = Some((22.0, 40.0));
-    let intensity = |voxel: usize| intensities[voxel];
-    let with_bands = LabelBands::new(bands, &intensity);
-    let mut filtered = labels.clone();
-    majority_passes(&mut filtered, [7, 7, 7], DEFAULT_PASSES, Some(&with_bands));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
     assert!(filtered.iter().all(|&label| label == 1), "a sheet outside its own band joins its surroundings");
 }
