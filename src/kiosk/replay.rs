@@ -2,7 +2,9 @@
 //! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see src/touch/script) or an
 //! event recording (`volasso-events/1` or evemu-record text). Readable commands become
 //! type-B multitouch events of a virtual touchscreen, and every event, scripted or recorded,
-//! goes through the contact tracker and router the appliance uses with a real panel.
+//! goes through the contact tracker and router the appliance uses with a real panel. A
+//! command's finger jitter is seeded by its place in the run, not by the clock (which idle
+//! waits move by however long the work took), so a script draws the same paths on every run.
 //!
 //! Expectations (`expect KEY VALUE`): [`checks`].
 
@@ -134,8 +136,11 @@ impl Run {
             let at = |problem: String| format!("{}:{}: {problem}", path.display(), step.line_number);
             match &step.action {
                 ScriptAction::Touch(command) => {
+                    // The clock after an idle wait depends on how long the work took; the
+                    // jitter's seed must not, or one script would draw other lassos each run.
                     let start_us = harness.now().as_micros() as u64 + 1_000;
-                    match script::touch_events(command, &Locator(harness), &device, start_us) {
+                    let seed = self.report.steps as u64;
+                    match script::touch_events_seeded(command, &Locator(harness), &device, start_us, seed) {
                         Ok(events) => self.feed(harness, &device, &events),
                         Err(error) => self.report.failures.push(at(error.to_string())),
                     }

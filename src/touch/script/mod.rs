@@ -38,7 +38,9 @@ mod parse;
 mod synthesis;
 
 pub use parse::parse;
-pub use synthesis::{GAP_AFTER_TOUCH_US, JITTER_PX, MOVE_INTERVAL_US, TAP_HOLD_US, TWO_FINGER_FRAMES, touch_events};
+pub use synthesis::{
+    GAP_AFTER_TOUCH_US, JITTER_PX, MOVE_INTERVAL_US, TAP_HOLD_US, TWO_FINGER_FRAMES, touch_events, touch_events_seeded,
+};
 
 use super::event::DeviceInfo;
 use super::format::EventsText;

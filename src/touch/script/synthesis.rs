@@ -37,12 +37,26 @@ const JITTER_SEED: u64 = 0x766f_6c61_7373_6f31;
 const MAX_PATH_FRAMES: usize = 2_000;
 
 /// The raw events of `command`, starting at `start_time_us`, on `device`, with elements placed
-/// by `locator`. The device spans the locator's whole screen (identity mapping).
+/// by `locator`. The device spans the locator's whole screen (identity mapping). The jitter is
+/// seeded by the start time.
 pub fn touch_events(
     command: &TouchCommand,
     locator: &dyn ElementLocator,
     device: &DeviceInfo,
     start_time_us: u64,
+) -> Result<Vec<RawEvent>, ScriptError> {
+    touch_events_seeded(command, locator, device, start_time_us, start_time_us)
+}
+
+/// As [`touch_events`], with the jitter seeded by `jitter_seed`: a runner whose clock depends
+/// on how long background work took (the replay harness's idle waits) still draws the same
+/// path for the same command.
+pub fn touch_events_seeded(
+    command: &TouchCommand,
+    locator: &dyn ElementLocator,
+    device: &DeviceInfo,
+    start_time_us: u64,
+    jitter_seed: u64,
 ) -> Result<Vec<RawEvent>, ScriptError> {
     let size = locator.screen_size();
     if !(size.iter().all(|v| v.is_finite() && *v >= 1.0)) {
@@ -54,7 +68,7 @@ pub fn touch_events(
     if two_fingers && !device.multitouch {
         return Err(ScriptError::NeedsMultitouch { command: command.keyword(), device: device.name.clone() });
     }
-    let mut finger = Finger::new(device, ScreenMapping::new(device, size), start_time_us);
+    let mut finger = Finger::new(device, ScreenMapping::new(device, size), start_time_us, jitter_seed);
     let centre = rect.point([0.5, 0.5]);
     let short_side = rect.width.min(rect.height);
     match command {
@@ -134,13 +148,13 @@ struct Finger {
 }
 
 impl Finger {
-    fn new(device: &DeviceInfo, mapping: ScreenMapping, start_time_us: u64) -> Finger {
+    fn new(device: &DeviceInfo, mapping: ScreenMapping, start_time_us: u64, jitter_seed: u64) -> Finger {
         Finger {
             multitouch: device.multitouch,
             mapping,
             time_us: start_time_us,
             events: Vec::new(),
-            rng: SplitMix64::new(hash64(JITTER_SEED, start_time_us)),
+            rng: SplitMix64::new(hash64(JITTER_SEED, jitter_seed)),
             current_slot: None,
             sent_position: [None; 2],
             // Tracking ids grow over a device's life; derive them from the clock.

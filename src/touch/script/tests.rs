@@ -229,6 +229,21 @@ fn jitter_is_seeded_and_reproducible() {
 }
 
 #[test]
+fn a_seeded_path_is_the_same_at_any_start_time() {
+    let device = DeviceInfo::virtual_touchscreen();
+    let lasso = command("lasso view 0.3,0.3 0.7,0.3 0.7,0.7 0.3,0.7");
+    let values = |start_us: u64, seed: u64| -> Vec<(u16, u16, i32)> {
+        let events = touch_events_seeded(&lasso, &Screen, &device, start_us, seed).unwrap();
+        events.iter().filter(|e| e.code != ABS_MT_TRACKING_ID).map(|e| (e.kind, e.code, e.value)).collect()
+    };
+    assert_eq!(values(5_000, 7), values(812_345, 7), "the start time moved the path");
+    assert_ne!(values(5_000, 7), values(5_000, 8), "another seed, other jitter");
+    let times: Vec<u64> =
+        touch_events_seeded(&lasso, &Screen, &device, 812_345, 7).unwrap().iter().map(|e| e.time_us).collect();
+    assert_eq!(times.first(), Some(&812_345));
+}
+
+#[test]
 fn compile_writes_a_replayable_recording() {
     let script = parse("tap view\nwait 1s\nscreenshot a\npinch view 2\nexpect classes 2\n").unwrap();
     let device = DeviceInfo::virtual_touchscreen();
