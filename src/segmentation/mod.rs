@@ -353,6 +353,7 @@ pub fn train(
     training.check_every_class_has_voxels()?;
     let started = Instant::now();
     let (cleaned, background) = background::plan(volume, training, options.background);
+    let cleaned = cleaned.restricted(&gate::training_cores(volume, training));
     cleaned.check_every_class_has_voxels()?;
     let capped = cleaned.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();

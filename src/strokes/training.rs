@@ -130,6 +130,24 @@ impl TrainingSet {
         self.classes.iter().map(|c| c.voxels.len()).sum()
     }
 
+    /// The set with each class whose entry in `only` is `Some(voxels)` (sorted) reduced to its
+    /// voxels that `voxels` holds; a class that would be left without any keeps all of its own.
+    pub fn restricted(&self, only: &[Option<Vec<usize>>]) -> TrainingSet {
+        let classes = self
+            .classes
+            .iter()
+            .zip(only.iter().chain(std::iter::repeat(&None)))
+            .map(|(class, only)| match only {
+                Some(only) => {
+                    let keep: Vec<bool> = class.voxels.iter().map(|voxel| only.binary_search(voxel).is_ok()).collect();
+                    if keep.contains(&true) { class.retaining(&keep) } else { class.clone() }
+                }
+                None => class.clone(),
+            })
+            .collect();
+        TrainingSet { classes, contested_voxels: self.contested_voxels }
+    }
+
     /// Every training voxel with its class id (1-based), class by class.
     pub fn labelled_voxels(&self) -> (Vec<usize>, Vec<u8>) {
         let mut voxels = Vec::with_capacity(self.voxel_count());
@@ -278,6 +296,22 @@ mod tests {
 
     fn class(name: &str, strokes: Vec<Lasso>) -> ClassStrokes {
         ClassStrokes { name: name.into(), strokes }
+    }
+
+    #[test]
+    fn a_restricted_set_keeps_the_listed_voxels_and_never_empties_a_class() {
+        let set = TrainingSet {
+            classes: vec![
+                ClassSamples::one_stroke("a".into(), vec![1, 2, 3, 4]),
+                ClassSamples::one_stroke("b".into(), vec![10, 11]),
+                ClassSamples::one_stroke("c".into(), vec![20, 21]),
+            ],
+            contested_voxels: 0,
+        };
+        let restricted = set.restricted(&[Some(vec![2, 3, 99]), None, Some(vec![5])]);
+        let voxels: Vec<&[usize]> = restricted.classes.iter().map(|c| c.voxels.as_slice()).collect();
+        assert_eq!(voxels, [&[2, 3][..], &[10, 11], &[20, 21]]);
+        assert_eq!(restricted.classes[0].stroke_voxel_counts, vec![2]);
     }
 
     #[test]

@@ -1,0 +1,177 @@
+use super::*;
+
+fn gate(bands: &[(f32, f32)]) -> IntensityGate {
+    IntensityGate::from_bands(bands.iter().map(|&(low, high)| Band { low, high }).collect())
+}
+
+#[test]
+fn a_band_alone_allows_its_class_and_overlaps_allow_both() {
+    let gate = gate(&[(-1000.0, -900.0), (0.0, 100.0), (80.0, 1500.0)]);
+    assert_eq!(gate.allowed(-950.0), 0b001);
+    assert_eq!(gate.allowed(50.0), 0b010);
+    assert_eq!(gate.allowed(90.0), 0b110);
+    assert_eq!(gate.allowed(1000.0), 0b100);
+}
+
+#[test]
+fn between_bands_the_neighbours_on_both_sides_and_beyond_them_the_outermost() {
+    let gate = gate(&[(-1000.0, -900.0), (0.0, 100.0), (200.0, 300.0)]);
+    assert_eq!(gate.allowed(-500.0), 0b011, "between air and soft tissue");
+    assert_eq!(gate.allowed(150.0), 0b110);
+    assert_eq!(gate.allowed(2000.0), 0b100, "brighter than every band");
+    assert_eq!(gate.allowed(-3000.0), 0b001, "darker than every band");
+    assert_eq!(gate.allowed(f32::NAN), 0);
+}
+
+#[test]
+fn the_tabulated_gate_answers_as_its_bands_do() {
+    let mut rng = crate::rng::SplitMix64::new(9);
+    for _ in 0..200 {
+        let bands: Vec<(f32, f32)> = (0..1 + rng.below(6))
+            .map(|_| {
+                let low = rng.below(200) as f32 - 100.0;
+                (low, low + rng.below(80) as f32)
+            })
+            .collect();
+        let gate = gate(&bands);
+        for intensity in (-120..=200).map(|v| v as f32).chain([0.5, -99.25, 1e9, -1e9]) {
+            assert_eq!(gate.allowed(intensity), allowed_by_bands(&gate.bands, intensity), "{bands:?} at {intensity}");
+        }
+    }
+}
+
+#[test]
+fn between_bands_the_bands_ending_near_the_nearest_ones_are_allowed_too() {
+    // Air, soft tissue drawn over muscle, and a bone whose leaky loop carried its band a
+    // little below the muscle's: fat, darker than both, is left to the vote of all three.
+    let leaky = gate(&[(-1030.0, -970.0), (6.0, 77.0), (-54.0, 1549.0)]);
+    assert_eq!(leaky.allowed(-80.0), 0b111);
+    // A band that ends far from the nearest stays out.
+    let far = gate(&[(-1030.0, -970.0), (6.0, 77.0), (-54.0, 46.0)]);
+    assert_eq!(far.allowed(-80.0), 0b101);
+}
+
+#[test]
+fn beyond_every_band_the_classes_whose_bands_end_near_the_outermost_end_are_allowed() {
+    // A thin joint's band reaches past a bone drawn over its marrow: the cortex, brighter
+    // than both, is left to the vote of the two, never to soft tissue.
+    let foot = gate(&[(0.0, 90.0), (200.0, 370.0), (200.0, 450.0)]);
+    assert_eq!(foot.allowed(1300.0), 0b110);
+    // A leaky vessel band overlaps the bone's lower half only: the cortex stays the bone's.
+    let torso = gate(&[(200.0, 290.0), (240.0, 820.0)]);
+    assert_eq!(torso.allowed(1300.0), 0b10);
+    // Darker than every band, the same from below.
+    let dark = gate(&[(-1000.0, -900.0), (-980.0, -700.0), (0.0, 100.0)]);
+    assert_eq!(dark.allowed(-1100.0), 0b011);
+    assert_eq!(dark.drawn_range(), Some(Band { low: -1000.0, high: 100.0 }));
+    assert_eq!(Band { low: -1000.0, high: 100.0 }.clamp(1300.0), 100.0);
+}
+
+#[test]
+fn an_open_gate_allows_every_class() {
+    let gate = IntensityGate::open(3);
+    assert_eq!(gate.allowed(12.0), 0b111);
+    assert_eq!(IntensityGate::open(70).every_class(), ClassSet::MAX);
+    let contains = crate::classify::class_set_contains;
+    assert!(contains(ClassSet::MAX, 65) && contains(0b10, 1) && !contains(0b10, 0));
+}
+
+const DIMS: [usize; 3] = [40, 40, 3];
+
+/// A class of the square `x`, `y` on plane 1, one stroke.
+fn square(x: std::ops::Range<usize>, y: std::ops::Range<usize>) -> crate::strokes::ClassSamples {
+    let mut voxels: Vec<usize> = y.flat_map(|y| x.clone().map(move |x| x + DIMS[0] * (y + DIMS[1]))).collect();
+    voxels.sort_unstable();
+    crate::strokes::ClassSamples::one_stroke("class".into(), voxels)
+}
+
+/// Muscle (40) everywhere, a bone of `marrow` inside x, y 10..20 with a cortex of `cortex`
+/// one voxel thick around it, and a little noise.
+fn bone_in_muscle(marrow: f32, cortex: f32) -> Volume {
+    let mut values = vec![40.0f32; DIMS.iter().product()];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+        if (10..20).contains(&x) && (10..20).contains(&y) {
+            let edge = x == 10 || x == 19 || y == 10 || y == 19;
+            *value = if edge { cortex } else { marrow };
+        }
+        *value += (index % 7) as f32;
+    }
+    Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap()
+}
+
+#[test]
+fn a_lasso_core_is_two_voxels_inside_its_edge() {
+    let class = square(5..16, 5..16);
+    let core = lasso_core(&class.voxels, DIMS);
+    assert_eq!(core, square(7..14, 7..14).voxels);
+    assert!(lasso_core(&square(0..3, 0..40).voxels, DIMS).is_empty());
+}
+
+#[test]
+fn a_loop_that_leaked_into_its_neighbour_takes_its_band_from_its_core() {
+    // The bone's loop (x, y 8..22) reaches two voxels into the muscle around the bone: a
+    // third of its voxels. Its band comes from its core: muscle is muscle's alone.
+    let volume = bone_in_muscle(1000.0, 1000.0);
+    let set = TrainingSet { classes: vec![square(25..36, 25..36), square(8..22, 8..22)], contested_voxels: 0 };
+    let gate = IntensityGate::from_drawn(&volume, &set);
+    let [muscle, bone] = gate.bands() else { panic!("{gate:?}") };
+    assert!(bone.low > 900.0 && muscle.holds(43.0), "{gate:?}");
+    assert_eq!(gate.allowed(43.0), 0b01);
+    // The same loop with the muscle's class not drawn: the rim is nobody else's, and the
+    // bone keeps it.
+    let alone = TrainingSet { classes: vec![square(8..22, 8..22)], contested_voxels: 0 };
+    assert!(IntensityGate::from_drawn(&volume, &alone).bands()[0].holds(43.0));
+}
+
+#[test]
+fn a_rim_that_differs_from_the_core_but_is_nobody_elses_stays_in_the_band() {
+    // A clean loop just inside the bone (x, y 10..20): its rim is the bright cortex, its
+    // core the marrow; the cortex is no other class's, so the band keeps both.
+    let volume = bone_in_muscle(300.0, 1400.0);
+    let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
+    let gate = IntensityGate::from_drawn(&volume, &set);
+    let bone = gate.bands()[1];
+    assert!(bone.holds(303.0) && bone.holds(1403.0), "{gate:?}");
+    // A loop too small for a core of MIN_CORE_VOXELS keeps all its voxels too.
+    let small = TrainingSet { classes: vec![square(25..36, 25..36), square(8..15, 8..15)], contested_voxels: 0 };
+    assert!(lasso_core(&small.classes[1].voxels, DIMS).len() < MIN_CORE_VOXELS);
+    assert!(IntensityGate::from_drawn(&volume, &small).bands()[1].holds(43.0));
+}
+
+#[test]
+fn stray_voxels_do_not_widen_a_band_and_the_margin_follows_the_spread() {
+    // 100 values 0..99 and one stray voxel at -1000: the 2 % quantile ignores it.
+    let mut values: Vec<f64> = (0..100).map(f64::from).chain([-1000.0]).collect();
+    let band = band_of(&mut values).unwrap();
+    let spread = (95.0 - 5.0) / 3.29;
+    assert!((band.low as f64 - (1.0 - BAND_MARGIN * spread)).abs() < 1.5, "{band:?}");
+    assert!((band.high as f64 - (97.0 + BAND_MARGIN * spread)).abs() < 1.5, "{band:?}");
+    assert_eq!(band_of(&mut []), None);
+    let mut flat = vec![7.0; 10];
+    assert_eq!(band_of(&mut flat), Some(Band { low: 7.0, high: 7.0 }));
+}
+
+#[test]
+fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
+    let volume = bone_in_muscle(1000.0, 1000.0);
+    let muscle = square(25..36, 25..36);
+    // The bone's loop two voxels into the muscle: it trains on its core, the bone.
+    let leaked = TrainingSet { classes: vec![muscle.clone(), square(8..22, 8..22)], contested_voxels: 0 };
+    assert_eq!(training_cores(&volume, &leaked), vec![None, Some(square(10..20, 10..20).voxels)]);
+    // A clean loop trains on all of it.
+    let clean = TrainingSet { classes: vec![muscle.clone(), square(10..20, 10..20)], contested_voxels: 0 };
+    assert_eq!(training_cores(&volume, &clean), vec![None, None]);
+    // A leaked class whose core is under CORE_TRAINING_SHARE of its voxels (thin strips of
+    // muscle beside the loop, too thin for a core) trains on all of them.
+    let mut voxels = square(8..22, 8..22).voxels;
+    voxels.extend(square(0..40, 30..33).voxels);
+    voxels.extend(square(0..40, 36..38).voxels);
+    voxels.sort_unstable();
+    voxels.dedup();
+    let thin = crate::strokes::ClassSamples::one_stroke("bone".into(), voxels);
+    let core_share = lasso_core(&thin.voxels, DIMS).len() as f64 / thin.voxels.len() as f64;
+    assert!(core_share < CORE_TRAINING_SHARE, "{core_share}");
+    let strips = TrainingSet { classes: vec![muscle, thin], contested_voxels: 0 };
+    assert_eq!(training_cores(&volume, &strips), vec![None, None]);
+}
