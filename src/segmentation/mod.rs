@@ -353,7 +353,8 @@ pub fn train(
     training.check_every_class_has_voxels()?;
     let started = Instant::now();
     let (cleaned, background) = background::plan(volume, training, options.background);
-    let cleaned = cleaned.restricted(&gate::training_cores(volume, training));
+    let drawn = gate::DrawnLassos::read(volume, training);
+    let cleaned = cleaned.restricted(&drawn.training_cores());
     cleaned.check_every_class_has_voxels()?;
     let capped = cleaned.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();
@@ -378,7 +379,7 @@ pub fn train(
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
             // The drawn classes are the trained ones, in order (the background rule and the
             // cap keep every class); `PairwiseSnSvm::train` opens a gate that does not fit.
-            let gate = gate::IntensityGate::from_drawn(volume, training);
+            let gate = drawn.gate();
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
                 &weights,

@@ -132,7 +132,7 @@ impl TrainingSet {
 
     /// The set with each class whose entry in `only` is `Some(voxels)` (sorted) reduced to its
     /// voxels that `voxels` holds; a class that would be left without any keeps all of its own.
-    pub fn restricted(&self, only: &[Option<Vec<usize>>]) -> TrainingSet {
+    pub fn restricted(&self, only: &[Option<&[usize]>]) -> TrainingSet {
         let classes = self
             .classes
             .iter()
@@ -308,7 +308,7 @@ mod tests {
             ],
             contested_voxels: 0,
         };
-        let restricted = set.restricted(&[Some(vec![2, 3, 99]), None, Some(vec![5])]);
+        let restricted = set.restricted(&[Some(&[2, 3, 99]), None, Some(&[5])]);
         let voxels: Vec<&[usize]> = restricted.classes.iter().map(|c| c.voxels.as_slice()).collect();
         assert_eq!(voxels, [&[2, 3][..], &[10, 11], &[20, 21]]);
         assert_eq!(restricted.classes[0].stroke_voxel_counts, vec![2]);

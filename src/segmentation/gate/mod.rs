@@ -34,7 +34,7 @@
 //! [`MIN_CORE_VOXELS`] keeps every voxel. On the check cases this moved the mean macro Dice
 //! with leaky lassos from 0.811 to 0.838, and left the clean ones at 0.848.
 //!
-//! The same test tells which classes train on their core alone ([`training_cores`]): a leaked
+//! The same test tells which classes train on their core alone ([`DrawnLassos::training_cores`]): a leaked
 //! rim's voxels are as much the neighbours' as the class's, so where the core holds at least
 //! [`CORE_TRAINING_SHARE`] of the drawn voxels the class is trained on the core (and only the
 //! core's voxels keep the class whatever the classifier says). On `scripts/heldout.py` the
@@ -87,7 +87,7 @@ pub const BEYOND_REACH: f32 = 0.5;
 pub const BETWEEN_REACH: f32 = 0.25;
 
 /// Least share of a class's drawn voxels its lassos' core must hold for the class to train on
-/// the core alone when its rim leaked ([`training_cores`]): a loop one finger-width past a
+/// the core alone when its rim leaked ([`DrawnLassos::training_cores`]): a loop one finger-width past a
 /// structure several widths across. A thinner structure's core (a vessel, a joint gap) stands
 /// for too little of it. Chosen on the tuning cases (`volasso accuracy`): a core of any size
 /// cost a thin vessel drawn cleanly 0.28; at 0.34 the tuning and check means with leaky lassos
@@ -147,25 +147,6 @@ impl IntensityGate {
         let ends: Vec<f32> = bands.iter().flat_map(|band| [band.low, band.high]).collect();
         let table = Regions::tabulate(ends, |intensity| allowed_by_bands(&bands, intensity));
         IntensityGate { bands, table, classes }
-    }
-
-    /// The bands of `training`'s classes, in its order, from their voxels' values in `volume`.
-    /// Open when a class has no finite value or there are more than [`MAX_CLASSES`] classes.
-    pub fn from_drawn(volume: &Volume, training: &TrainingSet) -> IntensityGate {
-        let classes = training.classes.len();
-        if classes > MAX_CLASSES {
-            return IntensityGate::open(classes);
-        }
-        let Some(drawn) = drawn_classes(volume, training) else {
-            return IntensityGate::open(classes);
-        };
-        let bands = drawn
-            .iter()
-            .zip(rims_leaked(&drawn))
-            .map(|(class, leaked)| if leaked { class.core } else { class.whole })
-            .collect();
-        log::debug!("intensity bands: {bands:?}");
-        IntensityGate::from_bands(bands)
     }
 
     /// Number of classes.
@@ -251,33 +232,68 @@ fn classes_where(bands: &[Band], qualifies: impl Fn(&Band) -> bool) -> ClassSet 
     qualifying.fold(0, |set, (position, _)| set | 1 << position)
 }
 
-/// Per class of `training`, the voxels it should train on when its lasso's rim leaked and its
-/// core is large enough to stand for it (at least [`MIN_CORE_VOXELS`] and
-/// [`CORE_TRAINING_SHARE`] of its drawn voxels); `None` for a class that trains on all of them.
-pub fn training_cores(volume: &Volume, training: &TrainingSet) -> Vec<Option<Vec<usize>>> {
-    let Some(drawn) = drawn_classes(volume, training) else {
-        return vec![None; training.classes.len()];
-    };
-    let leaked = rims_leaked(&drawn);
-    drawn
-        .into_iter()
-        .zip(&training.classes)
-        .zip(leaked)
-        .map(|((class, samples), leaked)| {
-            let large = class.core_voxels.len() as f64 >= CORE_TRAINING_SHARE * samples.voxels.len() as f64;
-            (leaked && large).then_some(class.core_voxels)
-        })
-        .collect()
+/// The classes' lassos as drawn, read once for both what they give: the gate's bands
+/// ([`gate`](Self::gate)) and the voxels each class trains on ([`training_cores`](Self::training_cores)).
+pub struct DrawnLassos {
+    /// Each class as drawn; `None` when a class has no finite value (the gate is open then).
+    classes: Option<Vec<DrawnClass>>,
+    /// Per class, whether its rim leaked (empty with `classes`).
+    leaked: Vec<bool>,
+    /// Number of classes.
+    count: usize,
+}
+
+impl DrawnLassos {
+    /// `training`'s classes as drawn in `volume`.
+    pub fn read(volume: &Volume, training: &TrainingSet) -> DrawnLassos {
+        let classes = drawn_classes(volume, training);
+        let leaked = classes.as_deref().map(rims_leaked).unwrap_or_default();
+        DrawnLassos { classes, leaked, count: training.classes.len() }
+    }
+
+    /// The gate of the drawn bands: a class whose rim leaked takes its band from its core. Open
+    /// when a class has no finite value or there are more than [`MAX_CLASSES`] classes.
+    pub fn gate(&self) -> IntensityGate {
+        let Some(classes) = self.classes.as_ref().filter(|_| self.count <= MAX_CLASSES) else {
+            return IntensityGate::open(self.count);
+        };
+        let bands = classes
+            .iter()
+            .zip(&self.leaked)
+            .map(|(class, &leaked)| if leaked { class.core } else { class.whole })
+            .collect();
+        log::debug!("intensity bands: {bands:?}");
+        IntensityGate::from_bands(bands)
+    }
+
+    /// Per class, the voxels (sorted) it should train on when its lasso's rim leaked and its
+    /// core is large enough to stand for it (at least [`MIN_CORE_VOXELS`] and
+    /// [`CORE_TRAINING_SHARE`] of its drawn voxels); `None` for a class that trains on all of
+    /// them.
+    pub fn training_cores(&self) -> Vec<Option<&[usize]>> {
+        let Some(classes) = &self.classes else {
+            return vec![None; self.count];
+        };
+        classes
+            .iter()
+            .zip(&self.leaked)
+            .map(|(class, &leaked)| {
+                let large = class.core_voxels.len() as f64 >= CORE_TRAINING_SHARE * class.drawn_voxels as f64;
+                (leaked && large).then_some(class.core_voxels.as_slice())
+            })
+            .collect()
+    }
 }
 
 /// One class's drawn intensities: the band of all its voxels, the band of its lassos' core
-/// (the same band when the core is too small), the rim's intensities (empty then), and the
-/// core's voxels (empty then too).
+/// (the same band when the core is too small), the rim's intensities (empty then), the core's
+/// voxels (empty then too) and the number of voxels drawn.
 struct DrawnClass {
     whole: Band,
     core: Band,
     rim: Vec<f64>,
     core_voxels: Vec<usize>,
+    drawn_voxels: usize,
 }
 
 /// Each class of `training` as drawn in `volume`; `None` when a class has no finite value.
@@ -294,9 +310,21 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
             Some(band) => {
                 let rim: Vec<usize> =
                     class.voxels.iter().copied().filter(|voxel| core.binary_search(voxel).is_err()).collect();
-                DrawnClass { whole, core: band, rim: values_of(&rim), core_voxels: core }
+                DrawnClass {
+                    whole,
+                    core: band,
+                    rim: values_of(&rim),
+                    core_voxels: core,
+                    drawn_voxels: class.voxels.len(),
+                }
             }
-            None => DrawnClass { whole, core: whole, rim: Vec::new(), core_voxels: Vec::new() },
+            None => DrawnClass {
+                whole,
+                core: whole,
+                rim: Vec::new(),
+                core_voxels: Vec::new(),
+                drawn_voxels: class.voxels.len(),
+            },
         });
     }
     Some(drawn)

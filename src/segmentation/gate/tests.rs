@@ -114,14 +114,14 @@ fn a_loop_that_leaked_into_its_neighbour_takes_its_band_from_its_core() {
     // third of its voxels. Its band comes from its core: muscle is muscle's alone.
     let volume = bone_in_muscle(1000.0, 1000.0);
     let set = TrainingSet { classes: vec![square(25..36, 25..36), square(8..22, 8..22)], contested_voxels: 0 };
-    let gate = IntensityGate::from_drawn(&volume, &set);
+    let gate = DrawnLassos::read(&volume, &set).gate();
     let [muscle, bone] = gate.bands() else { panic!("{gate:?}") };
     assert!(bone.low > 900.0 && muscle.holds(43.0), "{gate:?}");
     assert_eq!(gate.allowed(43.0), 0b01);
     // The same loop with the muscle's class not drawn: the rim is nobody else's, and the
     // bone keeps it.
     let alone = TrainingSet { classes: vec![square(8..22, 8..22)], contested_voxels: 0 };
-    assert!(IntensityGate::from_drawn(&volume, &alone).bands()[0].holds(43.0));
+    assert!(DrawnLassos::read(&volume, &alone).gate().bands()[0].holds(43.0));
 }
 
 #[test]
@@ -130,13 +130,13 @@ fn a_rim_that_differs_from_the_core_but_is_nobody_elses_stays_in_the_band() {
     // core the marrow; the cortex is no other class's, so the band keeps both.
     let volume = bone_in_muscle(300.0, 1400.0);
     let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
-    let gate = IntensityGate::from_drawn(&volume, &set);
+    let gate = DrawnLassos::read(&volume, &set).gate();
     let bone = gate.bands()[1];
     assert!(bone.holds(303.0) && bone.holds(1403.0), "{gate:?}");
     // A loop too small for a core of MIN_CORE_VOXELS keeps all its voxels too.
     let small = TrainingSet { classes: vec![square(25..36, 25..36), square(8..15, 8..15)], contested_voxels: 0 };
     assert!(lasso_core(&small.classes[1].voxels, DIMS).len() < MIN_CORE_VOXELS);
-    assert!(IntensityGate::from_drawn(&volume, &small).bands()[1].holds(43.0));
+    assert!(DrawnLassos::read(&volume, &small).gate().bands()[1].holds(43.0));
 }
 
 #[test]
@@ -158,10 +158,11 @@ fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
     let muscle = square(25..36, 25..36);
     // The bone's loop two voxels into the muscle: it trains on its core, the bone.
     let leaked = TrainingSet { classes: vec![muscle.clone(), square(8..22, 8..22)], contested_voxels: 0 };
-    assert_eq!(training_cores(&volume, &leaked), vec![None, Some(square(10..20, 10..20).voxels)]);
+    let core = square(10..20, 10..20).voxels;
+    assert_eq!(DrawnLassos::read(&volume, &leaked).training_cores(), vec![None, Some(core.as_slice())]);
     // A clean loop trains on all of it.
     let clean = TrainingSet { classes: vec![muscle.clone(), square(10..20, 10..20)], contested_voxels: 0 };
-    assert_eq!(training_cores(&volume, &clean), vec![None, None]);
+    assert_eq!(DrawnLassos::read(&volume, &clean).training_cores(), vec![None, None]);
     // A leaked class whose core is under CORE_TRAINING_SHARE of its voxels (thin strips of
     // muscle beside the loop, too thin for a core) trains on all of them.
     let mut voxels = square(8..22, 8..22).voxels;
@@ -173,5 +174,5 @@ fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
     let core_share = lasso_core(&thin.voxels, DIMS).len() as f64 / thin.voxels.len() as f64;
     assert!(core_share < CORE_TRAINING_SHARE, "{core_share}");
     let strips = TrainingSet { classes: vec![muscle, thin], contested_voxels: 0 };
-    assert_eq!(training_cores(&volume, &strips), vec![None, None]);
+    assert_eq!(DrawnLassos::read(&volume, &strips).training_cores(), vec![None, None]);
 }
