@@ -354,7 +354,8 @@ pub fn train(
     let started = Instant::now();
     let (cleaned, background) = background::plan(volume, training, options.background);
     let drawn = gate::DrawnLassos::read(volume, training);
-    let cleaned = cleaned.restricted(&drawn.training_cores());
+    let decided = cleaned.restricted(&drawn.decided_voxels());
+    let cleaned = cleaned.restricted(&drawn.training_voxels());
     cleaned.check_every_class_has_voxels()?;
     let capped = cleaned.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();
@@ -429,12 +430,8 @@ pub fn train(
         features_seconds,
         train_seconds: started.elapsed().as_secs_f64(),
     };
-    let lassoed = cleaned
-        .classes
-        .iter()
-        .zip(1u8..)
-        .flat_map(|(class, id)| class.voxels.iter().map(move |&voxel| (voxel, id)))
-        .collect();
+    let (decided_voxels, decided_ids) = decided.labelled_voxels();
+    let lassoed = decided_voxels.into_iter().zip(decided_ids).collect();
     Ok(Segmenter {
         lassoed,
         feature_set: options.feature_set,

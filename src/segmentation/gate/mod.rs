@@ -34,16 +34,22 @@
 //! [`MIN_CORE_VOXELS`] keeps every voxel. On the check cases this moved the mean macro Dice
 //! with leaky lassos from 0.811 to 0.838, and left the clean ones at 0.848.
 //!
-//! The same test tells which classes train on their core alone ([`DrawnLassos::training_cores`]): a leaked
-//! rim's voxels are as much the neighbours' as the class's, so where the core holds at least
-//! [`CORE_TRAINING_SHARE`] of the drawn voxels the class is trained on the core (and only the
-//! core's voxels keep the class whatever the classifier says). On `scripts/heldout.py` the
-//! mean macro Dice with leaky lassos rose by 0.014 and 0.008 on its two seed sets (worst case
-//! -0.022, best +0.058), with clean ones it stayed.
+//! The same test tells which classes train on their core alone
+//! ([`DrawnLassos::training_voxels`]): a leaked rim's voxels are as much the neighbours' as
+//! the class's, so where the core holds at least [`CORE_TRAINING_SHARE`] of the drawn voxels
+//! the class is trained on the core (and only the core's voxels keep the class whatever the
+//! classifier says). On `scripts/heldout.py` the mean macro Dice with leaky lassos rose by
+//! 0.014 and 0.008 on its two seed sets (worst case -0.022, best +0.058), with clean ones it
+//! stayed.
+//!
+//! A clean loop can enclose another class's structure (a cell's loop its nucleus): those
+//! voxels of its core are set aside ([`enclosed`]); the class neither trains on them nor takes
+//! its band from them.
 //!
 //! Never: trains, or looks at a voxel's other features; with more than [`MAX_CLASSES`] classes
 //! every class is allowed everywhere.
 
+mod enclosed;
 mod regions;
 
 pub use crate::classify::ClassSet;
@@ -87,11 +93,12 @@ pub const BEYOND_REACH: f32 = 0.5;
 pub const BETWEEN_REACH: f32 = 0.25;
 
 /// Least share of a class's drawn voxels its lassos' core must hold for the class to train on
-/// the core alone when its rim leaked ([`DrawnLassos::training_cores`]): a loop one finger-width past a
-/// structure several widths across. A thinner structure's core (a vessel, a joint gap) stands
-/// for too little of it. Chosen on the tuning cases (`volasso accuracy`): a core of any size
-/// cost a thin vessel drawn cleanly 0.28; at 0.34 the tuning and check means with leaky lassos
-/// rose (0.822 -> 0.829, 0.842 -> 0.843) and the clean ones stayed, at 0.5 all four stayed.
+/// the core alone when its rim leaked ([`DrawnLassos::training_voxels`]): a loop one
+/// finger-width past a structure several widths across. A thinner structure's core (a vessel,
+/// a joint gap) stands for too little of it. Chosen on the tuning cases (`volasso accuracy`):
+/// a core of any size cost a thin vessel drawn cleanly 0.28; at 0.34 the tuning and check
+/// means with leaky lassos rose (0.822 -> 0.829, 0.842 -> 0.843) and the clean ones stayed, at
+/// 0.5 all four stayed.
 pub const CORE_TRAINING_SHARE: f64 = 0.34;
 
 /// Share of a lasso's rim that, outside its own core's band and inside another class's core
@@ -233,7 +240,8 @@ fn classes_where(bands: &[Band], qualifies: impl Fn(&Band) -> bool) -> ClassSet 
 }
 
 /// The classes' lassos as drawn, read once for both what they give: the gate's bands
-/// ([`gate`](Self::gate)) and the voxels each class trains on ([`training_cores`](Self::training_cores)).
+/// ([`gate`](Self::gate)) and the voxels each class trains on
+/// ([`training_voxels`](Self::training_voxels)).
 pub struct DrawnLassos {
     /// Each class as drawn; `None` when a class has no finite value (the gate is open then).
     classes: Option<Vec<DrawnClass>>,
@@ -246,12 +254,16 @@ pub struct DrawnLassos {
 impl DrawnLassos {
     /// `training`'s classes as drawn in `volume`.
     pub fn read(volume: &Volume, training: &TrainingSet) -> DrawnLassos {
-        let classes = drawn_classes(volume, training);
+        let mut classes = drawn_classes(volume, training);
         let leaked = classes.as_deref().map(rims_leaked).unwrap_or_default();
+        if let Some(classes) = classes.as_deref_mut() {
+            enclosed::set_aside(volume, training, classes, &leaked);
+        }
         DrawnLassos { classes, leaked, count: training.classes.len() }
     }
 
-    /// The gate of the drawn bands: a class whose rim leaked takes its band from its core. Open
+    /// The gate of the drawn bands: a class whose rim leaked takes its band from its core, one
+    /// whose loops enclose another class's voxels from its other voxels. Open
     /// when a class has no finite value or there are more than [`MAX_CLASSES`] classes.
     pub fn gate(&self) -> IntensityGate {
         let Some(classes) = self.classes.as_ref().filter(|_| self.count <= MAX_CLASSES) else {
@@ -260,40 +272,61 @@ impl DrawnLassos {
         let bands = classes
             .iter()
             .zip(&self.leaked)
-            .map(|(class, &leaked)| if leaked { class.core } else { class.whole })
+            .map(|(class, &leaked)| match &class.unenclosed {
+                _ if leaked => class.core,
+                Some((_, band)) => *band,
+                None => class.whole,
+            })
             .collect();
         log::debug!("intensity bands: {bands:?}");
         IntensityGate::from_bands(bands)
     }
 
-    /// Per class, the voxels (sorted) it should train on when its lasso's rim leaked and its
-    /// core is large enough to stand for it (at least [`MIN_CORE_VOXELS`] and
-    /// [`CORE_TRAINING_SHARE`] of its drawn voxels); `None` for a class that trains on all of
-    /// them.
-    pub fn training_cores(&self) -> Vec<Option<&[usize]>> {
+    /// Per class, the voxels (sorted) it should train on: its core when its lasso's rim leaked
+    /// and the core is large enough to stand for it (at least [`MIN_CORE_VOXELS`] and
+    /// [`CORE_TRAINING_SHARE`] of its drawn voxels), its voxels less those its loops enclose of
+    /// another class ([`enclosed`]); `None` for a class that trains on all of them.
+    pub fn training_voxels(&self) -> Vec<Option<&[usize]>> {
+        self.per_class(|class, leaked| match &class.unenclosed {
+            _ if leaked => class.core_stands_for_it().then_some(class.core_voxels.as_slice()),
+            Some((voxels, _)) => Some(voxels.as_slice()),
+            None => None,
+        })
+    }
+
+    /// Per class, the lassoed voxels (sorted) that keep the class whatever the classifier
+    /// says: the core of a class that trains on its core
+    /// ([`training_voxels`](Self::training_voxels)); `None` for a class whose lassoed voxels all
+    /// keep it (also the voxels its loops enclose of another class: the user drew them as this
+    /// class).
+    pub fn decided_voxels(&self) -> Vec<Option<&[usize]>> {
+        self.per_class(|class, leaked| (leaked && class.core_stands_for_it()).then_some(class.core_voxels.as_slice()))
+    }
+
+    /// `answer` for each class and whether its rim leaked; `None` for every class when a class
+    /// has no finite value.
+    fn per_class<'a>(
+        &'a self,
+        answer: impl Fn(&'a DrawnClass, bool) -> Option<&'a [usize]>,
+    ) -> Vec<Option<&'a [usize]>> {
         let Some(classes) = &self.classes else {
             return vec![None; self.count];
         };
-        classes
-            .iter()
-            .zip(&self.leaked)
-            .map(|(class, &leaked)| {
-                let large = class.core_voxels.len() as f64 >= CORE_TRAINING_SHARE * class.drawn_voxels as f64;
-                (leaked && large).then_some(class.core_voxels.as_slice())
-            })
-            .collect()
+        classes.iter().zip(&self.leaked).map(|(class, &leaked)| answer(class, leaked)).collect()
     }
 }
 
 /// One class's drawn intensities: the band of all its voxels, the band of its lassos' core
 /// (the same band when the core is too small), the rim's intensities (empty then), the core's
-/// voxels (empty then too) and the number of voxels drawn.
+/// voxels (empty then too), the number of voxels drawn, and its voxels less those its loops
+/// enclose of another class with their band (`None` when it encloses none).
 struct DrawnClass {
     whole: Band,
     core: Band,
     rim: Vec<f64>,
     core_voxels: Vec<usize>,
     drawn_voxels: usize,
+    unenclosed: Option<(Vec<usize>, Band)>,
 }
 
 /// Each class of `training` as drawn in `volume`; `None` when a class has no finite value.
@@ -316,6 +349,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
                     rim: values_of(&rim),
                     core_voxels: core,
                     drawn_voxels: class.voxels.len(),
+                    unenclosed: None,
                 }
             }
             None => DrawnClass {
@@ -324,6 +358,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
                 rim: Vec::new(),
                 core_voxels: Vec::new(),
                 drawn_voxels: class.voxels.len(),
+                unenclosed: None,
             },
         });
     }
@@ -337,6 +372,12 @@ fn rims_leaked(drawn: &[DrawnClass]) -> Vec<bool> {
 }
 
 impl DrawnClass {
+    /// Whether the lasso's core is large enough to stand for the class: at least
+    /// [`MIN_CORE_VOXELS`] (else it is empty) and [`CORE_TRAINING_SHARE`] of its drawn voxels.
+    fn core_stands_for_it(&self) -> bool {
+        !self.core_voxels.is_empty() && self.core_voxels.len() as f64 >= CORE_TRAINING_SHARE * self.drawn_voxels as f64
+    }
+
     /// Whether more than [`LEAKED_RIM_SHARE`] of the rim lies outside this class's core band
     /// and inside the core band of another class (`cores`, this one at `position`).
     fn rim_leaked(&self, position: usize, cores: &[Band]) -> bool {

@@ -159,10 +159,10 @@ fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
     // The bone's loop two voxels into the muscle: it trains on its core, the bone.
     let leaked = TrainingSet { classes: vec![muscle.clone(), square(8..22, 8..22)], contested_voxels: 0 };
     let core = square(10..20, 10..20).voxels;
-    assert_eq!(DrawnLassos::read(&volume, &leaked).training_cores(), vec![None, Some(core.as_slice())]);
+    assert_eq!(DrawnLassos::read(&volume, &leaked).training_voxels(), vec![None, Some(core.as_slice())]);
     // A clean loop trains on all of it.
     let clean = TrainingSet { classes: vec![muscle.clone(), square(10..20, 10..20)], contested_voxels: 0 };
-    assert_eq!(DrawnLassos::read(&volume, &clean).training_cores(), vec![None, None]);
+    assert_eq!(DrawnLassos::read(&volume, &clean).training_voxels(), vec![None, None]);
     // A leaked class whose core is under CORE_TRAINING_SHARE of its voxels (thin strips of
     // muscle beside the loop, too thin for a core) trains on all of them.
     let mut voxels = square(8..22, 8..22).voxels;
@@ -174,5 +174,60 @@ fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
     let core_share = lasso_core(&thin.voxels, DIMS).len() as f64 / thin.voxels.len() as f64;
     assert!(core_share < CORE_TRAINING_SHARE, "{core_share}");
     let strips = TrainingSet { classes: vec![muscle, thin], contested_voxels: 0 };
-    assert_eq!(DrawnLassos::read(&volume, &strips).training_cores(), vec![None, None]);
+    assert_eq!(DrawnLassos::read(&volume, &strips).training_voxels(), vec![None, None]);
+}
+
+/// Medium (40) everywhere; a cell (100) at x, y 5..25 with a nucleus (200) at x, y 10..20
+/// inside it; a second nucleus at x, y 29..39; through every plane, with a little noise.
+fn cell_with_nucleus() -> Volume {
+    let mut values = vec![40.0f32; DIMS.iter().product()];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+        let within = |range: std::ops::Range<usize>| range.contains(&x) && range.contains(&y);
+        if within(10..20) || within(29..39) {
+            *value = 200.0;
+        } else if within(5..25) {
+            *value = 100.0;
+        }
+        *value += (index % 7) as f32;
+    }
+    Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap()
+}
+
+#[test]
+fn a_clean_loop_sets_aside_the_voxels_it_encloses_of_another_drawn_class() {
+    let volume = cell_with_nucleus();
+    let voxel = |x: usize, y: usize| x + DIMS[0] * (y + DIMS[1]);
+    let (medium, cell, nucleus) = (square(0..4, 0..40), square(5..25, 5..25), square(29..39, 29..39));
+    let set = TrainingSet { classes: vec![medium.clone(), cell.clone(), nucleus], contested_voxels: 0 };
+    let drawn = DrawnLassos::read(&volume, &set);
+    let training = drawn.training_voxels();
+    let Some(cell_voxels) = training[1] else { panic!("the cell's loop encloses the nucleus: {training:?}") };
+    assert!(cell_voxels.binary_search(&voxel(15, 15)).is_err(), "the nucleus's centre is set aside");
+    assert!(cell_voxels.binary_search(&voxel(7, 7)).is_ok() && cell_voxels.binary_search(&voxel(22, 15)).is_ok());
+    assert!(cell_voxels.len() >= cell.voxels.len() - 100, "only nucleus voxels go");
+    assert_eq!((training[0], training[2]), (None, None));
+    // The user drew them as the cell: every lassoed voxel keeps its class.
+    assert_eq!(drawn.decided_voxels(), vec![None, None, None]);
+    // The nucleus's centre is the nucleus's alone; the cell's band, taken without the voxels
+    // set aside, reaches less far into it.
+    let gate = drawn.gate();
+    let whole =
+        DrawnLassos::read(&volume, &TrainingSet { classes: vec![medium.clone(), cell.clone()], contested_voxels: 0 });
+    assert!(gate.bands()[1].high < whole.gate().bands()[1].high, "{gate:?}");
+    // Without a nucleus class drawn, the bright voxels are nobody else's: the cell keeps them.
+    assert_eq!(whole.training_voxels(), vec![None, None]);
+}
+
+#[test]
+fn a_loop_that_lies_mostly_over_another_class_keeps_its_voxels() {
+    // A loop around the nucleus that reaches far over the cell (as a finger's loop around a
+    // small structure does): its median is the cell's, so which voxels are its own is unknown.
+    let volume = cell_with_nucleus();
+    let set = TrainingSet {
+        classes: vec![square(0..4, 0..40), square(5..25, 21..25), square(6..24, 6..24)],
+        contested_voxels: 0,
+    };
+    let drawn = DrawnLassos::read(&volume, &set);
+    assert_eq!(drawn.training_voxels()[2], None);
 }
