@@ -290,8 +290,7 @@ fn with_bands_a_sheet_one_voxel_thin_keeps_its_label() {
     majority_passes(&mut plain, [7, 7, 7], DEFAULT_PASSES, None);
     assert!(plain.iter().all(|&label| label == 1), "without bands the sheet is voted away");
     let (kept, _) = filter_with_bands(&labels, &intensities, bands);
-    // Its corners at the volume's sides hold only 2 faces and go, and with them a little of
-    // its rim; the middle stays.
+    // Whatever happens at the volume's sides, the middle stays.
     let sheet = |x: usize, y: usize| kept[x + 7 * (y + 7 * 3)];
     assert!((2..5).all(|y| (2..5).all(|x| sheet(x, y) == 2)), "the sheet's middle keeps its label");
 }
@@ -321,4 +320,17 @@ fn with_bands_a_sheet_between_two_structures_or_outside_its_band_still_goes() {
     bands[2] = Some((22.0, 40.0));
     let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
     assert!(filtered.iter().all(|&label| label == 1), "a sheet outside its own band joins its surroundings");
+}
+
+#[test]
+fn with_bands_a_pair_of_voxels_its_intensity_speaks_for_keeps_its_label_and_a_single_one_goes() {
+    // Label 2 at 25 (its band 22-40, within label 1's widened band: the band rule alone lets
+    // it go), as the speckled fluid of a brain's sulci: a pair of voxels, each one face of
+    // the other, and a single voxel apart from it.
+    let voxels = [([2, 3, 3], 2u8, 25.0f32), ([3, 3, 3], 2, 25.0), ([5, 5, 1], 2, 25.0)];
+    let (labels, intensities, mut bands) = banded_scene(&voxels);
+    bands[2] = Some((22.0, 40.0));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
+    assert_eq!((filtered[2 + 7 * (3 + 7 * 3)], filtered[3 + 7 * (3 + 7 * 3)]), (2, 2), "the pair stays");
+    assert_eq!(filtered[5 + 7 * (5 + 7)], 1, "the single voxel joins its surroundings");
 }
