@@ -10,21 +10,21 @@
 //! mean lies within that class's core band and past [`ENCLOSED_REACH`] of the way from its own
 //! class's median mean to that class's: the mean speaks for a structure several voxels across
 //! rather than for noise, the intensity keeps in its class a voxel whose neighbours only mix
-//! (a grey-matter voxel beside white matter). On
-//! `scripts/heldout.py` the mean macro Dice with clean lassos rose from 0.839 to 0.849 and
-//! from 0.822 to 0.830 on its two seed sets (the cells, whose loops take in a fifth of a
-//! nucleus: +0.065 and +0.048; one seed's nucleus Dice 0.09 to 0.45), with leaky ones it fell
-//! by 0.003 and 0.001 (the real brain's seed 101: 0.820 to 0.780, where a leaked ventricle
-//! loop's grey matter was set aside); `volasso accuracy` gave the same means (benches/README.md).
+//! (a grey-matter voxel beside white matter). On `scripts/heldout.py` the mean macro Dice with
+//! clean lassos rose from 0.839 to 0.849 and from 0.822 to 0.830 on its two seed sets (the
+//! cells, whose loops take in a fifth of a nucleus: +0.065 and +0.048; one seed's nucleus Dice
+//! 0.09 to 0.45), with leaky ones it fell by 0.003 and 0.001 (the real brain's seed 101: 0.820
+//! to 0.780, where a leaked ventricle loop's grey matter was set aside); `volasso accuracy`
+//! gave the same means (benches/README.md).
 //!
 //! The voxels set aside still keep the class where they were lassoed (the user said what they
 //! are; [`super::DrawnLassos::decided_voxels`]): a loop around a skull that takes in the brain
 //! keeps its voxels, as the cranium's replay checks.
 //!
 //! Never: looks at a class whose rim leaked (its core alone stands for it then), one without a
-//! core, or one whose median lies in the middle half of another class's core band (its loop
-//! lies mostly over that class, as a finger's loop around a granule lies over the medium, and
-//! which of its voxels are its own is not known).
+//! core, or one whose median mean lies in the middle half of another class's core band (its
+//! loop lies mostly over that class, as a finger's loop around a granule lies over the medium,
+//! and which of its voxels are its own is not known).
 
 use super::{BAND_TRIM, Band, DrawnClass, band_of};
 use crate::strokes::TrainingSet;
@@ -64,6 +64,7 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
         let enclosed_by = |other: usize, value: f64, mean: f64| {
             let reach = ENCLOSED_REACH * (median_means[other] - own_mean);
             other != position
+                && reach != 0.0
                 && cores[other].holds(mean as f32)
                 && (value - medians[other]).abs() <= (value - own).abs()
                 && (mean - own_mean) * reach.signum() > reach.abs()
@@ -81,7 +82,7 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
             continue;
         }
         log::debug!(
-            "class {}: {} of its {} lassoed voxels enclose another class",
+            "class {}: {} of its {} lassoed voxels are another class's, enclosed by its loops",
             drawn.name,
             enclosed.len(),
             drawn.voxels.len()
