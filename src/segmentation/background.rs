@@ -246,7 +246,7 @@ fn low_outlier_cutoff(mut reference: Vec<f64>) -> f64 {
 }
 
 /// The median (upper median for an even count) of a non-empty slice, reordering it.
-fn median_in_place(values: &mut [f64]) -> f64 {
+pub(super) fn median_in_place(values: &mut [f64]) -> f64 {
     if values.is_empty() {
         return 0.0;
     }

@@ -26,7 +26,8 @@
 //! loop lies mostly over that class, as a finger's loop around a granule lies over the medium,
 //! and which of its voxels are its own is not known).
 
-use super::{BAND_TRIM, Band, DrawnClass, band_of};
+use super::{BAND_TRIM, Band, DrawnClass, band_of, finite_values};
+use crate::segmentation::background::median_in_place;
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
 
@@ -44,15 +45,17 @@ pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 /// order of `training`.
 pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [DrawnClass], leaked: &[bool]) {
     let cores: Vec<Band> = classes.iter().map(|class| class.core).collect();
-    let medians: Vec<f64> = training
-        .classes
-        .iter()
-        .map(|class| median(class.voxels.iter().map(|&voxel| volume.value(voxel)).collect()))
-        .collect();
+    let medians: Vec<f64> =
+        training.classes.iter().map(|class| median_in_place(&mut finite_values(volume, &class.voxels))).collect();
     let median_means: Vec<f64> = training
         .classes
         .iter()
-        .map(|class| median(class.voxels.iter().map(|&voxel| local_mean(volume, voxel)).collect()))
+        .map(|class| {
+            let mut means: Vec<f64> = class.voxels.iter().map(|&voxel| local_mean(volume, voxel)).collect();
+            means.retain(|mean| mean.is_finite());
+            // No finite mean (every voxel beside a missing value): nothing to compare with.
+            if means.is_empty() { f64::NAN } else { median_in_place(&mut means) }
+        })
         .collect();
     for (position, (class, drawn)) in classes.iter_mut().zip(&training.classes).enumerate() {
         let (own, own_mean) = (medians[position], median_means[position]);
@@ -90,8 +93,7 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
         // Both lists are sorted.
         let kept: Vec<usize> =
             drawn.voxels.iter().copied().filter(|voxel| enclosed.binary_search(voxel).is_err()).collect();
-        let mut values: Vec<f64> = kept.iter().map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect();
-        if let Some(band) = band_of(&mut values) {
+        if let Some(band) = band_of(&mut finite_values(volume, &kept)) {
             class.unenclosed = Some((kept, band));
         }
     }
@@ -100,13 +102,6 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
 /// Whether `value` lies in the middle half of `band`.
 fn in_middle_half(band: &Band, value: f32) -> bool {
     (value - (band.low + band.high) / 2.0).abs() <= (band.high - band.low) / 4.0
-}
-
-/// The median of the finite `values`; NaN without any.
-fn median(mut values: Vec<f64>) -> f64 {
-    values.retain(|value| value.is_finite());
-    values.sort_by(f64::total_cmp);
-    values.get(values.len() / 2).copied().unwrap_or(f64::NAN)
 }
 
 /// The mean of `voxel`'s 3 x 3 x 3 neighbourhood (the part inside the volume).

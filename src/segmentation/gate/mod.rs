@@ -331,9 +331,7 @@ struct DrawnClass {
 
 /// Each class of `training` as drawn in `volume`; `None` when a class has no finite value.
 fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnClass>> {
-    let values_of = |voxels: &[usize]| -> Vec<f64> {
-        voxels.iter().map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect()
-    };
+    let values_of = |voxels: &[usize]| finite_values(volume, voxels);
     let mut drawn = Vec::with_capacity(training.classes.len());
     for class in &training.classes {
         let whole = band_of(&mut values_of(&class.voxels))?;
@@ -363,6 +361,11 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
         });
     }
     Some(drawn)
+}
+
+/// The finite values of `voxels` in `volume`.
+fn finite_values(volume: &Volume, voxels: &[usize]) -> Vec<f64> {
+    voxels.iter().map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect()
 }
 
 /// For each drawn class, whether its rim leaked ([`DrawnClass::rim_leaked`]).
