@@ -1,7 +1,7 @@
 //! Classification end to end: accuracy on the demo phantom with its ground truth,
 //! coarse-to-fine against exact, the `classify` command's contract, and its clear errors.
 
-use crate::support::{assert_clean_error, volasso};
+use crate::support::{assert_clean_error, data, volasso};
 use std::sync::atomic::AtomicBool;
 use volasso::phantom::{self, dice};
 use volasso::segmentation::{self, Refinement, SegmentationError, SegmentationOptions};
@@ -126,5 +126,28 @@ fn classify_refuses_bad_strokes_clearly_and_writes_nothing() {
         );
         assert_clean_error(&output, expected, name);
         assert!(!out.exists(), "{name}: nothing is written on error");
+    }
+}
+
+/// A finger's loop drawn in the blurred rim between an object and the air around it (values
+/// from the air's up to the tissue's, most of them below the air's level), with the air itself
+/// not lassoed, on a real CT (the tooth) and a real MRI (the frog): the air stays background.
+/// A loop mostly in the face air whose other voxels lie just above the air's level looks like
+/// the air's own noise; taking it for air drawn as a class classified every voxel (a box in
+/// 3-D) on both.
+#[test]
+fn a_loop_in_an_edges_blurred_rim_leaves_the_air_background() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("labels.nrrd");
+    for scan in ["tooth", "frog"] {
+        let strokes = format!("{}/tests/strokes/{scan}-edge-halo.strokes.json", env!("CARGO_MANIFEST_DIR"));
+        let volume = data(&format!("{scan}.nrrd"));
+        let args = ["classify", volume.to_str().unwrap(), "--strokes", &strokes, "--out", out.to_str().unwrap()];
+        let output = volasso(&args, folder.path());
+        assert!(output.status.success(), "{scan}: {}", String::from_utf8_lossy(&output.stderr));
+        let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        let classified = line["classified_voxels"].as_f64().unwrap() / line["voxels"].as_f64().unwrap();
+        assert!(classified < 0.5, "{scan}: {classified:.3} of the voxels classified: the air took a class");
+        assert!(!line["background_threshold"].is_null(), "{scan}: no background: {line}");
     }
 }

@@ -9,7 +9,8 @@
 //!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
 //! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
-//! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, and
+//! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, loops in a
+//!   real scan's blurred edge (`tests/strokes`) that leave the air background, and
 //!   `volasso classify`'s contract and errors.
 //! * `cli`: the `volasso` binary's contracts from `interfaces.md` (exit codes, output, atomic
 //!   writes).
