@@ -46,16 +46,11 @@ pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [DrawnClass], leaked: &[bool]) {
     let cores: Vec<Band> = classes.iter().map(|class| class.core).collect();
     let medians: Vec<f64> =
-        training.classes.iter().map(|class| median_in_place(&mut finite_values(volume, &class.voxels))).collect();
+        training.classes.iter().map(|class| finite_median(finite_values(volume, &class.voxels))).collect();
     let median_means: Vec<f64> = training
         .classes
         .iter()
-        .map(|class| {
-            let mut means: Vec<f64> = class.voxels.iter().map(|&voxel| local_mean(volume, voxel)).collect();
-            means.retain(|mean| mean.is_finite());
-            // No finite mean (every voxel beside a missing value): nothing to compare with.
-            if means.is_empty() { f64::NAN } else { median_in_place(&mut means) }
-        })
+        .map(|class| finite_median(class.voxels.iter().map(|&voxel| local_mean(volume, voxel)).collect()))
         .collect();
     for (position, (class, drawn)) in classes.iter_mut().zip(&training.classes).enumerate() {
         let (own, own_mean) = (medians[position], median_means[position]);
@@ -102,6 +97,13 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
 /// Whether `value` lies in the middle half of `band`.
 fn in_middle_half(band: &Band, value: f32) -> bool {
     (value - (band.low + band.high) / 2.0).abs() <= (band.high - band.low) / 4.0
+}
+
+/// The median of the finite `values`; NaN without any (every voxel beside a missing value:
+/// nothing to compare with).
+fn finite_median(mut values: Vec<f64>) -> f64 {
+    values.retain(|value| value.is_finite());
+    if values.is_empty() { f64::NAN } else { median_in_place(&mut values) }
 }
 
 /// The mean of `voxel`'s 3 x 3 x 3 neighbourhood (the part inside the volume).

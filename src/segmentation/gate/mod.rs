@@ -331,12 +331,11 @@ struct DrawnClass {
 
 /// Each class of `training` as drawn in `volume`; `None` when a class has no finite value.
 fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnClass>> {
-    let values_of = |voxels: &[usize]| finite_values(volume, voxels);
     let mut drawn = Vec::with_capacity(training.classes.len());
     for class in &training.classes {
-        let whole = band_of(&mut values_of(&class.voxels))?;
+        let whole = band_of(&mut finite_values(volume, &class.voxels))?;
         let core = lasso_core(&class.voxels, volume.dims);
-        let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut values_of(&core))).flatten();
+        let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut finite_values(volume, &core))).flatten();
         drawn.push(match core_band {
             Some(band) => {
                 let rim: Vec<usize> =
@@ -344,7 +343,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
                 DrawnClass {
                     whole,
                     core: band,
-                    rim: values_of(&rim),
+                    rim: finite_values(volume, &rim),
                     core_voxels: core,
                     drawn_voxels: class.voxels.len(),
                     unenclosed: None,
