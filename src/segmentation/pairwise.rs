@@ -201,13 +201,9 @@ impl PairwiseSnSvm {
         }
         let classes = self.class_ids.len();
         let pairs = self.pairs.len();
-        let position = |id: u8| self.class_ids.iter().position(|&c| c == id).unwrap_or(0);
-        let pair_positions: Vec<(usize, usize)> =
-            self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect();
-        // Every pair's decision value, also of pairs the gate rules out: a block is evaluated
-        // pair by pair.
+        let pair_positions = self.pair_positions();
         let mut values = vec![0f32; out.len() * pairs];
-        self.pair_values_block(features, &mut values)?;
+        self.pair_values_block(features, allowed_sets, &mut values)?;
         let (mut votes, mut strength) = (vec![0u32; classes], vec![0f32; classes]);
         for ((label, values), &allowed) in out.iter_mut().zip(values.chunks_exact(pairs)).zip(allowed_sets) {
             classify::tally_votes_among(&pair_positions, values, allowed, &mut votes, &mut strength);
@@ -220,22 +216,49 @@ impl PairwiseSnSvm {
         Ok(())
     }
 
-    /// Every pair's decision value for each row of raw `features`, row by row into `values`
-    /// (one value per pair, in pair order).
-    pub fn pair_values_block(&self, features: &[f32], values: &mut [f32]) -> Result<(), SegmentationError> {
+    /// Each pair's decision value for each row of raw `features`, row by row into `values` (one
+    /// value per pair, in pair order), where the row's allowed set (`allowed_sets`, one per row)
+    /// holds both of the pair's classes; 0 where it does not. A pair is evaluated on those rows
+    /// only: the others do not vote, and the kernel sums are the whole cost (a finger's loop in
+    /// the air of a scan with four classes leaves most voxels to one pair of the six).
+    pub fn pair_values_block(
+        &self,
+        features: &[f32],
+        allowed_sets: &[ClassSet],
+        values: &mut [f32],
+    ) -> Result<(), SegmentationError> {
         let pairs = self.pairs.len();
-        let rows = values.len() / pairs.max(1);
-        let mut scaled = vec![0f32; features.len()];
-        let mut pair_values = vec![0f32; rows];
-        for (p, pair) in self.pairs.iter().enumerate() {
-            scaled.copy_from_slice(features);
-            pair.standardiser.apply_in_place(&mut scaled)?;
-            pair.model.decision_values_block(&scaled, &mut pair_values)?;
-            for (row, &f) in pair_values.iter().enumerate() {
+        let dim = features.len() / allowed_sets.len().max(1);
+        values.fill(0.0);
+        let (mut rows, mut gathered, mut pair_values) = (Vec::new(), Vec::new(), Vec::new());
+        for (p, (pair, (first, second))) in self.pairs.iter().zip(self.pair_positions()).enumerate() {
+            rows.clear();
+            rows.extend(allowed_sets.iter().enumerate().filter_map(|(row, &allowed)| {
+                (classify::class_set_contains(allowed, first) && classify::class_set_contains(allowed, second))
+                    .then_some(row)
+            }));
+            if rows.is_empty() {
+                continue;
+            }
+            gathered.clear();
+            for &row in &rows {
+                gathered.extend_from_slice(&features[row * dim..(row + 1) * dim]);
+            }
+            pair.standardiser.apply_in_place(&mut gathered)?;
+            pair_values.clear();
+            pair_values.resize(rows.len(), 0.0);
+            pair.model.decision_values_block(&gathered, &mut pair_values)?;
+            for (&row, &f) in rows.iter().zip(&pair_values) {
                 values[row * pairs + p] = f;
             }
         }
         Ok(())
+    }
+
+    /// For each pair, the positions of its two classes in `class_ids`.
+    fn pair_positions(&self) -> Vec<(usize, usize)> {
+        let position = |id: u8| self.class_ids.iter().position(|&c| c == id).unwrap_or(0);
+        self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect()
     }
 
     /// The classes the gate allows for each row of raw `features` (`dim` values a row); none
@@ -249,194 +272,4 @@ impl PairwiseSnSvm {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::rng::SplitMix64;
-
-    /// Four classes along one feature, spaced 1, 1 and 1000 apart (muscle, liver, ..., bone),
-    /// with a second feature of noise; deviation 0.2 within each class.
-    fn samples() -> (Vec<f32>, Vec<u8>) {
-        let mut rng = SplitMix64::new(3);
-        let centres = [0.0, 1.0, 2.0, 1000.0];
-        let mut raw = Vec::new();
-        let mut labels = Vec::new();
-        for (class, &centre) in centres.iter().enumerate() {
-            for _ in 0..40 {
-                raw.push(centre + 0.2 * rng.next_gaussian());
-                raw.push(rng.next_gaussian());
-                labels.push(class as u8 + 1);
-            }
-        }
-        (raw, labels)
-    }
-
-    #[test]
-    fn close_classes_stay_apart_beside_a_far_one() {
-        let (raw, labels) = samples();
-        let params = SnSvmParams::default();
-        let model = PairwiseSnSvm::train(
-            &raw,
-            &[1.0; 2],
-            &labels,
-            &[1, 2, 3, 4],
-            IntensityGate::open(4),
-            &params,
-            KernelWidth::Automatic,
-            0.01,
-        )
-        .unwrap();
-        assert_eq!(model.pairs.len(), 6);
-        let mut probes = vec![0.0, 0.3, 1.0, -0.2, 2.0, 0.1, 1000.0, 0.0, 0.45, 0.0, 1.55, 0.0];
-        let mut out = vec![0u8; 6];
-        model.classify_block(&mut probes, &mut out).unwrap();
-        assert_eq!(out, [1, 2, 3, 4, 1, 3]);
-        // One standardisation for all four squeezes the first three together.
-        let standardiser = Standardiser::fit(&raw, 2).unwrap();
-        let values = standardiser.apply(&raw).unwrap();
-        let params = SnSvmParams { kernel: Kernel::Rbf { width: median_heuristic_width(&values, 2) }, ..params };
-        let single = classify::train_with_classes(
-            &SampleMatrix { dim: 2, values },
-            &labels,
-            &[1, 2, 3, 4],
-            &params.check().unwrap(),
-        )
-        .unwrap();
-        let mut probes = vec![0.0, 0.3, 1.0, -0.2, 2.0, 0.1, 1000.0, 0.0, 0.45, 0.0, 1.55, 0.0];
-        standardiser.apply_in_place(&mut probes).unwrap();
-        single.predict_block(&probes, &mut out).unwrap();
-        assert_ne!(out, [1, 2, 3, 4, 1, 3], "the single model was expected to merge close classes");
-    }
-
-    #[test]
-    fn the_gate_gives_a_voxel_its_band_s_class_and_leaves_the_rest_to_the_allowed_pairs() {
-        // Air (-1000, flat), soft tissue (0, gentle gradients) and a thin class (200, steep
-        // gradients). A voxel of soft tissue's intensity with a steep gradient: the thin class
-        // wins its pairs on the gradient and so the vote; the gate gives it to the one class
-        // whose band holds its intensity. A voxel between the bands of air and soft tissue
-        // (the skin's air) is left to their pair.
-        let mut rng = SplitMix64::new(11);
-        let (mut raw, mut labels) = (Vec::new(), Vec::new());
-        for (class, centre, gradient, spread) in
-            [(1u8, -1000.0, 0.0, 1.0), (2, 0.0, 10.0, 10.0), (3, 200.0, 300.0, 60.0)]
-        {
-            for _ in 0..40 {
-                raw.extend([centre + 5.0 * rng.next_gaussian(), gradient + spread * rng.next_gaussian().abs()]);
-                labels.push(class);
-            }
-        }
-        let train = |gate| {
-            PairwiseSnSvm::train(
-                &raw,
-                &[1.0; 2],
-                &labels,
-                &[1, 2, 3],
-                gate,
-                &SnSvmParams::default(),
-                KernelWidth::Automatic,
-                0.01,
-            )
-            .unwrap()
-        };
-        let bands = [(-1010.0, -990.0), (-10.0, 10.0), (190.0, 210.0)];
-        let gated = train(IntensityGate::from_bands(bands.iter().map(|&(low, high)| Band { low, high }).collect()));
-        let open = train(IntensityGate::open(3));
-        // The skin's air, a steep voxel inside soft tissue's band, one brighter than every band,
-        // and a NaN.
-        let probes = [-900.0, 300.0, 0.0, 300.0, 5000.0, 0.0, f32::NAN, 0.0];
-        let (mut open_labels, mut gated_labels) = ([0u8; 4], [0u8; 4]);
-        open.classify_block(&mut probes.clone(), &mut open_labels).unwrap();
-        gated.classify_block(&mut probes.clone(), &mut gated_labels).unwrap();
-        assert_eq!(open_labels[1], 3, "the vote of all pairs was expected to give the steep voxel to the thin class");
-        assert!([1, 2].contains(&gated_labels[0]));
-        assert_eq!(gated_labels[1..], [2, 3, 0]);
-    }
-
-    #[test]
-    fn a_voxel_beyond_every_band_is_voted_on_at_the_drawn_range_s_end_with_its_own_gradient() {
-        let (raw, labels) = samples();
-        let bands = vec![Band { low: -10.0, high: 10.0 }, Band { low: 5.0, high: 40.0 }];
-        let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
-        let model = PairwiseSnSvm::train(
-            &raw,
-            &[1.0; 2],
-            &labels,
-            &[1, 2],
-            IntensityGate::from_bands(bands),
-            &SnSvmParams::default(),
-            KernelWidth::Automatic,
-            0.01,
-        )
-        .unwrap();
-        // Intensity and gradient: brighter than every band, darker, and inside the range.
-        let mut features = [1300.0, 7.0, -500.0, 3.0, 20.0, 9.0];
-        model.move_into_drawn_range(&mut features, 2);
-        assert_eq!(features, [40.0, 7.0, -10.0, 3.0, 20.0, 9.0]);
-        let mut both = model.with_intensity_features(vec![true, true]);
-        let mut bright = [1300.0, 700.0];
-        both.move_into_drawn_range(&mut bright, 2);
-        assert_eq!(bright, [40.0, 40.0], "every feature marked an intensity moves");
-        both.gate = IntensityGate::open(2);
-        let mut bright = [1300.0, 700.0];
-        both.move_into_drawn_range(&mut bright, 2);
-        assert_eq!(bright, [1300.0, 700.0], "an open gate moves nothing");
-    }
-
-    #[test]
-    fn two_classes_are_the_single_model_on_their_standardisation() {
-        let (raw, labels) = samples();
-        let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
-        let params = SnSvmParams::default();
-        let model = PairwiseSnSvm::train(
-            &raw,
-            &[1.0; 2],
-            &labels,
-            &[1, 2],
-            IntensityGate::open(2),
-            &params,
-            KernelWidth::Automatic,
-            0.0,
-        )
-        .unwrap();
-        let standardiser = Standardiser::fit(&raw, 2).unwrap();
-        assert_eq!(model.pairs[0].standardiser, standardiser);
-        let values = standardiser.apply(&raw).unwrap();
-        let width = median_heuristic_width(&values, 2);
-        assert_eq!(model.pairs[0].params.kernel, Kernel::Rbf { width });
-        let single = classify::train_with_classes(
-            &SampleMatrix { dim: 2, values },
-            &labels,
-            &[1, 2],
-            &SnSvmParams { kernel: Kernel::Rbf { width }, ..params }.check().unwrap(),
-        )
-        .unwrap();
-        let mut rng = SplitMix64::new(9);
-        let probes: Vec<f32> = (0..400).map(|_| 0.5 + rng.next_gaussian()).collect();
-        let (mut a, mut b) = (probes.clone(), probes);
-        let (mut out_a, mut out_b) = (vec![0u8; 200], vec![0u8; 200]);
-        model.classify_block(&mut a, &mut out_a).unwrap();
-        standardiser.apply_in_place(&mut b).unwrap();
-        single.predict_block(&b, &mut out_b).unwrap();
-        assert_eq!(out_a, out_b);
-        assert!(out_a.contains(&1) && out_a.contains(&2));
-    }
-
-    #[test]
-    fn one_class_is_refused_as_the_single_model_refuses_it() {
-        let (raw, labels) = samples();
-        let (raw, labels) = (&raw[..80], &labels[..40]);
-        let refused = PairwiseSnSvm::train(
-            raw,
-            &[1.0; 2],
-            labels,
-            &[1],
-            IntensityGate::open(1),
-            &SnSvmParams::default(),
-            KernelWidth::Automatic,
-            0.0,
-        );
-        assert!(matches!(
-            refused,
-            Err(SegmentationError::Classify(classify::ClassifyError::TooFewClasses { found: 1, .. }))
-        ));
-    }
-}
+mod tests;

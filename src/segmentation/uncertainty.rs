@@ -97,7 +97,7 @@ pub fn margins_block(
             let allowed = model.allowed_sets(features, features.len() / margins.len().max(1));
             let pairs: Vec<(u8, u8)> = model.pairs.iter().map(|pair| pair.classes).collect();
             let mut values = vec![0f32; margins.len() * pairs.len()];
-            model.pair_values_block(features, &mut values)?;
+            model.pair_values_block(features, &allowed, &mut values)?;
             pair_margins(&model.class_ids, &pairs, &values, Some(&allowed), margins);
         }
         TrainedClassifier::Forest(forest) => {
