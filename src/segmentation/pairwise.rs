@@ -14,7 +14,8 @@
 //! larger summed |f| of the winning votes, then the smaller class id.
 //!
 //! The [`IntensityGate`] comes first: a voxel whose intensity only one class's drawn band
-//! allows is that class without a vote, and only the pairs of allowed classes vote on the rest.
+//! allows is that class without a vote, and only the pairs of allowed classes vote on the rest
+//! (and only they are evaluated there: the kernel sums are the cost of prediction).
 //!
 //! Never: chooses the training voxels, or the background.
 
