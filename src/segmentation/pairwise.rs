@@ -229,7 +229,14 @@ impl PairwiseSnSvm {
         values: &mut [f32],
     ) -> Result<(), SegmentationError> {
         let pairs = self.pairs.len();
-        let dim = features.len() / allowed_sets.len().max(1);
+        let dim = self.pairs.first().map_or(1, |pair| pair.model.dim());
+        if features.len() != allowed_sets.len() * dim {
+            return Err(classify::ClassifyError::FeatureBlockShape { values: features.len(), dim }.into());
+        }
+        if values.len() != allowed_sets.len() * pairs {
+            let expected = allowed_sets.len() * pairs;
+            return Err(classify::ClassifyError::OutputBlockShape { expected, found: values.len() }.into());
+        }
         values.fill(0.0);
         let (mut rows, mut gathered, mut pair_values) = (Vec::new(), Vec::new(), Vec::new());
         for (p, (pair, (first, second))) in self.pairs.iter().zip(self.pair_positions()).enumerate() {

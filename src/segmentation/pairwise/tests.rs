@@ -230,3 +230,26 @@ fn one_class_is_refused_as_the_single_model_refuses_it() {
         Err(SegmentationError::Classify(classify::ClassifyError::TooFewClasses { found: 1, .. }))
     ));
 }
+
+#[test]
+fn pair_values_of_a_misshapen_block_are_an_error_not_a_panic() {
+    let (raw, labels) = samples();
+    let model = PairwiseSnSvm::train(
+        &raw,
+        &[1.0; 2],
+        &labels,
+        &[1, 2, 3, 4],
+        IntensityGate::open(4),
+        &SnSvmParams::default(),
+        KernelWidth::Automatic,
+        0.01,
+    )
+    .unwrap();
+    let features = [0.0f32, 0.1, 1.0, 0.2, 2.0];
+    let mut values = vec![0f32; 2 * model.pairs.len()];
+    let odd = model.pair_values_block(&features, &[ClassSet::MAX; 2], &mut values);
+    assert!(matches!(odd, Err(SegmentationError::Classify(classify::ClassifyError::FeatureBlockShape { .. }))));
+    let short = model.pair_values_block(&features[..4], &[ClassSet::MAX; 2], &mut values[..3]);
+    assert!(matches!(short, Err(SegmentationError::Classify(classify::ClassifyError::OutputBlockShape { .. }))));
+    assert!(model.pair_values_block(&features[..4], &[ClassSet::MAX; 2], &mut values).is_ok());
+}
