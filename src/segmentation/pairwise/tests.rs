@@ -18,21 +18,27 @@ fn samples() -> (Vec<f32>, Vec<u8>) {
     (raw, labels)
 }
 
-#[test]
-fn close_classes_stay_apart_beside_a_far_one() {
+/// The pairwise model of [`samples`]' four classes behind `gate`, default parameters.
+fn four_classes(gate: IntensityGate) -> PairwiseSnSvm {
     let (raw, labels) = samples();
-    let params = SnSvmParams::default();
-    let model = PairwiseSnSvm::train(
+    PairwiseSnSvm::train(
         &raw,
         &[1.0; 2],
         &labels,
         &[1, 2, 3, 4],
-        IntensityGate::open(4),
-        &params,
+        gate,
+        &SnSvmParams::default(),
         KernelWidth::Automatic,
         0.01,
     )
-    .unwrap();
+    .unwrap()
+}
+
+#[test]
+fn close_classes_stay_apart_beside_a_far_one() {
+    let (raw, labels) = samples();
+    let params = SnSvmParams::default();
+    let model = four_classes(IntensityGate::open(4));
     assert_eq!(model.pairs.len(), 6);
     let mut probes = vec![0.0, 0.3, 1.0, -0.2, 2.0, 0.1, 1000.0, 0.0, 0.45, 0.0, 1.55, 0.0];
     let mut out = vec![0u8; 6];
@@ -99,20 +105,8 @@ fn the_gate_gives_a_voxel_its_band_s_class_and_leaves_the_rest_to_the_allowed_pa
 
 #[test]
 fn pairs_evaluated_only_where_the_gate_allows_both_classes_vote_as_every_pair_evaluated_would() {
-    let (raw, labels) = samples();
     let bands = [(-1.0, 2.0), (0.5, 2.5), (1.5, 3.0), (900.0, 1100.0)];
-    let gate = IntensityGate::from_bands(bands.iter().map(|&(low, high)| Band { low, high }).collect());
-    let model = PairwiseSnSvm::train(
-        &raw,
-        &[1.0; 2],
-        &labels,
-        &[1, 2, 3, 4],
-        gate,
-        &SnSvmParams::default(),
-        KernelWidth::Automatic,
-        0.01,
-    )
-    .unwrap();
+    let model = four_classes(IntensityGate::from_bands(bands.iter().map(|&(low, high)| Band { low, high }).collect()));
     let mut rng = SplitMix64::new(5);
     let probes: Vec<f32> = (0..300).flat_map(|_| [-0.5 + 3.5 * rng.next_f64() as f32, rng.next_gaussian()]).collect();
     let mut labels_out = vec![0u8; 300];
@@ -233,18 +227,7 @@ fn one_class_is_refused_as_the_single_model_refuses_it() {
 
 #[test]
 fn pair_values_of_a_misshapen_block_are_an_error_not_a_panic() {
-    let (raw, labels) = samples();
-    let model = PairwiseSnSvm::train(
-        &raw,
-        &[1.0; 2],
-        &labels,
-        &[1, 2, 3, 4],
-        IntensityGate::open(4),
-        &SnSvmParams::default(),
-        KernelWidth::Automatic,
-        0.01,
-    )
-    .unwrap();
+    let model = four_classes(IntensityGate::open(4));
     let features = [0.0f32, 0.1, 1.0, 0.2, 2.0];
     let mut values = vec![0f32; 2 * model.pairs.len()];
     let odd = model.pair_values_block(&features, &[ClassSet::MAX; 2], &mut values);
