@@ -7,7 +7,8 @@ code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias 
 noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI; and a real
 brain, the ICBM 152 T1 template that nilearn ships, with its tissue maps as truth), its own
 finger (loops on the three slices `volasso info` ranks first, drawn inside each structure or
-leaking 2 voxels over its border, into air too), and its own scoring. It runs the volasso binary
+leaking 2 voxels over its border, into air too; `--hands` adds a finger that lands off-centre and
+a broad one 4 voxels over), and its own scoring. It runs the volasso binary
 as a user would (`volasso info`, `volasso classify` on an NRRD file) and scikit-learn's random
 forest (100 trees) on the paper's 5 features computed here, on the same lassoed voxels.
 
@@ -17,6 +18,7 @@ that kept their class; then the means per hand and the worst difference to the f
 
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
                                   [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
+                                  [--hands clean,leaky,offset,wide]
 Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn);
 the real brain (mni-t1) also nilearn's data files: pip install nilearn, or unpack its wheel
 (pip download nilearn --no-deps) and set VOLASSO_MNI_DIR to its nilearn/datasets/data folder.
@@ -271,6 +273,9 @@ def plane(volume, axis, index):
     return volume[:, :, index]  # (z, y): point [y, z]
 
 
+HANDS = ["clean", "leaky", "offset", "wide"]
+
+
 def finger_loop(component, hand, rng):
     """A closed polygon (points [i, j]) a finger draws around part of a 2-D region."""
     from skimage.measure import find_contours
@@ -286,9 +291,17 @@ def finger_loop(component, hand, rng):
         if inner.sum() >= 3:
             region = inner
         jitter = 0.3
-    else:
+    elif hand == "leaky":
         region = ndi.binary_dilation(region, structure=np.ones((3, 3)), iterations=2)
         jitter = 0.8
+    elif hand == "offset":  # lands off-centre: over the border on one side, short of it on the other
+        angle = rng.uniform(0, 2 * np.pi)
+        shifted = ndi.shift(region.astype(float), (2.5 * np.sin(angle), 2.5 * np.cos(angle)), order=0) > 0.5
+        region = ndi.binary_dilation(shifted if shifted.any() else region, structure=np.ones((3, 3)))
+        jitter = 0.8
+    else:  # "wide": a broad fingertip on a small panel, 4 voxels over the border
+        region = ndi.binary_dilation(region, structure=np.ones((3, 3)), iterations=4)
+        jitter = 1.2
     padded = np.pad(region.astype(float), 1)
     contour = max(find_contours(padded, 0.5), key=len) - 1  # (row j, column i)
     step = max(1, len(contour) // 48)
@@ -405,7 +418,14 @@ def main():
     parser.add_argument("--only", default=None)
     parser.add_argument("--classify-args", default="", help="extra arguments for volasso classify")
     parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
+    parser.add_argument("--hands", default="clean,leaky",
+                        help="the fingers, of clean, leaky, offset (off-centre: over one side, short of the other) "
+                             "and wide (4 voxels over); each after the ones before it, so adding one leaves "
+                             "the others' strokes as they were")
     args = parser.parse_args()
+    hands = args.hands.split(",")
+    if any(hand not in HANDS for hand in hands):
+        parser.error(f"--hands: each of {', '.join(HANDS)}")
     folder = args.keep or tempfile.mkdtemp(prefix="volasso-heldout-")
     os.makedirs(folder, exist_ok=True)
     rows = []
@@ -426,7 +446,10 @@ def main():
             write_nrrd(volume, image, spacing)
             info = json.loads(subprocess.run([args.volasso, "info", volume, "--json"], check=True,
                                              capture_output=True, text=True).stdout)
-            for hand in ["clean", "leaky"]:
+            for hand in HANDS[:1 + max(HANDS.index(hand) for hand in hands)]:
+                if hand not in hands:
+                    draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)  # the same draws for the rest
+                    continue
                 strokes, class_truth = draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)
                 stroke_path = os.path.join(folder, f"{name}-{seed}-{hand}.strokes.json")
                 json.dump(strokes, open(stroke_path, "w"))
@@ -442,7 +465,7 @@ def main():
                       + " ".join(f"{d:.2f}" for d in ours[1]), flush=True)
                 rows.append((name, seed, hand, ours[0], theirs[0], ours[2], ours[3]))
     print()
-    for hand in ["clean", "leaky"]:
+    for hand in hands:
         sel = [r for r in rows if r[2] == hand]
         if sel:
             worst = min(sel, key=lambda r: r[3] - r[4])
