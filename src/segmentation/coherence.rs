@@ -57,6 +57,8 @@ pub const FACE_ANCHOR: usize = 1;
 pub struct LabelBands<'a> {
     /// Per label (index = label), its band (low, high); `None`: any intensity.
     bands: Vec<Option<(f32, f32)>>,
+    /// Per label, its band widened by [`PARTIAL_VOLUME_REACH`] on each side; `None` as above.
+    widened: Vec<Option<(f32, f32)>>,
     /// The intensity of a voxel (index into the label volume).
     intensity: &'a (dyn Fn(usize) -> f32 + Sync),
 }
@@ -64,7 +66,16 @@ pub struct LabelBands<'a> {
 impl<'a> LabelBands<'a> {
     /// Bands per label (index = label; `None`: any intensity) and the voxels' intensities.
     pub fn new(bands: Vec<Option<(f32, f32)>>, intensity: &'a (dyn Fn(usize) -> f32 + Sync)) -> LabelBands<'a> {
-        LabelBands { bands, intensity }
+        let widened = bands
+            .iter()
+            .map(|band| {
+                band.map(|(low, high)| {
+                    let reach = PARTIAL_VOLUME_REACH * (high - low);
+                    (low - reach, high + reach)
+                })
+            })
+            .collect();
+        LabelBands { bands, widened, intensity }
     }
 
     /// The band of `label`; `None`: any intensity.
@@ -78,22 +89,17 @@ impl<'a> LabelBands<'a> {
     }
 
     /// Whether the voxel `voxel` of label `own` may take a label of its 3 x 3 x 3
-    /// neighbourhood `block`: its intensity lies within the span of the widened bands of the
-    /// block's labels other than `own` and background, or outside its own label's band (then
-    /// its own label is no surer than its neighbours').
-    fn allows(&self, voxel: usize, own: u8, block: &[u8]) -> bool {
-        let widened = |label: u8| -> Option<(f32, f32)> {
-            let (low, high) = self.band(label)?;
-            let reach = PARTIAL_VOLUME_REACH * (high - low);
-            Some((low - reach, high + reach))
-        };
+    /// neighbourhood, whose labels other than `own` and background are `others` (each once):
+    /// its intensity lies within the span of their widened bands, or outside its own label's
+    /// band (then its own label is no surer than its neighbours').
+    fn allows(&self, voxel: usize, own: u8, others: &[u8]) -> bool {
         let intensity = (self.intensity)(voxel);
         if !self.holds(own, intensity) {
             return true;
         }
         let (mut low, mut high) = (f32::INFINITY, f32::NEG_INFINITY);
-        for &label in block.iter().filter(|&&label| label != 0 && label != own) {
-            let Some((band_low, band_high)) = widened(label) else {
+        for &label in others {
+            let Some((band_low, band_high)) = self.widened.get(label as usize).copied().flatten() else {
                 return true;
             };
             low = low.min(band_low);
@@ -104,15 +110,15 @@ impl<'a> LabelBands<'a> {
 
     /// Whether a voxel that [`FACE_ANCHOR`] of its faces hold in label `own` may still take
     /// label `best`: when its intensity does not set the two apart (its own label's band does
-    /// not hold it, or `best`'s does), or when it lies between the band centres of two other
-    /// labels of its neighbourhood `block` (a mix of them, as on a partial-volume shell).
-    fn releases_anchored(&self, voxel: usize, own: u8, best: u8, block: &[u8]) -> bool {
+    /// not hold it, or `best`'s does), or when it lies between the band centres of two of the
+    /// other labels of its neighbourhood, `others` (a mix of them, as on a partial-volume shell).
+    fn releases_anchored(&self, voxel: usize, own: u8, best: u8, others: &[u8]) -> bool {
         let intensity = (self.intensity)(voxel);
         if !self.holds(own, intensity) || self.holds(best, intensity) {
             return true;
         }
         let (mut darker, mut brighter) = (false, false);
-        for &label in block.iter().filter(|&&label| label != 0 && label != own) {
+        for &label in others {
             let Some((low, high)) = self.band(label) else {
                 return true;
             };
@@ -181,7 +187,6 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
     let below = (z > 0).then(|| &original[(z - 1) * plane..][..plane]);
     let above = (z + 1 < size_z).then(|| &original[(z + 1) * plane..][..plane]);
     let mut changes = Vec::new();
-    let mut counts = [0u8; 256];
     let mut flags = vec![0u8; size_x];
     let mut votes = vec![0u8; size_x];
     for (y, row) in here.chunks_exact(size_x).enumerate() {
@@ -223,23 +228,14 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
                 bits &= bits - 1;
                 let own = row[x];
                 let voxel = z * plane + start + x;
-                let allowed = |block: &[u8], best: u8| {
+                let allowed = |others: &[u8], best: u8| {
                     bands.is_none_or(|bands| {
-                        bands.allows(voxel, own, block)
+                        bands.allows(voxel, own, others)
                             && (own_faces(below, here, above, size_x, size_y, x, y) < FACE_ANCHOR
-                                || bands.releases_anchored(voxel, own, best, block))
+                                || bands.releases_anchored(voxel, own, best, others))
                     })
                 };
-                let best = neighbourhood_majority(
-                    [below, Some(here), above],
-                    size_x,
-                    size_y,
-                    x,
-                    y,
-                    own,
-                    &allowed,
-                    &mut counts,
-                );
+                let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &allowed);
                 if best != own {
                     changes.push((start + x, best));
                 }
@@ -247,6 +243,11 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
         }
     }
     changes
+}
+
+/// One bit per position of `block` that holds `label` (a byte comparison that vectorises).
+fn positions_of(block: &[u8; 32], label: u8) -> u32 {
+    block.iter().enumerate().fold(0u32, |bits, (position, &held)| bits | u32::from(held == label) << position)
 }
 
 /// How many of the six face neighbours of (x, y) (in the plane `here`, and at the same place
@@ -369,7 +370,7 @@ fn unopposed(row: &[u8], label: u8, neighbours: [Option<&[u8]>; 4]) -> bool {
 
 /// The non-zero label with the most votes in the 3 x 3 x 3 neighbourhood of (x, y) over
 /// `planes`; `own` unless another has strictly more and `allowed` admits the change (given the
-/// neighbourhood's labels). `counts` is zeroed scratch, left zeroed.
+/// neighbourhood's labels other than `own` and background, each once).
 #[allow(clippy::too_many_arguments)]
 fn neighbourhood_majority(
     planes: [Option<&[u8]>; 3],
@@ -379,7 +380,6 @@ fn neighbourhood_majority(
     y: usize,
     own: u8,
     allowed: &dyn Fn(&[u8], u8) -> bool,
-    counts: &mut [u8; 256],
 ) -> u8 {
     // The neighbourhood's labels in a fixed block, background (0, no vote) past its end, so
     // the counts below are loops of fixed length without branches.
@@ -417,30 +417,29 @@ fn neighbourhood_majority(
     }
     let other_votes: u8 = block.iter().map(|&label| u8::from(label == other) & u8::from(other != 0)).sum();
     if voting - own_votes == other_votes {
-        return if other_votes > own_votes && allowed(&block, other) { other } else { own };
+        return if other_votes > own_votes && allowed(&[other], other) { other } else { own };
     }
-    let mut seen = [0u8; 27];
-    let mut distinct = 0;
-    for &label in &block[..filled] {
-        if label == 0 {
-            continue;
+    // Several other labels: each one's votes from a comparison of the whole block, label by
+    // label in the order they first appear (no histogram in memory: its stores and loads
+    // would wait on each other).
+    let (mut others, mut count) = ([0u8; 27], 0);
+    let (mut best, mut best_votes) = (own, own_votes);
+    let mut remaining = !positions_of(&block, 0) & !positions_of(&block, own);
+    while remaining != 0 {
+        let label = block[remaining.trailing_zeros() as usize];
+        let positions = positions_of(&block, label);
+        let votes = positions.count_ones() as u8;
+        if votes > best_votes {
+            (best, best_votes) = (label, votes);
         }
-        if counts[label as usize] == 0 {
-            seen[distinct] = label;
-            distinct += 1;
-        }
-        counts[label as usize] += 1;
+        others[count] = label;
+        count += 1;
+        remaining &= !positions;
     }
-    let mut best = own;
-    for &label in &seen[..distinct] {
-        if counts[label as usize] > counts[best as usize] {
-            best = label;
-        }
+    if best == own {
+        return own;
     }
-    for &label in &seen[..distinct] {
-        counts[label as usize] = 0;
-    }
-    if best != own && allowed(&block, best) { best } else { own }
+    if allowed(&others[..count], best) { best } else { own }
 }
 
 #[cfg(test)]
