@@ -11,8 +11,8 @@ next one on most scans the blurred rim between the air and the body, then tissue
 densest parts. Seeds 1 and 2 leave the air unlassoed, seed 3 lassoes it too.
 
 On the lobster the darkest level is the zero padding beside the resin the lobster lies in,
-and the second level's loop is drawn in the resin: it becomes a class, and the padding with it
-(1.000 there is as drawn).
+and the second level's loop is drawn in the resin: it becomes a class, and the padding, far
+darker than the resin, stays background.
 
 Per run it prints the share of the dark level joined to the volume's faces that got a class
 when the air was not lassoed (a box is 1.000; the issue's check wants at most 0.05), the least
@@ -21,7 +21,8 @@ Otsu level (a rough guide only: the levels are not anatomy), the share of the vo
 took, and the wall time of `volasso classify` (load and write included). A non-zero exit is
 printed with its message.
 
-Usage: python3 scripts/real_scans.py [--volasso target/release/volasso] [--keep DIR] [SCAN ...]
+Usage: python3 scripts/real_scans.py [--volasso target/release/volasso] [--keep DIR]
+                                     [--hands clean,leaky,offset,wide] [SCAN ...]
 SCAN is one of the names below (all without). Needs what heldout.py needs.
 """
 import argparse
@@ -84,8 +85,12 @@ def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--volasso", default="target/release/volasso")
     parser.add_argument("--keep", default=None, help="keep imported scans, strokes and labels in this folder")
+    parser.add_argument("--hands", default="clean,leaky", help="the fingers, as heldout.py's --hands")
     parser.add_argument("scans", nargs="*")
     args = parser.parse_args()
+    hands = args.hands.split(",")
+    if any(hand not in heldout.HANDS for hand in hands):
+        parser.error(f"--hands: each of {', '.join(heldout.HANDS)}")
     folder = args.keep or tempfile.mkdtemp(prefix="volasso-real-")
     os.makedirs(folder, exist_ok=True)
     names = ["air", "rim", "tissue", "dense"]
@@ -104,7 +109,7 @@ def main():
         info = json.loads(subprocess.run([args.volasso, "info", path, "--json"], check=True,
                                          capture_output=True, text=True).stdout)
         for seed in (1, 2, 3):
-            for hand in ("clean", "leaky"):
+            for hand in hands:
                 rng = np.random.default_rng(seed * 31 + len(scan))
                 lasso_air = seed == 3
                 strokes, class_truth = heldout.draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)

@@ -20,9 +20,11 @@
 //!    stays background all the same. Kept voxels in the face air (a rim of partial volume that
 //!    continues a class) keep their class as lassoed voxels but do not open the air.
 //!
-//! Dark structures that the volume's faces cut (lungs in a chest cut through them) are face
-//! air at Otsu's level; a lasso in them moves the level to the split between them and the air
-//! when that split is clear, and is otherwise air drawn as a class (every voxel classified).
+//! Dark structures that the volume's faces cut (lungs in a chest cut through them), or that
+//! join the air at a body's edge (a phantom's foam, bedding), are face air at Otsu's level; a
+//! lasso in them moves the level to the split between them and the air when that split is
+//! clear or the lasso's voxels are unlike the air on the faces (their median well above it),
+//! and is otherwise air drawn as a class (every voxel classified).
 //!
 //! So one stray dark voxel at a lasso's edge can no longer pull the air into a class: it is an
 //! outlier for its class and is dropped. Every rule is relative to the volume (its Otsu level,
@@ -169,7 +171,10 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 /// through the air, and would be taken for air drawn as a class. So when a class has at least
 /// [`AIR_CLASS_SHARE`] of its voxels in the face air, the values below Otsu's threshold are
 /// split again ([`level::split_below`]), and that split is the level when all of these hold:
-/// * it separates two populations ([`SEPARATE_POPULATIONS`]): not the air's own noise;
+/// * it separates two populations: Otsu's separability says so ([`SEPARATE_POPULATIONS`]), or
+///   the class that lies in the face air is unlike the air at the faces ([`lies_above`]: a
+///   dark tissue joined to the air, such as a phantom's foam, whose few voxels hardly move the
+///   histogram of a scan that is mostly air), not the air's own noise;
 /// * the air at the faces stays below it (at least half of the dark face voxels);
 /// * no class is air by the same share at the new level (the class lies above it).
 ///
@@ -177,14 +182,19 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 /// inside the body (a dark tissue at the faces, no air) the first or the second.
 fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f64 {
     let otsu = volume.otsu_threshold();
-    if !air_shares(volume, training, values, otsu).into_iter().any(|share| share >= AIR_CLASS_SHARE) {
+    let shares = air_shares(volume, training, values, otsu);
+    if !shares.iter().any(|&share| share >= AIR_CLASS_SHARE) {
         return otsu;
     }
     let Some(split) = level::split_below(volume, otsu) else { return otsu };
-    if split.separability < SEPARATE_POPULATIONS {
+    let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
+    let unlike_the_face_air = shares
+        .iter()
+        .zip(values)
+        .any(|(&share, values)| share >= AIR_CLASS_SHARE && lies_above(values.clone(), face_dark.clone()));
+    if split.separability < SEPARATE_POPULATIONS && !unlike_the_face_air {
         return otsu;
     }
-    let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
     let face_below = face_dark.iter().filter(|&&v| v < split.level).count();
     if 2 * face_below < face_dark.len() {
         return otsu;
@@ -214,6 +224,22 @@ fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], leve
             if class.voxels.is_empty() { 0.0 } else { inside as f64 / class.voxels.len() as f64 }
         })
         .collect()
+}
+
+/// Whether the median of `class` lies more than [`OUTLIER_DEVIATIONS`] robust deviations
+/// (`1.4826 x` the median absolute deviation) above the median of `face_dark`, the dark voxels
+/// on the volume's faces: a class drawn in a dark tissue that joins the air (a low-density
+/// insert or foam at a body's edge, lungs the faces cut), not in the air, whose voxels are the
+/// faces' own. False when either is empty.
+fn lies_above(mut class: Vec<f64>, mut face_dark: Vec<f64>) -> bool {
+    if class.is_empty() || face_dark.is_empty() {
+        return false;
+    }
+    let class_median = median_in_place(&mut class);
+    let face_median = median_in_place(&mut face_dark);
+    let mut deviations: Vec<f64> = face_dark.iter().map(|&v| (v - face_median).abs()).collect();
+    let deviation = 1.4826 * median_in_place(&mut deviations);
+    class_median > face_median + OUTLIER_DEVIATIONS * deviation
 }
 
 /// The values of the voxels on the volume's six faces (edges and corners more than once).

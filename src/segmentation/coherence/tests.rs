@@ -43,11 +43,7 @@ fn reference_pass(labels: &[u8], dims: [usize; 3]) -> Vec<u8> {
 /// The pass as the module doc states it, where `allowed(voxel, own, best, neighbourhood)`
 /// says whether a voxel outvoted by `best` takes it (`neighbourhood`: its 3 x 3 x 3 labels
 /// inside the volume, itself included).
-fn reference_pass_allowing(
-    labels: &[u8],
-    dims: [usize; 3],
-    allowed: impl Fn(usize, u8, u8, &[u8]) -> bool,
-) -> Vec<u8> {
+fn reference_pass_allowing(labels: &[u8], dims: [usize; 3], allowed: impl Fn(usize, u8, u8, &[u8]) -> bool) -> Vec<u8> {
     let at = |x: usize, y: usize, z: usize| labels[(z * dims[1] + y) * dims[0] + x];
     let mut out = labels.to_vec();
     for z in 0..dims[2] {
@@ -373,18 +369,16 @@ fn reference_banded_pass(labels: &[u8], dims: [usize; 3], bands: &Bands, intensi
     reference_pass_allowing(labels, dims, |voxel, own, best, neighbourhood| {
         let value = intensities[voxel];
         let others: Vec<u8> = neighbourhood.iter().copied().filter(|&label| label != 0 && label != own).collect();
-        let within_span = !holds(own, value)
-            || others.iter().any(|&label| bands[label as usize].is_none())
-            || {
-                let widened = |label: u8| {
-                    let (low, high) = bands[label as usize].unwrap_or((0.0, 0.0));
-                    let reach = PARTIAL_VOLUME_REACH * (high - low);
-                    (low - reach, high + reach)
-                };
-                let low = others.iter().map(|&label| widened(label).0).fold(f32::INFINITY, f32::min);
-                let high = others.iter().map(|&label| widened(label).1).fold(f32::NEG_INFINITY, f32::max);
-                low <= value && value <= high
+        let within_span = !holds(own, value) || others.iter().any(|&label| bands[label as usize].is_none()) || {
+            let widened = |label: u8| {
+                let (low, high) = bands[label as usize].unwrap_or((0.0, 0.0));
+                let reach = PARTIAL_VOLUME_REACH * (high - low);
+                (low - reach, high + reach)
             };
+            let low = others.iter().map(|&label| widened(label).0).fold(f32::INFINITY, f32::min);
+            let high = others.iter().map(|&label| widened(label).1).fold(f32::NEG_INFINITY, f32::max);
+            low <= value && value <= high
+        };
         let own_faces = face_offsets(voxel).into_iter().flatten().filter(|&face| labels[face] == own).count();
         let centre = |label: u8| bands[label as usize].map(|(low, high)| (low + high) / 2.0);
         let released = own_faces < FACE_ANCHOR
