@@ -208,3 +208,13 @@ fn a_dark_layer_joined_to_the_air_drawn_off_centre_is_a_class_and_the_air_stays_
 fn index_x(voxel: usize) -> usize {
     voxel % DIMS[0]
 }
+
+#[test]
+fn a_loop_drawn_in_an_mri_s_air_where_the_bias_field_brightens_it_is_still_the_air() {
+    // The air at x 40..46 is nearly twice as bright as at x = 0, but its values are the noise
+    // on the faces, not a dark tissue above them.
+    let volume = mri_head();
+    let set = training(vec![class(40..46, 2..8), class(22..27, 22..27)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(plan.air_is_a_class && plan.threshold.is_none(), "{:?}", plan.threshold);
+}
