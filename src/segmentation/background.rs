@@ -172,9 +172,10 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 /// [`AIR_CLASS_SHARE`] of its voxels in the face air, the values below Otsu's threshold are
 /// split again ([`level::split_below`]), and that split is the level when all of these hold:
 /// * it separates two populations: Otsu's separability says so ([`SEPARATE_POPULATIONS`]), or
-///   the class that lies in the face air is unlike the air at the faces ([`lies_above`]: a
-///   dark tissue joined to the air, such as a phantom's foam, whose few voxels hardly move the
-///   histogram of a scan that is mostly air), not the air's own noise;
+///   the class that lies in the face air is unlike the air at the faces (its median above the
+///   dark face voxels' [`upper_reach`]: a dark tissue joined to the air, such as a phantom's
+///   foam, whose few voxels hardly move the histogram of a scan that is mostly air), not the
+///   air's own noise;
 /// * the air at the faces stays below it (at least half of the dark face voxels);
 /// * no class is air by the same share at the new level (the class lies above it).
 ///
@@ -188,10 +189,10 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
     }
     let Some(split) = level::split_below(volume, otsu) else { return otsu };
     let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
-    let unlike_the_face_air = shares
-        .iter()
-        .zip(values)
-        .any(|(&share, values)| share >= AIR_CLASS_SHARE && lies_above(values.clone(), face_dark.clone()));
+    let face_air_top = upper_reach(face_dark.clone());
+    let unlike_the_face_air = shares.iter().zip(values).any(|(&share, values)| {
+        share >= AIR_CLASS_SHARE && face_air_top.is_some_and(|top| median_in_place(&mut values.clone()) > top)
+    });
     if split.separability < SEPARATE_POPULATIONS && !unlike_the_face_air {
         return otsu;
     }
@@ -226,20 +227,18 @@ fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], leve
         .collect()
 }
 
-/// Whether the median of `class` lies more than [`OUTLIER_DEVIATIONS`] robust deviations
-/// (`1.4826 x` the median absolute deviation) above the median of `face_dark`, the dark voxels
-/// on the volume's faces: a class drawn in a dark tissue that joins the air (a low-density
-/// insert or foam at a body's edge, lungs the faces cut), not in the air, whose voxels are the
-/// faces' own. False when either is empty.
-fn lies_above(mut class: Vec<f64>, mut face_dark: Vec<f64>) -> bool {
-    if class.is_empty() || face_dark.is_empty() {
-        return false;
+/// The top of the air on the volume's faces: the median of `face_dark` (the dark voxels on the
+/// faces) plus [`OUTLIER_DEVIATIONS`] robust deviations (`1.4826 x` the median absolute
+/// deviation); `None` when empty. A class whose median lies above it was drawn in a dark tissue
+/// that joins the air (a low-density insert or foam at a body's edge, lungs the faces cut), not
+/// in the air, whose voxels are the faces' own.
+fn upper_reach(mut face_dark: Vec<f64>) -> Option<f64> {
+    if face_dark.is_empty() {
+        return None;
     }
-    let class_median = median_in_place(&mut class);
-    let face_median = median_in_place(&mut face_dark);
-    let mut deviations: Vec<f64> = face_dark.iter().map(|&v| (v - face_median).abs()).collect();
-    let deviation = 1.4826 * median_in_place(&mut deviations);
-    class_median > face_median + OUTLIER_DEVIATIONS * deviation
+    let median = median_in_place(&mut face_dark);
+    let mut deviations: Vec<f64> = face_dark.iter().map(|&v| (v - median).abs()).collect();
+    Some(median + OUTLIER_DEVIATIONS * (1.4826 * median_in_place(&mut deviations)))
 }
 
 /// The values of the voxels on the volume's six faces (edges and corners more than once).

@@ -436,10 +436,7 @@ fn neighbourhood_majority(
         count += 1;
         remaining &= !positions;
     }
-    if best == own {
-        return own;
-    }
-    if allowed(&others[..count], best) { best } else { own }
+    if best != own && allowed(&others[..count], best) { best } else { own }
 }
 
 #[cfg(test)]

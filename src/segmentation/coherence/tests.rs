@@ -114,6 +114,15 @@ fn speckled_volume(
         .collect()
 }
 
+/// A volume of up to four labels split at fixed fractions of x and y, every voxel speckled
+/// (one in `2 + seed % densities`) with labels below `labels`, its width `3 + seed % widths`,
+/// its height and depth from `seed` too; and its dims.
+fn speckled_borders(seed: u64, widths: u64, densities: u64, labels: u64) -> ([usize; 3], Vec<u8>) {
+    let dims = [3 + (seed % widths) as usize, 2 + (seed % 7) as usize, 1 + (seed % 5) as usize];
+    let block = |x, y, _| 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
+    (dims, speckled_volume(dims, seed, 2 + seed % densities, labels, block, |_, _, _| true))
+}
+
 #[test]
 fn the_pass_equals_the_voxel_by_voxel_rule_on_uniform_and_mixed_rows() {
     // Large uniform blocks (rows the shortcut skips), background, and speckle in plane 1 and
@@ -140,9 +149,7 @@ fn the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes() {
     // Borders between labels with speckle from sparse to dense: rows with few flagged voxels
     // count them label by label, rows with many first drop those their own label holds.
     for seed in 0..300u64 {
-        let dims = [3 + (seed % 17) as usize, 2 + (seed % 7) as usize, 1 + (seed % 5) as usize];
-        let block = |x, y, _| 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
-        let labels = speckled_volume(dims, seed, 2 + seed % 9, 5, block, |_, _, _| true);
+        let (dims, labels) = speckled_borders(seed, 17, 9, 5);
         let expected = reference_pass(&labels, dims);
         let mut passed = labels;
         majority_pass(&mut passed, dims);
@@ -397,9 +404,7 @@ fn with_bands_the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes()
     // intensities inside and outside them: every branch of the bands' rule, against the rule
     // written out voxel by voxel.
     for seed in 0..200u64 {
-        let dims = [3 + (seed % 13) as usize, 2 + (seed % 7) as usize, 1 + (seed % 5) as usize];
-        let block = |x, y, _| 1 + u8::from(2 * x >= dims[0]) + u8::from(3 * y >= 2 * dims[1]);
-        let labels = speckled_volume(dims, seed, 2 + seed % 7, 6, block, |_, _, _| true);
+        let (dims, labels) = speckled_borders(seed, 13, 7, 6);
         let mut rng = crate::rng::SplitMix64::new(seed ^ 0x5eed);
         let mut bands: Bands = vec![None; 256];
         for band in bands.iter_mut().take(6).skip(1) {
@@ -409,8 +414,8 @@ fn with_bands_the_pass_equals_the_voxel_by_voxel_rule_on_many_speckled_volumes()
         let intensities: Vec<f32> = labels.iter().map(|_| (rng.next_u64() % 150) as f32).collect();
         let expected = reference_banded_pass(&labels, dims, &bands, &intensities);
         let intensity = |voxel: usize| intensities[voxel];
-        let with_bands = LabelBands::new(bands.clone(), &intensity);
-        let mut passed = labels.clone();
+        let with_bands = LabelBands::new(bands, &intensity);
+        let mut passed = labels;
         majority_passes(&mut passed, dims, 1, Some(&with_bands));
         assert_eq!(passed, expected, "seed {seed}, dims {dims:?}");
     }
