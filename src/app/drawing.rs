@@ -23,6 +23,7 @@
 //!
 //! Never: touches the UI or the volume.
 
+use super::path_loops::loops_within;
 use crate::slices::{Axis, SliceGeometry, SliceLayout};
 use crate::strokes::Lasso;
 
@@ -158,22 +159,45 @@ impl FingerPath {
         if shape.extent < TAP_EXTENT_PX {
             return PathMeaning::Unclear(Unclear::Tap);
         }
-        if shape.gap <= CLOSE_FRACTION * shape.extent {
-            if shape.area < LOOP_MIN_AREA_PX || shape.area < LOOP_MIN_FILL * shape.box_area {
-                return PathMeaning::Unclear(Unclear::NoArea);
-            }
-            // Voxel centres at whole numbers: the shown picture spans -0.5 .. size - 0.5.
-            let [width, height] = layout.screen_size(dims).map(|side| side as f64);
-            let points = self
-                .points
+        let closed = shape.gap <= CLOSE_FRACTION * shape.extent;
+        // The whole path (when it came back near its start) and the loops within it (measured on
+        // the screen, given back in fractions).
+        let on_screen: Vec<[f32; 2]> = self.points.iter().map(|&p| self.to_px(p)).collect();
+        let mut candidates: Vec<Vec<[f32; 2]>> = loops_within(&on_screen, closed, CLOSE_FRACTION)
+            .into_iter()
+            .map(|within| within.into_iter().map(|[x, y]| [x / self.picture_px[0], y / self.picture_px[1]]).collect())
+            .collect();
+        if closed {
+            candidates.insert(0, self.points.clone());
+        }
+        candidates.retain(|candidate| {
+            let own = Shape::of(&candidate.iter().map(|&p| self.to_px(p)).collect::<Vec<_>>());
+            own.area >= LOOP_MIN_AREA_PX
+                && own.area >= LOOP_MIN_FILL * own.box_area
+                && own.area >= LOOP_MIN_FILL * shape.box_area
+        });
+        // Voxel centres at whole numbers: the shown picture spans -0.5 .. size - 0.5.
+        let [width, height] = layout.screen_size(dims).map(|side| side as f64);
+        let lassos = candidates.iter().map(|candidate| {
+            let points = candidate
                 .iter()
                 .map(|&[x, y]| layout.image_from_screen([x as f64 * width - 0.5, y as f64 * height - 0.5], dims))
                 .collect::<Vec<_>>();
             let lasso = Lasso { axis, slice, points };
-            if lasso.selected_voxels(dims).is_empty() {
-                return PathMeaning::Unclear(Unclear::TooSmall);
+            (lasso.selected_voxels(dims).len(), lasso)
+        });
+        // The loop that holds the most: a region circled twice is in it, a lobe is not lost.
+        let mut best: Option<(usize, Lasso)> = None;
+        for (count, lasso) in lassos {
+            if best.as_ref().is_none_or(|(most, _)| count > *most) {
+                best = Some((count, lasso));
             }
-            return PathMeaning::Lasso(lasso);
+        }
+        match best {
+            Some((0, _)) => return PathMeaning::Unclear(Unclear::TooSmall),
+            Some((_, lasso)) => return PathMeaning::Lasso(lasso),
+            None if closed => return PathMeaning::Unclear(Unclear::NoArea),
+            None => {}
         }
         let seconds = ((self.end_ms - self.start_ms) / 1000.0).max(1e-3) as f32;
         let swipe = shape.chord[0].abs() >= SWIPE_MIN_ASPECT * shape.chord[1].abs()

@@ -128,3 +128,68 @@ fn paths_are_bounded_and_ignore_non_finite_points() {
     assert!(path.svg_commands().starts_with("M 0.0 0.0 L 10.0 0.0"));
     assert!(path.svg_commands().ends_with('Z'));
 }
+
+/// Points round a circle about the picture's centre, `turns` times from angle 0, the radius
+/// (a fraction of the picture) changing by `drift` per turn.
+fn circled(turns: f32, radius: f32, drift: f32) -> Vec<[f32; 2]> {
+    let steps = (turns * 48.0).round() as usize;
+    (0..=steps)
+        .map(|k| {
+            let turn = k as f32 / 48.0;
+            let angle = turn * std::f32::consts::TAU;
+            let r = radius + drift * turn;
+            [0.5 + r * angle.cos(), 0.5 + r * angle.sin()]
+        })
+        .collect()
+}
+
+fn lassoed_count(points: &[[f32; 2]]) -> Result<usize, PathMeaning> {
+    let dims = [100, 100, 10];
+    match drawn(points, [400.0, 400.0], 1500.0).meaning(dims, &stored(Axis::Z), 3) {
+        PathMeaning::Lasso(lasso) => Ok(lasso.selected_voxels(dims).len()),
+        other => Err(other),
+    }
+}
+
+#[test]
+fn a_finger_that_runs_on_past_its_start_keeps_all_it_circled() {
+    // One turn of radius 30 voxels: about 2,827 voxels.
+    let once = lassoed_count(&circled(0.98, 0.3, 0.0)).expect("one turn");
+    assert!((2700..=2900).contains(&once), "{once}");
+    // A quarter and a half turn on, drifting inwards and outwards as a finger does: taken as
+    // one even-odd polygon the part circled twice would be a hole (or, half a turn on, the path
+    // would not count as closed at all).
+    for turns in [1.25, 1.5, 2.0] {
+        for drift in [-0.02, 0.02] {
+            let count = lassoed_count(&circled(turns, 0.3, drift)).unwrap_or_else(|m| panic!("{turns} {drift}: {m:?}"));
+            assert!(count as f32 >= 0.9 * once as f32, "{turns} turns, drift {drift}: {count} of {once}");
+        }
+    }
+}
+
+#[test]
+fn a_finger_that_lands_inside_and_sweeps_out_before_circling_keeps_the_loop() {
+    // From the centre out to the rim, once round, and up a little past the stick.
+    let mut path = vec![[0.5, 0.5]];
+    path.extend(circled(1.05, 0.3, 0.0));
+    let count = lassoed_count(&path).expect("a lollipop is a loop");
+    assert!(count >= 2600, "{count}");
+}
+
+#[test]
+fn a_small_curl_on_an_open_stroke_is_not_a_loop() {
+    // A slow bent stroke across the picture with a finger-sized twitch in it.
+    let mut path = vec![[0.1, 0.5], [0.4, 0.55], [0.43, 0.52], [0.41, 0.5], [0.39, 0.57], [0.9, 0.7]];
+    path.push([0.9, 0.9]);
+    assert_eq!(lassoed_count(&path), Err(PathMeaning::Unclear(Unclear::Open)));
+}
+
+#[test]
+fn a_loop_that_crosses_itself_at_a_narrow_waist_keeps_both_lobes() {
+    // A twisted band: out along the top, crossing down at the waist, back along the bottom,
+    // unequal lobes (as a hurried finger draws around a long thin structure).
+    let band = [[0.1, 0.4], [0.6, 0.4], [0.9, 0.6], [0.9, 0.4], [0.6, 0.6], [0.1, 0.6], [0.1, 0.4]];
+    let count = lassoed_count(&band).expect("the band");
+    // The left lobe is about 50 x 20 voxels, the right about a third of 30 x 20.
+    assert!(count > 1000 + 150, "{count}");
+}

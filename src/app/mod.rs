@@ -39,6 +39,7 @@ pub mod jobs;
 pub mod library;
 mod loading;
 mod painter;
+mod path_loops;
 pub mod pictures;
 mod queries;
 mod refresh;

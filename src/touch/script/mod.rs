@@ -15,9 +15,11 @@
 //!
 //! Touch commands name a screen element and give points as fractions of its rectangle
 //! (`0,0` its top-left corner, `1,1` its bottom-right); `lasso x|y|z` is short for the element
-//! `"slice x|y|z"`. Commands: `lasso ELEMENT P P P...`, `tap ELEMENT [P]`, `double-tap ELEMENT
-//! [P]`, `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`, `pinch ELEMENT SCALE`, `pan
-//! ELEMENT DX,DY` (fractions of the element's size), `rotate ELEMENT DEGREES` (clockwise);
+//! `"slice x|y|z"`. Commands: `lasso ELEMENT P P P...` (closed, as a finger shuts a loop),
+//! `path ELEMENT P P P...` (open, exactly as given: an overshoot, a spiral), `tap ELEMENT [P]`,
+//! `double-tap ELEMENT [P]`, `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`,
+//! `pinch ELEMENT SCALE`, `pan ELEMENT DX,DY` (fractions of the element's size), `rotate ELEMENT
+//! DEGREES` (clockwise);
 //! and `wait DURATION` (`500ms`, `2s`), `wait-idle`, `screenshot NAME`, `expect KEY VALUE`
 //! (generic: the runner knows the keys; [`expectations`] measures the label volume for
 //! `face-air-classified-below` and `lasso-voxels-kept`), `# comments`.
@@ -86,14 +88,44 @@ pub enum SwipeDirection {
 /// A touch command, in element fractions; resolved to screen pixels only when run.
 #[derive(Clone, Debug, PartialEq)]
 pub enum TouchCommand {
-    Lasso { element: String, points: Vec<[f32; 2]> },
-    Tap { element: String, at: [f32; 2] },
-    DoubleTap { element: String, at: [f32; 2] },
-    Drag { element: String, from: [f32; 2], to: [f32; 2] },
-    Swipe { element: String, direction: SwipeDirection },
-    Pinch { element: String, scale: f32 },
-    Pan { element: String, offset: [f32; 2] },
-    Rotate { element: String, angle_degrees: f32 },
+    Lasso {
+        element: String,
+        points: Vec<[f32; 2]>,
+    },
+    /// A finger path through the points as drawn, not closed (an overshoot, a spiral, a tail).
+    Path {
+        element: String,
+        points: Vec<[f32; 2]>,
+    },
+    Tap {
+        element: String,
+        at: [f32; 2],
+    },
+    DoubleTap {
+        element: String,
+        at: [f32; 2],
+    },
+    Drag {
+        element: String,
+        from: [f32; 2],
+        to: [f32; 2],
+    },
+    Swipe {
+        element: String,
+        direction: SwipeDirection,
+    },
+    Pinch {
+        element: String,
+        scale: f32,
+    },
+    Pan {
+        element: String,
+        offset: [f32; 2],
+    },
+    Rotate {
+        element: String,
+        angle_degrees: f32,
+    },
 }
 
 impl TouchCommand {
@@ -101,6 +133,7 @@ impl TouchCommand {
     pub fn element(&self) -> &str {
         match self {
             TouchCommand::Lasso { element, .. }
+            | TouchCommand::Path { element, .. }
             | TouchCommand::Tap { element, .. }
             | TouchCommand::DoubleTap { element, .. }
             | TouchCommand::Drag { element, .. }
@@ -115,6 +148,7 @@ impl TouchCommand {
     pub fn keyword(&self) -> &'static str {
         match self {
             TouchCommand::Lasso { .. } => "lasso",
+            TouchCommand::Path { .. } => "path",
             TouchCommand::Tap { .. } => "tap",
             TouchCommand::DoubleTap { .. } => "double-tap",
             TouchCommand::Drag { .. } => "drag",

@@ -62,19 +62,23 @@ fn parse_line(line: &str) -> Result<ScriptAction, String> {
     let element = || arguments.first().cloned().unwrap_or_default();
     let touch = |command: TouchCommand| -> Result<ScriptAction, String> { Ok(ScriptAction::Touch(command)) };
     match keyword.as_str() {
-        "lasso" => {
+        "lasso" | "path" => {
             if arguments.len() < 4 {
-                return Err("usage: lasso ELEMENT X,Y X,Y X,Y ... (at least three points)".into());
+                return Err(format!("usage: {keyword} ELEMENT X,Y X,Y X,Y ... (at least three points)"));
             }
             if arguments.len() - 1 > MAX_LASSO_POINTS {
-                return Err(format!("a lasso may have at most {MAX_LASSO_POINTS} points"));
+                return Err(format!("a {keyword} may have at most {MAX_LASSO_POINTS} points"));
             }
             let points = arguments[1..].iter().map(|p| point(p)).collect::<Result<Vec<_>, _>>()?;
             let element = match element().as_str() {
                 axis @ ("x" | "y" | "z") => format!("slice {axis}"),
                 other => other.to_string(),
             };
-            touch(TouchCommand::Lasso { element, points })
+            if keyword == "lasso" {
+                touch(TouchCommand::Lasso { element, points })
+            } else {
+                touch(TouchCommand::Path { element, points })
+            }
         }
         "tap" | "double-tap" => {
             arity(1..=2, &format!("{keyword} ELEMENT [X,Y]"))?;

@@ -85,6 +85,9 @@ pub fn touch_events_seeded(
             path.extend(path.first().copied());
             finger.stroke(&path);
         }
+        TouchCommand::Path { points, .. } => {
+            finger.stroke(&points.iter().map(|p| rect.point(*p)).collect::<Vec<_>>());
+        }
         TouchCommand::Swipe { direction, .. } => {
             let (from, to) = match direction {
                 SwipeDirection::Left => ([0.8, 0.5], [0.2, 0.5]),

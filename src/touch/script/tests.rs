@@ -160,6 +160,16 @@ fn a_lasso_is_a_closed_drag_through_its_points() {
 }
 
 #[test]
+fn a_path_ends_where_it_is_told_without_closing() {
+    let (_, fingers, gestures) =
+        gestures_of(&command("path z 0.30,0.40 0.50,0.40 0.50,0.60 0.30,0.60"), &DeviceInfo::virtual_touchscreen());
+    let rect = Screen.element_rect("slice z").unwrap();
+    assert!(close(fingers[0].position, rect.point([0.3, 0.4]), 0.1));
+    assert!(close(fingers.last().unwrap().position, rect.point([0.3, 0.6]), 0.1));
+    assert!(matches!(gestures.last(), Some(Gesture::DragEnd { .. })));
+}
+
+#[test]
 fn a_double_tap_is_a_tap_then_a_double_tap() {
     let (_, _, gestures) = gestures_of(&command("double-tap view"), &DeviceInfo::virtual_touchscreen());
     assert!(
