@@ -193,3 +193,25 @@ fn a_loop_that_crosses_itself_at_a_narrow_waist_keeps_both_lobes() {
     // The left lobe is about 50 x 20 voxels, the right about a third of 30 x 20.
     assert!(count > 1000 + 150, "{count}");
 }
+
+proptest::proptest! {
+    #![proptest_config(proptest::prelude::ProptestConfig::with_cases(300))]
+    /// Any path, on and off the picture, with its points in any order: one meaning, and a
+    /// lasso that holds at least one voxel and only finite points.
+    #[test]
+    fn any_path_has_one_meaning_and_a_lasso_holds_voxels(
+        points in proptest::collection::vec((-0.5f32..1.5, -0.5f32..1.5), 2..120),
+        picture in 50.0f32..1200.0,
+    ) {
+        let points: Vec<[f32; 2]> = points.into_iter().map(|(x, y)| [x, y]).collect();
+        let dims = [64, 48, 20];
+        let mut path = FingerPath::new([picture, picture * 0.75], points[0], 0.0);
+        for (k, &point) in points.iter().enumerate().skip(1) {
+            path.add(point, 10.0 * k as f64);
+        }
+        if let PathMeaning::Lasso(lasso) = path.meaning(dims, &stored(Axis::Z), 7) {
+            proptest::prop_assert!(lasso.points.iter().all(|p| p[0].is_finite() && p[1].is_finite()));
+            proptest::prop_assert!(!lasso.selected_voxels(dims).is_empty());
+        }
+    }
+}
