@@ -16,6 +16,10 @@
 //! * a tap, a slow or bent open stroke, a scribble that encloses nothing, or a loop around
 //!   less than a voxel is [`PathMeaning::Unclear`].
 //!
+//! A finger that loses the glass for a moment (a dry fingertip skips) and lands again where it
+//! left goes on with the same path ([`FingerPath::resumed_or_new`]), so a loop drawn in two
+//! strokes is one loop.
+//!
 //! Coordinates: the UI reports points as fractions of the picture *as shown*, which
 //! [`SliceLayout`] arranges in the radiological convention (flipped or turned by quarter
 //! turns). A lasso's vertices go through the layout's inverse, so the lasso holds the voxels
@@ -53,6 +57,13 @@ pub const SWIPE_MIN_PX: f32 = 40.0;
 pub const SWIPE_MIN_SPEED_PX_PER_S: f32 = 400.0;
 /// ...and at least this many times wider than tall.
 pub const SWIPE_MIN_ASPECT: f32 = 2.0;
+
+/// A finger that left the glass for a moment (a dry fingertip skipping, or lifted and put back
+/// to go on) and lands again within this time...
+pub const RESUME_WITHIN_MS: f64 = 500.0;
+/// ...and this many screen pixels (a fingertip's width) of where its path broke off open goes
+/// on with the same path.
+pub const RESUME_WITHIN_PX: f32 = 48.0;
 
 /// The finger path on one slice picture.
 #[derive(Clone, Debug, PartialEq)]
@@ -111,6 +122,30 @@ impl FingerPath {
         let time_ms = if time_ms.is_finite() { time_ms } else { 0.0 };
         let mut path = FingerPath { points: Vec::new(), picture_px, start_ms: time_ms, end_ms: time_ms };
         path.add(fraction, time_ms);
+        path
+    }
+
+    /// The path a finger landing at `fraction` of a picture shown `picture_px` large at
+    /// `time_ms` draws: `broken_off` going on, when it broke off open on the same picture within
+    /// [`RESUME_WITHIN_MS`] and [`RESUME_WITHIN_PX`] of here; else a new path.
+    pub fn resumed_or_new(
+        broken_off: Option<FingerPath>,
+        picture_px: [f32; 2],
+        fraction: [f32; 2],
+        time_ms: f64,
+    ) -> FingerPath {
+        let landing = FingerPath::new(picture_px, fraction, time_ms);
+        let Some(mut path) = broken_off else { return landing };
+        let (Some(&left_at), Some(&landed_at)) = (path.points.last(), landing.points.first()) else { return landing };
+        let [dx, dy] = path.to_px([landed_at[0] - left_at[0], landed_at[1] - left_at[1]]);
+        let away_ms = landing.start_ms - path.end_ms;
+        if path.picture_px != landing.picture_px
+            || !(0.0..=RESUME_WITHIN_MS).contains(&away_ms)
+            || dx.hypot(dy) > RESUME_WITHIN_PX
+        {
+            return landing;
+        }
+        path.add(landed_at, landing.start_ms);
         path
     }
 

@@ -4,6 +4,17 @@ use crate::volume::PatientOrientation;
 /// A path through `points` (fractions of a picture shown `picture_px` large), drawn evenly
 /// over `milliseconds`, with every segment cut into 10 steps as a finger would report it.
 fn drawn(points: &[[f32; 2]], picture_px: [f32; 2], milliseconds: f64) -> FingerPath {
+    drawn_after(None, points, picture_px, 1000.0, milliseconds)
+}
+
+/// [`drawn`] from `start_ms`, landing where `broken_off` may go on.
+fn drawn_after(
+    broken_off: Option<FingerPath>,
+    points: &[[f32; 2]],
+    picture_px: [f32; 2],
+    start_ms: f64,
+    milliseconds: f64,
+) -> FingerPath {
     let mut dense = vec![points[0]];
     for pair in points.windows(2) {
         for step in 1..=10 {
@@ -11,10 +22,10 @@ fn drawn(points: &[[f32; 2]], picture_px: [f32; 2], milliseconds: f64) -> Finger
             dense.push([pair[0][0] + (pair[1][0] - pair[0][0]) * t, pair[0][1] + (pair[1][1] - pair[0][1]) * t]);
         }
     }
-    let mut path = FingerPath::new(picture_px, dense[0], 1000.0);
+    let mut path = FingerPath::resumed_or_new(broken_off, picture_px, dense[0], start_ms);
     let steps = (dense.len() - 1).max(1) as f64;
     for (k, &point) in dense.iter().enumerate().skip(1) {
-        path.add(point, 1000.0 + milliseconds * k as f64 / steps);
+        path.add(point, start_ms + milliseconds * k as f64 / steps);
     }
     path
 }
@@ -213,5 +224,35 @@ proptest::proptest! {
             proptest::prop_assert!(lasso.points.iter().all(|p| p[0].is_finite() && p[1].is_finite()));
             proptest::prop_assert!(!lasso.selected_voxels(dims).is_empty());
         }
+    }
+}
+
+#[test]
+fn a_loop_drawn_in_two_strokes_with_a_skip_between_is_one_loop() {
+    let dims = [100, 100, 10];
+    let layout = stored(Axis::Z);
+    let picture = [400.0, 400.0];
+    let loop_points = circled(1.0, 0.3, 0.0);
+    let (first_half, second_half) = loop_points.split_at(24);
+    let first = drawn(first_half, picture, 600.0);
+    assert_eq!(first.meaning(dims, &layout, 3), PathMeaning::Unclear(Unclear::Open));
+    let whole = lassoed_count(&loop_points).expect("the loop in one stroke");
+    // The fingertip skips: it lands again 60 ms later where it left (a pixel off).
+    let mut resumed_at = second_half.to_vec();
+    resumed_at[0] = [first_half[23][0] + 0.0025, first_half[23][1]];
+    let end_ms = 1600.0;
+    let resumed = drawn_after(Some(first.clone()), &resumed_at, picture, end_ms + 60.0, 600.0);
+    let PathMeaning::Lasso(lasso) = resumed.meaning(dims, &layout, 3) else {
+        panic!("{:?}", resumed.meaning(dims, &layout, 3));
+    };
+    assert_eq!(lasso.selected_voxels(dims).len(), whole);
+    // A second later, or a finger's width away, or on a picture since enlarged: a new path.
+    let late = drawn_after(Some(first.clone()), &resumed_at, picture, end_ms + 1000.0, 600.0);
+    let away: Vec<[f32; 2]> = resumed_at.iter().map(|p| [p[0] - 0.15, p[1]]).collect();
+    let elsewhere = drawn_after(Some(first.clone()), &away, picture, end_ms + 60.0, 600.0);
+    let enlarged = drawn_after(Some(first.clone()), &resumed_at, [800.0, 800.0], end_ms + 60.0, 600.0);
+    for path in [late, elsewhere, enlarged] {
+        assert_ne!(path.points[0], first.points[0]);
+        assert_eq!(path.meaning(dims, &layout, 3), PathMeaning::Unclear(Unclear::Open));
     }
 }

@@ -145,6 +145,9 @@ struct Work {
     panels: [Panel; PANEL_COUNT],
     /// The finger path being drawn, on which panel.
     drawing: Option<(usize, FingerPath)>,
+    /// The last path that broke off open, on which panel: a finger landing again where it left
+    /// goes on with it ([`FingerPath::resumed_or_new`]).
+    broken_off: Option<(usize, FingerPath)>,
     classified: Option<Classified>,
     /// The training data of the newest job started, so an unchanged set is not sent again.
     requested: Option<StrokesFile>,
@@ -184,6 +187,7 @@ impl Work {
             session: WorkSession::default(),
             panels,
             drawing: None,
+            broken_off: None,
             classified: None,
             requested: None,
             window: initial.window,

@@ -6,7 +6,7 @@
 //! Never: changes what the classifier sees other than through lassos (windows are display
 //! only), or draws.
 
-use super::drawing::{FingerPath, PathMeaning};
+use super::drawing::{FingerPath, PathMeaning, Unclear};
 use super::ui::AppWindow;
 use super::windowing::{self, CUSTOM};
 use super::{State, callbacks, refresh};
@@ -30,7 +30,9 @@ pub(super) fn lasso_down(
     let mut state_ref = state.borrow_mut();
     let Some(work) = state_ref.ctl.work.as_mut() else { return };
     let had_feedback = work.feedback.take().map(|(on, _)| on);
-    work.drawing = Some((panel.max(0) as usize, FingerPath::new(picture_px, point, ms)));
+    let panel = panel.max(0) as usize;
+    let broken_off = work.broken_off.take().filter(|(on, _)| *on == panel).map(|(_, path)| path);
+    work.drawing = Some((panel, FingerPath::resumed_or_new(broken_off, picture_px, point, ms)));
     drop(state_ref);
     if let Some(on) = had_feedback {
         refresh::push_slice(window, state, on);
@@ -50,7 +52,8 @@ pub(super) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: 
 }
 
 /// The finger lifted (or the touch was cancelled: a negative point, e.g. a second finger
-/// turned it into a two-finger gesture, which is not a path).
+/// turned it into a two-finger gesture, which is not a path). A path that broke off open is
+/// kept a moment, for the finger to land again and go on with it.
 pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
     let meaning = {
         let mut state_ref = state.borrow_mut();
@@ -61,7 +64,11 @@ pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f
         } else {
             path.add(point, ms);
             let dims = work.loaded.volume.dims;
-            work.panels.get(drawn_on).map(|p| (drawn_on, path.meaning(dims, &p.layout, p.slice)))
+            let meaning = work.panels.get(drawn_on).map(|p| (drawn_on, path.meaning(dims, &p.layout, p.slice)));
+            if let Some((_, PathMeaning::Unclear(Unclear::Open))) = meaning {
+                work.broken_off = Some((drawn_on, path));
+            }
+            meaning
         }
     };
     refresh::push_lasso(window, state);
@@ -130,6 +137,7 @@ pub(super) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
         work.zoom = 1.0;
         work.pan = [0.0; 2];
         work.drawing = None;
+        work.broken_off = None;
     }
     refresh::push_slice_layout(window, state);
 }
@@ -139,6 +147,7 @@ pub(super) fn shrink(window: &AppWindow, state: &Shared) {
     if let Some(work) = state.borrow_mut().ctl.work.as_mut() {
         work.enlarged = None;
         work.drawing = None;
+        work.broken_off = None;
     }
     refresh::push_slice_layout(window, state);
 }
