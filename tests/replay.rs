@@ -91,6 +91,7 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `enlarge-loop.touch`: an enlarged, zoomed slice takes a loop around a small structure;
 /// * `cranium-skull-lasso.touch`, `vismale-scalp-lasso.touch`: loops that take in air leave the
 ///   air background, on a 16-bit clinical CT and on the 8-bit Visible Male head;
+/// * `cranium-finger-loops.touch`: loops run on past their start or started inside, on the CT;
 /// * `orientation.touch`: the patient's directions at the panels' edges (the GE head CT);
 /// * `panels.touch`: every screen's controls whole, apart and 9 mm wide;
 /// * `series-picker.touch`: a folder of two DICOM series gives each a card that opens it;
@@ -105,7 +106,9 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
     let volume_demo = || vec!["--volume".to_string(), "demo".to_string()];
     match script {
         "flat-band.touch" | "orientation.touch" => volume("dicom/ge_head_tilt"),
-        "enlarge-loop.touch" | "cranium-skull-lasso.touch" => volume("cranium_ct_256x256x108_int16.raw"),
+        "enlarge-loop.touch" | "cranium-skull-lasso.touch" | "cranium-finger-loops.touch" => {
+            volume("cranium_ct_256x256x108_int16.raw")
+        }
         "vismale-scalp-lasso.touch" => volume("vismale_128x256x256_uint8.raw"),
         "engine-workflow.touch" => volume("engine_256x256x256_uint8.raw"),
         "hostile-files.touch" => {
