@@ -513,3 +513,24 @@ fn a_restored_session_that_classifies_clears_its_restore_marker() {
     assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
     assert_eq!(session_files(&sessions), ["session.json"]);
 }
+
+/// A loop cut off by a second finger (`second-finger.events`: another hand lands on the 3-D
+/// view two thirds of the way round) is told on its slice, not dropped without a word; nothing
+/// is lassoed.
+#[test]
+fn a_loop_cut_off_by_a_second_finger_is_told_on_its_slice() {
+    let work = tempfile::tempdir().unwrap();
+    let settle = work.path().join("settle.touch");
+    std::fs::write(&settle, "wait-idle\n").unwrap();
+    let check = work.path().join("check.touch");
+    std::fs::write(
+        &check,
+        "expect pending 0\nexpect feedback A second touch interrupted the loop: draw it again with one finger\n",
+    )
+    .unwrap();
+    let paths = [settle, script("second-finger.events"), check];
+    let mut args = vec!["replay", "--volume", "demo"];
+    args.extend(paths.iter().map(|path| path.to_str().unwrap()));
+    let report = replay(&args, work.path());
+    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
+}

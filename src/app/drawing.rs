@@ -65,6 +65,10 @@ pub const RESUME_WITHIN_MS: f64 = 500.0;
 /// on with the same path.
 pub const RESUME_WITHIN_PX: f32 = 48.0;
 
+/// A path cut off by a second finger after this many screen pixels was a loop being drawn,
+/// not the first finger of a pinch (which moves a few pixels before the second lands).
+pub const INTERRUPTED_MIN_PX: f32 = 60.0;
+
 /// The finger path on one slice picture.
 #[derive(Clone, Debug, PartialEq)]
 pub struct FingerPath {
@@ -99,6 +103,8 @@ pub enum Unclear {
     TooSmall,
     /// The slice is not in the volume (it changed under the finger).
     NoSlice,
+    /// A second finger (another hand, a palm) touched the glass while this path was drawn.
+    Interrupted,
 }
 
 impl Unclear {
@@ -111,6 +117,7 @@ impl Unclear {
             }
             Unclear::NoArea => "Draw a closed loop around the structure: the path enclosed no area",
             Unclear::TooSmall => "Draw a closed loop around the structure: this loop holds no whole voxel",
+            Unclear::Interrupted => "A second touch interrupted the loop: draw it again with one finger",
         }
     }
 }
@@ -147,6 +154,21 @@ impl FingerPath {
         }
         path.add(landed_at, landing.start_ms);
         path
+    }
+
+    /// What a path cut off by a second finger (the touch cancelled: two fingers pinch or pan)
+    /// is told: nothing for a finger that had hardly moved (the first finger of a pinch), else
+    /// [`Unclear::Interrupted`], so a loop is never lost without a word.
+    pub fn cancelled(&self) -> Option<Unclear> {
+        let length: f32 = self
+            .points
+            .windows(2)
+            .map(|pair| {
+                let [dx, dy] = self.to_px([pair[1][0] - pair[0][0], pair[1][1] - pair[0][1]]);
+                dx.hypot(dy)
+            })
+            .sum();
+        (length >= INTERRUPTED_MIN_PX).then_some(Unclear::Interrupted)
     }
 
     pub fn add(&mut self, fraction: [f32; 2], time_ms: f64) {

@@ -256,3 +256,15 @@ fn a_loop_drawn_in_two_strokes_with_a_skip_between_is_one_loop() {
         assert_eq!(path.meaning(dims, &layout, 3), PathMeaning::Unclear(Unclear::Open));
     }
 }
+
+#[test]
+fn a_loop_cut_off_by_a_second_finger_is_told_and_a_pinch_s_first_finger_is_not() {
+    let picture = [400.0, 400.0];
+    // Half a loop of radius 120 px, then another hand lands.
+    let half_loop = drawn(&circled(0.5, 0.3, 0.0), picture, 400.0);
+    assert_eq!(half_loop.cancelled(), Some(Unclear::Interrupted));
+    assert!(Unclear::Interrupted.message().contains("second touch"));
+    // The first finger of a pinch moved 20 px before the second landed.
+    let pinch_start = drawn(&[[0.5, 0.5], [0.55, 0.5]], picture, 50.0);
+    assert_eq!(pinch_start.cancelled(), None);
+}

@@ -59,8 +59,10 @@ pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f
         let mut state_ref = state.borrow_mut();
         let Some(work) = state_ref.ctl.work.as_mut() else { return };
         let Some((drawn_on, mut path)) = work.drawing.take() else { return };
-        if drawn_on != panel.max(0) as usize || point[0] < 0.0 {
+        if drawn_on != panel.max(0) as usize {
             None
+        } else if point[0] < 0.0 {
+            path.cancelled().map(|unclear| (drawn_on, PathMeaning::Unclear(unclear)))
         } else {
             path.add(point, ms);
             let dims = work.loaded.volume.dims;

@@ -1,7 +1,7 @@
 //! Touches to the UI. The first finger down is Slint's pointer: taps, drags, lassos and
 //! one-finger orbits are ordinary pointer events for the `TouchArea`s. A second finger on the
 //! 3-D view or on a slice turns the touch into a two-finger gesture: the pointer press is
-//! cancelled (a lasso being drawn is dropped, not taken as a path) and pinch, pan and rotate go
+//! cancelled (a lasso being drawn is dropped, not taken as a path; the slice says so) and pinch, pan and rotate go
 //! to the app directly, computed from finger positions by [`crate::touch::gestures`] (Slint
 //! has no public multi-touch events). On a slice, pans are given in fractions of the slice's
 //! visible area, so the app needs no screen geometry.
