@@ -342,6 +342,31 @@ fn with_bands_a_sheet_between_two_structures_or_outside_its_band_still_goes() {
 }
 
 #[test]
+fn with_bands_a_voxel_at_a_layer_s_edge_between_two_labels_only_around_it_keeps_its_label() {
+    // Label 3 (band 95-105) at 100: the voxel (3, 3, 3) with its own label on its +x, +y and
+    // +z faces, label 1 (band 0-20) on its -x and -y faces and label 2 (band 180-220) on its -z
+    // face and below: the edge of a layer between the two, not a shell one voxel thick. The
+    // 3 x 3 x 3 majority is label 1's.
+    let mut voxels =
+        vec![([3, 3, 3], 3u8, 100.0f32), ([4, 3, 3], 3, 100.0), ([3, 4, 3], 3, 100.0), ([3, 3, 4], 3, 100.0)];
+    for y in 0..7 {
+        for x in 0..7 {
+            voxels.push(([x, y, 2], 2, 200.0));
+        }
+    }
+    let (labels, intensities, mut bands) = banded_scene(&voxels);
+    bands[3] = Some((95.0, 105.0));
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands.clone());
+    assert_eq!(filtered[3 + 7 * (3 + 7 * 3)], 3, "labels 1 and 2 only around it");
+    // With label 1 on its +z face it lies between labels 2 and 1 along z: a shell, which goes.
+    let mut sandwiched = voxels.clone();
+    sandwiched[3] = ([3, 3, 4], 1, 10.0);
+    let (labels, intensities, _) = banded_scene(&sandwiched);
+    let (filtered, _) = filter_with_bands(&labels, &intensities, bands);
+    assert_ne!(filtered[3 + 7 * (3 + 7 * 3)], 3, "labels 1 and 2 on opposite faces");
+}
+
+#[test]
 fn with_bands_a_pair_of_voxels_its_intensity_speaks_for_keeps_its_label_and_a_single_one_goes() {
     // Label 2 at 25 (its band 22-40, within label 1's widened band: the band rule alone lets
     // it go), as the speckled fluid of a brain's sulci: a pair of voxels, each one face of
@@ -358,7 +383,7 @@ fn with_bands_a_pair_of_voxels_its_intensity_speaks_for_keeps_its_label_and_a_si
 /// whose intensity its own band holds takes another label only within the span of the widened
 /// bands of its neighbourhood's other labels, and, when one of its six faces holds its own
 /// label, only where `best`'s band holds it too, its own does not, or it lies between the band
-/// centres of two other labels around it. A label without a band holds any intensity.
+/// centres of two labels on opposite faces of it. A label without a band holds any intensity.
 fn reference_banded_pass(labels: &[u8], dims: [usize; 3], bands: &Bands, intensities: &[f32]) -> Vec<u8> {
     let holds = |label: u8, value: f32| bands[label as usize].is_some_and(|(low, high)| low <= value && value <= high);
     let face_offsets = |voxel: usize| {
@@ -386,14 +411,22 @@ fn reference_banded_pass(labels: &[u8], dims: [usize; 3], bands: &Bands, intensi
             let high = others.iter().map(|&label| widened(label).1).fold(f32::NEG_INFINITY, f32::max);
             low <= value && value <= high
         };
-        let own_faces = face_offsets(voxel).into_iter().flatten().filter(|&face| labels[face] == own).count();
+        let faces = face_offsets(voxel);
+        let own_faces = faces.into_iter().flatten().filter(|&face| labels[face] == own).count();
+        // Labels on opposite faces, both neither own nor background, and different.
+        let sandwich: Vec<u8> = faces
+            .chunks(2)
+            .filter_map(|pair| Some((labels[pair[0]?], labels[pair[1]?])))
+            .filter(|&(a, b)| a != b && ![a, b].iter().any(|&label| label == 0 || label == own))
+            .flat_map(|(a, b)| [a, b])
+            .collect();
         let centre = |label: u8| bands[label as usize].map(|(low, high)| (low + high) / 2.0);
         let released = own_faces < FACE_ANCHOR
             || !holds(own, value)
             || holds(best, value)
-            || others.iter().any(|&label| bands[label as usize].is_none())
-            || (others.iter().any(|&label| centre(label).is_some_and(|c| c <= value))
-                && others.iter().any(|&label| centre(label).is_some_and(|c| c >= value)));
+            || sandwich.iter().any(|&label| bands[label as usize].is_none())
+            || (sandwich.iter().any(|&label| centre(label).is_some_and(|c| c <= value))
+                && sandwich.iter().any(|&label| centre(label).is_some_and(|c| c >= value)));
         within_span && released
     })
 }
