@@ -160,15 +160,7 @@ impl FingerPath {
     /// is told: nothing for a finger that had hardly moved (the first finger of a pinch), else
     /// [`Unclear::Interrupted`], so a loop is never lost without a word.
     pub fn cancelled(&self) -> Option<Unclear> {
-        let length: f32 = self
-            .points
-            .windows(2)
-            .map(|pair| {
-                let [dx, dy] = self.to_px([pair[1][0] - pair[0][0], pair[1][1] - pair[0][1]]);
-                dx.hypot(dy)
-            })
-            .sum();
-        (length >= INTERRUPTED_MIN_PX).then_some(Unclear::Interrupted)
+        (Shape::of(&self.on_screen()).length >= INTERRUPTED_MIN_PX).then_some(Unclear::Interrupted)
     }
 
     pub fn add(&mut self, fraction: [f32; 2], time_ms: f64) {
@@ -205,6 +197,11 @@ impl FingerPath {
         [fraction[0] * self.picture_px[0], fraction[1] * self.picture_px[1]]
     }
 
+    /// The path's points in screen pixels.
+    fn on_screen(&self) -> Vec<[f32; 2]> {
+        self.points.iter().map(|&p| self.to_px(p)).collect()
+    }
+
     /// What the path meant on slice `slice` along `layout.axis` of a volume of `dims`, shown
     /// as `layout` arranges it (module doc).
     pub fn meaning(&self, dims: [usize; 3], layout: &SliceLayout, slice: usize) -> PathMeaning {
@@ -212,14 +209,14 @@ impl FingerPath {
         if SliceGeometry::new(dims, axis, slice).is_none() {
             return PathMeaning::Unclear(Unclear::NoSlice);
         }
-        let shape = Shape::of(&self.points.iter().map(|&p| self.to_px(p)).collect::<Vec<_>>());
+        let on_screen = self.on_screen();
+        let shape = Shape::of(&on_screen);
         if shape.extent < TAP_EXTENT_PX {
             return PathMeaning::Unclear(Unclear::Tap);
         }
         let closed = shape.gap <= CLOSE_FRACTION * shape.extent;
         // The whole path (when it came back near its start) and the loops within it (measured on
         // the screen, given back in fractions).
-        let on_screen: Vec<[f32; 2]> = self.points.iter().map(|&p| self.to_px(p)).collect();
         let mut candidates: Vec<Vec<[f32; 2]>> = loops_within(&on_screen, closed, CLOSE_FRACTION)
             .into_iter()
             .map(|within| within.into_iter().map(|[x, y]| [x / self.picture_px[0], y / self.picture_px[1]]).collect())

@@ -236,11 +236,13 @@ fn majority_plane(original: &[u8], dims: [usize; 3], z: usize, bands: Option<&La
                 let voxel = z * plane + start + x;
                 let allowed = |others: &[u8], best: u8| {
                     bands.is_none_or(|bands| {
-                        bands.allows(voxel, own, others)
-                            && (own_faces(below, here, above, size_x, size_y, x, y) < FACE_ANCHOR || {
-                                let (sandwich, count) = sandwiching_labels(below, here, above, size_x, size_y, x, y);
+                        bands.allows(voxel, own, others) && {
+                            let faces = face_labels(below, here, above, size_x, size_y, x, y);
+                            own_faces(&faces, own) < FACE_ANCHOR || {
+                                let (sandwich, count) = sandwiching_labels(&faces, own);
                                 bands.releases_anchored(voxel, own, best, &sandwich[..count])
-                            })
+                            }
+                        }
                     })
                 };
                 let best = neighbourhood_majority([below, Some(here), above], size_x, size_y, x, y, own, &allowed);
@@ -258,9 +260,10 @@ fn positions_of(block: &[u8; 32], label: u8) -> u32 {
     block.iter().enumerate().fold(0u32, |bits, (position, &held)| bits | u32::from(held == label) << position)
 }
 
-/// How many of the six face neighbours of (x, y) (in the plane `here`, and at the same place
-/// in the planes below and above where they exist) hold the voxel's own label.
-fn own_faces(
+/// The labels of the six face neighbours of (x, y) (in the plane `here`, and at the same place
+/// in the planes below and above), in opposite pairs: -x, +x, -y, +y, below, above; `None`
+/// outside the volume.
+fn face_labels(
     below: Option<&[u8]>,
     here: &[u8],
     above: Option<&[u8]>,
@@ -268,44 +271,31 @@ fn own_faces(
     size_y: usize,
     x: usize,
     y: usize,
-) -> usize {
+) -> [Option<u8>; 6] {
     let index = y * size_x + x;
-    let own = here[index];
-    let neighbours = [
+    [
         (x > 0).then(|| here[index - 1]),
         (x + 1 < size_x).then(|| here[index + 1]),
         (y > 0).then(|| here[index - size_x]),
         (y + 1 < size_y).then(|| here[index + size_x]),
         below.map(|plane| plane[index]),
         above.map(|plane| plane[index]),
-    ];
-    neighbours.into_iter().filter(|&label| label == Some(own)).count()
+    ]
 }
 
-/// The labels on opposite faces of (x, y) (in the plane `here`, and at the same place in the
-/// planes below and above where they exist) where the two differ and neither is the voxel's own
-/// label or background: the structures the voxel lies between along an axis, as a shell one
-/// voxel thick does. Up to three pairs; the count of labels filled in.
-fn sandwiching_labels(
-    below: Option<&[u8]>,
-    here: &[u8],
-    above: Option<&[u8]>,
-    size_x: usize,
-    size_y: usize,
-    x: usize,
-    y: usize,
-) -> ([u8; 6], usize) {
-    let index = y * size_x + x;
-    let own = here[index];
-    let axes = [
-        ((x > 0).then(|| here[index - 1]), (x + 1 < size_x).then(|| here[index + 1])),
-        ((y > 0).then(|| here[index - size_x]), (y + 1 < size_y).then(|| here[index + size_x])),
-        (below.map(|plane| plane[index]), above.map(|plane| plane[index])),
-    ];
+/// How many of the `faces` ([`face_labels`]) hold the voxel's own label `own`.
+fn own_faces(faces: &[Option<u8>; 6], own: u8) -> usize {
+    faces.iter().filter(|&&label| label == Some(own)).count()
+}
+
+/// The labels on opposite `faces` ([`face_labels`]) of a voxel of label `own` where the two
+/// differ and neither is `own` or background: the structures the voxel lies between along an
+/// axis, as a shell one voxel thick does. Up to three pairs; the count of labels filled in.
+fn sandwiching_labels(faces: &[Option<u8>; 6], own: u8) -> ([u8; 6], usize) {
     let mut labels = [0u8; 6];
     let mut count = 0;
-    for (one_side, other_side) in axes {
-        if let (Some(a), Some(b)) = (one_side, other_side)
+    for pair in faces.chunks_exact(2) {
+        if let [Some(a), Some(b)] = *pair
             && a != b
             && ![a, b].iter().any(|&label| label == 0 || label == own)
         {
