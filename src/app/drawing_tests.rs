@@ -268,3 +268,46 @@ fn a_loop_cut_off_by_a_second_finger_is_told_and_a_pinch_s_first_finger_is_not()
     let pinch_start = drawn(&[[0.5, 0.5], [0.55, 0.5]], picture, 50.0);
     assert_eq!(pinch_start.cancelled(), None);
 }
+
+/// [`circled`] as a shaking fingertip on a jittery panel reports it: each segment cut into
+/// 10 reports (about 1.5 px apart at 400 px), each moved at random by `jitter_px` (standard
+/// deviation, in x and in y).
+fn shaken(points: &[[f32; 2]], jitter_px: f32, seed: u64) -> FingerPath {
+    let mut rng = crate::rng::SplitMix64::new(seed);
+    let mut path = FingerPath::new([400.0, 400.0], points[0], 0.0);
+    let mut time_ms = 0.0;
+    for pair in points.windows(2) {
+        for step in 1..=10 {
+            let t = step as f32 / 10.0;
+            let shake = [rng.next_gaussian() * jitter_px / 400.0, rng.next_gaussian() * jitter_px / 400.0];
+            let [x, y] = [pair[0][0] + (pair[1][0] - pair[0][0]) * t, pair[0][1] + (pair[1][1] - pair[0][1]) * t];
+            time_ms += 3.0;
+            path.add([x + shake[0], y + shake[1]], time_ms);
+        }
+    }
+    path
+}
+
+#[test]
+fn a_loop_drawn_with_a_shaking_finger_keeps_all_it_circled() {
+    // Jitter of 3 px between reports crosses the path over itself in tiny curls and, where it
+    // runs past its start, again and again over its first stretch: read as it came, the loop
+    // was a scribble or an open stroke.
+    let dims = [100, 100, 10];
+    let once = lassoed_count(&circled(0.98, 0.3, 0.0)).expect("one turn");
+    for seed in 0..2 {
+        for turns in [0.98, 1.25, 1.5, 2.0] {
+            for drift in [-0.02, 0.02] {
+                let path = shaken(&circled(turns, 0.3, drift), 3.0, seed);
+                let PathMeaning::Lasso(lasso) = path.meaning(dims, &stored(Axis::Z), 3) else {
+                    panic!("{turns} turns, drift {drift}, seed {seed}: {:?}", path.meaning(dims, &stored(Axis::Z), 3));
+                };
+                let count = lasso.selected_voxels(dims).len();
+                assert!(
+                    count as f32 >= 0.9 * once as f32,
+                    "{turns} turns, drift {drift}, seed {seed}: {count} of {once}"
+                );
+            }
+        }
+    }
+}

@@ -13,6 +13,12 @@
 //!   the start that does not cross it), and each suffix that starts where the path's end comes
 //!   back to (a tail before the loop).
 //!
+//! A tremor's curls (loops smaller than the caller's least loop, closed within a short stretch
+//! of path) close nothing, and a finger running along its own path, crossing it at every wobble,
+//! closes one loop there, not one per crossing. [`steadied`] averages jitter out of a path
+//! before its loops are looked for; a [`PathLoop`] found on it is drawn through the points
+//! the finger gave.
+//!
 //! The caller ([`super::drawing`]) weighs them with the whole path.
 //!
 //! Never: decides what a path means, or knows about slices and voxels.
@@ -21,23 +27,94 @@
 /// encloses nothing a user meant, and no loop within it is offered.
 pub const MAX_CROSSINGS: usize = 16;
 
+/// A loop closed by a crossing whose path is at most this long (in the caller's units, screen
+/// pixels) and which encloses less than the caller's least loop area is a curl: a fingertip's
+/// tremor or a jittery panel's zigzag, not a loop anyone drew. Curls are neither offered nor
+/// counted as crossings, so a loop drawn with a shaking finger is not taken for a scribble.
+pub const CURL_MAX_LENGTH: f32 = 64.0;
+
 /// At most this many prefixes, and as many suffixes, are offered (the closest returns first).
 pub const MAX_RETURNS: usize = 8;
+
+/// At most this many points on either side of a point are averaged with it ([`steadied`]).
+const STEADY_MAX_SIDE: usize = 24;
+
+/// Each point of `points` replaced by the mean of the run of points around it that stay within
+/// `reach` of it (at most [`STEADY_MAX_SIDE`] on either side): a fingertip's tremor and a
+/// panel's jitter, a few pixels to and fro between reports, averaged out before the path is
+/// read, while anything larger than `reach` (a loop's corners, a tail) keeps its shape. The
+/// run is measured by distance, not along the path, whose length jitter inflates. The first
+/// and last points stay where they are, so a path's gap from end to start is the one drawn.
+pub fn steadied(points: &[[f32; 2]], reach: f32) -> Vec<[f32; 2]> {
+    let n = points.len();
+    let within = |a: [f32; 2], b: [f32; 2]| (a[0] - b[0]).hypot(a[1] - b[1]) <= reach;
+    (0..n)
+        .map(|k| {
+            if k == 0 || k + 1 == n {
+                return points[k];
+            }
+            let here = points[k];
+            let mut low = k;
+            while low > 0 && k - low < STEADY_MAX_SIDE && within(points[low - 1], here) {
+                low -= 1;
+            }
+            let mut high = k;
+            while high + 1 < n && high - k < STEADY_MAX_SIDE && within(points[high + 1], here) {
+                high += 1;
+            }
+            // About the point itself, so paths far from the origin keep their precision.
+            let run = &points[low..=high];
+            let sum = run.iter().fold([0.0f32; 2], |sum, p| [sum[0] + p[0] - here[0], sum[1] + p[1] - here[1]]);
+            let count = run.len() as f32;
+            [here[0] + sum[0] / count, here[1] + sum[1] / count]
+        })
+        .collect()
+}
+
+/// A loop within a path: where the path crosses itself (if it closes there) and the runs of the
+/// path's points that go round from there. Found on one rendition of a path (a steadied one),
+/// it is drawn through the points of another with the same indices ([`PathLoop::on`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct PathLoop {
+    /// The crossing that closes the loop; `None` for a loop that closes where the path comes back
+    /// near a point of its own (by the edge back to it).
+    pub crossing: Option<[f32; 2]>,
+    /// The indices of the points that go round, in order: one run, or two for a loop that goes
+    /// over the end of a closed path to its start.
+    pub runs: [std::ops::Range<usize>; 2],
+}
+
+impl PathLoop {
+    /// The loop's polygon through `points`: its crossing, then its runs' points.
+    pub fn on(&self, points: &[[f32; 2]]) -> Vec<[f32; 2]> {
+        let mut polygon: Vec<[f32; 2]> = self.crossing.into_iter().collect();
+        for run in &self.runs {
+            polygon.extend_from_slice(&points[run.clone()]);
+        }
+        polygon
+    }
+
+    fn run(crossing: Option<[f32; 2]>, run: std::ops::Range<usize>) -> PathLoop {
+        PathLoop { crossing, runs: [run, 0..0] }
+    }
+}
 
 /// Every loop within the path (module doc): those its crossings close, and the prefixes and
 /// suffixes that end where the path comes back within `close_fraction` of their extent (the
 /// larger side of their bounding box) of their first point. The whole path is not among them;
-/// a scribble (more than [`MAX_CROSSINGS`] crossings) has none.
-pub fn loops_within(points: &[[f32; 2]], closed: bool, close_fraction: f32) -> Vec<Vec<[f32; 2]>> {
-    let Some(mut loops) = crossing_loops(points, closed) else {
+/// a scribble (more than [`MAX_CROSSINGS`] crossings) has none. Loops closed by crossings that
+/// enclose less than `least_area` within [`CURL_MAX_LENGTH`] of path are curls, left out.
+pub fn loops_within(points: &[[f32; 2]], closed: bool, close_fraction: f32, least_area: f32) -> Vec<PathLoop> {
+    let Some(mut loops) = crossing_loops(points, closed, least_area) else {
         return Vec::new();
     };
     for end in returns_to_start(points, close_fraction) {
-        loops.push(points[..=end].to_vec());
+        loops.push(PathLoop::run(None, 0..end + 1));
     }
     let reversed: Vec<[f32; 2]> = points.iter().rev().copied().collect();
+    let n = points.len();
     for end in returns_to_start(&reversed, close_fraction) {
-        loops.push(reversed[..=end].to_vec());
+        loops.push(PathLoop::run(None, n - 1 - end..n));
     }
     loops
 }
@@ -74,8 +151,9 @@ fn returns_to_start(points: &[[f32; 2]], close_fraction: f32) -> Vec<usize> {
 /// crossing at X, the loop X, `points[k+1..=m]`. When `closed`, the edge from the last point
 /// back to the first is a segment too, and each crossing also closes the loop that goes the
 /// other way round: X, `points[m+1..]`, `points[..=k]`. None for a scribble (more than
-/// [`MAX_CROSSINGS`] crossings).
-pub fn crossing_loops(points: &[[f32; 2]], closed: bool) -> Option<Vec<Vec<[f32; 2]>>> {
+/// [`MAX_CROSSINGS`] crossings). A crossing that closes a curl (less than `least_area` within
+/// [`CURL_MAX_LENGTH`] of path) closes nothing and is not counted.
+pub fn crossing_loops(points: &[[f32; 2]], closed: bool, least_area: f32) -> Option<Vec<PathLoop>> {
     let n = points.len();
     let segments = if closed { n } else { n.saturating_sub(1) };
     if n < 3 || segments < 3 {
@@ -88,8 +166,16 @@ pub fn crossing_loops(points: &[[f32; 2]], closed: bool) -> Option<Vec<Vec<[f32;
             [a[0].min(b[0]), a[1].min(b[1]), a[0].max(b[0]), a[1].max(b[1])]
         })
         .collect();
+    // The path's length from its first point to the start of each segment (and to the end).
+    let mut along = Vec::with_capacity(segments + 1);
+    along.push(0.0f32);
+    for s in 0..segments {
+        let (a, b) = end(s);
+        along.push(along[s] + (b[0] - a[0]).hypot(b[1] - a[1]));
+    }
     let mut loops = Vec::new();
-    let mut crossings = 0;
+    // Where each counted crossing lies along the path, on its earlier and its later segment.
+    let mut counted: Vec<(f32, f32)> = Vec::new();
     for k in 0..segments {
         for m in k + 2..segments {
             if closed && k == 0 && m == segments - 1 {
@@ -100,22 +186,44 @@ pub fn crossing_loops(points: &[[f32; 2]], closed: bool) -> Option<Vec<Vec<[f32;
                 continue;
             }
             let Some(crossing) = crossing_point(end(k), end(m)) else { continue };
-            let mut inner = vec![crossing];
-            inner.extend_from_slice(&points[k + 1..=m]);
+            let inner = PathLoop::run(Some(crossing), k + 1..m + 1);
+            if along[m + 1] - along[k] <= CURL_MAX_LENGTH && enclosed_area(&inner.on(points)) < least_area {
+                continue;
+            }
+            // A finger running along its own path (past its start, round a second time) crosses
+            // it again and again, each loop the last one give or take a sliver: one is enough.
+            let near = |(earlier, later): &(f32, f32)| {
+                (earlier - along[k]).abs() <= CURL_MAX_LENGTH && (later - along[m]).abs() <= CURL_MAX_LENGTH
+            };
+            if counted.iter().any(near) {
+                continue;
+            }
+            counted.push((along[k], along[m]));
             loops.push(inner);
             if closed {
-                let mut outer = vec![crossing];
-                outer.extend_from_slice(&points[m + 1..]);
-                outer.extend_from_slice(&points[..=k]);
-                loops.push(outer);
+                loops.push(PathLoop { crossing: Some(crossing), runs: [m + 1..n, 0..k + 1] });
             }
-            crossings += 1;
-            if crossings > MAX_CROSSINGS {
+            if counted.len() > MAX_CROSSINGS {
                 return None;
             }
         }
     }
     Some(loops)
+}
+
+/// The area a closed polygon encloses (shoelace, absolute; about its first point, in f64).
+fn enclosed_area(points: &[[f32; 2]]) -> f32 {
+    let Some(&first) = points.first() else { return 0.0 };
+    let relative = |p: &[f32; 2]| [(p[0] - first[0]) as f64, (p[1] - first[1]) as f64];
+    let twice: f64 = points
+        .iter()
+        .zip(points.iter().cycle().skip(1))
+        .map(|(a, b)| {
+            let (a, b) = (relative(a), relative(b));
+            a[0] * b[1] - b[0] * a[1]
+        })
+        .sum();
+    (twice.abs() / 2.0) as f32
 }
 
 /// Where segment `a` crosses segment `b`, if it does (parallel segments never do here).
@@ -151,8 +259,8 @@ mod tests {
 
     #[test]
     fn a_simple_loop_has_no_crossing() {
-        assert_eq!(crossing_loops(&circle(0.95, 64, 50.0), true), Some(Vec::new()));
-        assert_eq!(crossing_loops(&circle(0.95, 64, 50.0), false), Some(Vec::new()));
+        assert_eq!(crossing_loops(&circle(0.95, 64, 50.0), true, 64.0), Some(Vec::new()));
+        assert_eq!(crossing_loops(&circle(0.95, 64, 50.0), false, 64.0), Some(Vec::new()));
     }
 
     #[test]
@@ -171,12 +279,14 @@ mod tests {
             };
             *point = [100.0 + (point[0] - 100.0) * radius / 50.0, 100.0 + (point[1] - 100.0) * radius / 50.0];
         }
-        let loops = crossing_loops(&path, false).expect("one crossing");
+        let loops: Vec<_> =
+            crossing_loops(&path, false, 64.0).expect("one crossing").iter().map(|l| l.on(&path)).collect();
         assert_eq!(loops.len(), 1, "{loops:?}");
         // The full turn: 64 points and the crossing.
         assert!((64..=66).contains(&loops[0].len()), "{}", loops[0].len());
         // Closed, the overshoot with the closing edge is the other loop.
-        let closed = crossing_loops(&path, true).expect("one crossing");
+        let closed: Vec<_> =
+            crossing_loops(&path, true, 64.0).expect("one crossing").iter().map(|l| l.on(&path)).collect();
         assert!(closed.iter().any(|l| l.len() > 60) && closed.iter().any(|l| l.len() < 25), "{closed:?}");
     }
 
@@ -190,15 +300,15 @@ mod tests {
                 [100.0 + (p[0] - 100.0) * scale, 100.0 + (p[1] - 100.0) * scale]
             })
             .collect();
-        assert_eq!(crossing_loops(&spiral, false), Some(Vec::new()));
-        let loops = loops_within(&spiral, false, 0.35);
+        assert_eq!(crossing_loops(&spiral, false, 64.0), Some(Vec::new()));
+        let loops: Vec<_> = loops_within(&spiral, false, 0.35, 64.0).iter().map(|l| l.on(&spiral)).collect();
         // The first turn as a prefix (65 points), and the last turn as a suffix.
         assert!(
             loops.iter().any(|l| l.len() == 65 && l[0] == spiral[0]),
             "{:?}",
             loops.iter().map(Vec::len).collect::<Vec<_>>()
         );
-        assert!(loops.iter().any(|l| l.len() == 65 && l[0] == spiral[128]));
+        assert!(loops.iter().any(|l| l.len() == 65 && l.last() == Some(&spiral[128])));
     }
 
     #[test]
@@ -206,8 +316,8 @@ mod tests {
         // From the centre out to the rim, then round, ending just short of where the tail met it.
         let mut path: Vec<[f32; 2]> = (0..10).map(|k| [100.0 + 5.0 * k as f32, 100.0]).collect();
         path.extend(circle(0.97, 64, 50.0));
-        let loops = loops_within(&path, false, 0.35);
-        assert!(loops.iter().any(|l| l[0] == path[path.len() - 1] && (60..=64).contains(&l.len())), "{loops:?}");
+        let loops: Vec<_> = loops_within(&path, false, 0.35, 64.0).iter().map(|l| l.on(&path)).collect();
+        assert!(loops.iter().any(|l| l.last() == path.last() && (60..=64).contains(&l.len())), "{loops:?}");
     }
 
     #[test]
@@ -218,13 +328,58 @@ mod tests {
                 [100.0 + 60.0 * t.sin(), 100.0 + 30.0 * (2.0 * t).sin()]
             })
             .collect();
-        let loops = crossing_loops(&eight, true).expect("one crossing");
+        let loops: Vec<_> =
+            crossing_loops(&eight, true, 64.0).expect("one crossing").iter().map(|l| l.on(&eight)).collect();
         assert!(!loops.is_empty());
         for lobe in &loops {
             let xs: Vec<f32> = lobe.iter().map(|p| p[0]).collect();
             let (low, high) = xs.iter().fold((f32::MAX, f32::MIN), |(l, h), &x| (l.min(x), h.max(x)));
             assert!(low >= 99.0 || high <= 101.0, "a lobe crosses the waist: {low}..{high}");
         }
+    }
+
+    #[test]
+    fn a_tremor_s_curls_close_no_loop() {
+        // Most of a circle with a curl of 3 px every eighth point: a shaking fingertip.
+        let mut path = Vec::new();
+        for (k, point) in circle(0.95, 64, 50.0).into_iter().enumerate() {
+            path.push(point);
+            if k % 8 == 4 {
+                path.extend([
+                    [point[0] + 3.0, point[1]],
+                    [point[0] + 3.0, point[1] + 3.0],
+                    [point[0] - 1.0, point[1] + 1.0],
+                ]);
+            }
+        }
+        assert!(crossing_loops(&path, true, 64.0).expect("curls are not crossings").is_empty());
+    }
+
+    #[test]
+    fn a_path_that_runs_along_itself_closes_one_loop_however_often_it_crosses() {
+        // A turn and a half, the second pass zigzagging across the first: 40 crossings or so.
+        let path: Vec<[f32; 2]> = circle(1.5, 64, 50.0)
+            .into_iter()
+            .enumerate()
+            .map(|(k, [x, y])| {
+                let radius = if k > 64 { 50.0 + if k % 2 == 0 { 2.0 } else { -2.0 } } else { 50.0 };
+                [100.0 + (x - 100.0) * radius / 50.0, 100.0 + (y - 100.0) * radius / 50.0]
+            })
+            .collect();
+        let loops = crossing_loops(&path, false, 64.0).expect("not a scribble");
+        assert!((1..=MAX_CROSSINGS).contains(&loops.len()), "{}", loops.len());
+        assert!(loops.iter().all(|l| (60..=70).contains(&l.on(&path).len())));
+    }
+
+    #[test]
+    fn steadying_averages_out_jitter_and_keeps_the_ends() {
+        let jittered: Vec<[f32; 2]> = (0..100).map(|k| [k as f32 * 1.5, if k % 2 == 0 { 2.0 } else { -2.0 }]).collect();
+        let steady = steadied(&jittered, 8.0);
+        assert_eq!((steady[0], steady[99]), (jittered[0], jittered[99]));
+        assert!(steady[5..95].iter().all(|p| p[1].abs() < 0.5), "{steady:?}");
+        // A loop much larger than the reach keeps its size.
+        let round = circle(0.95, 64, 50.0);
+        assert!(steadied(&round, 8.0).iter().all(|&[x, y]| ((x - 100.0).hypot(y - 100.0) - 50.0).abs() < 1.0));
     }
 
     #[test]
@@ -236,8 +391,8 @@ mod tests {
                 [100.0 + 50.0 * angle.cos(), 100.0 + 50.0 * angle.sin()]
             })
             .collect();
-        assert_eq!(crossing_loops(&scribble, false), None);
-        assert!(loops_within(&scribble, true, 0.35).is_empty());
-        assert_eq!(crossing_loops(&scribble[..2], true), Some(Vec::new()));
+        assert_eq!(crossing_loops(&scribble, false, 64.0), None);
+        assert!(loops_within(&scribble, true, 0.35, 64.0).is_empty());
+        assert_eq!(crossing_loops(&scribble[..2], true, 64.0), Some(Vec::new()));
     }
 }
