@@ -100,6 +100,7 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 ///   `snapshot.touch`: the 3-D view's tools on the demo volume;
 /// * `unsure.touch`: where the classifier is unsure, and "Draw here next", on the demo volume;
 /// * `finger-loops.touch`: a loop run on past its start and one with a tail, on the demo volume;
+/// * `shaky-finger.touch`: the same loops drawn by a slow, shaking fingertip, on the demo volume;
 /// * the others run on the demo volume from the start screen.
 fn script_arguments(script: &str, work: &Path) -> Vec<String> {
     let volume = |name: &str| vec!["--volume".to_string(), support::data(name).display().to_string()];
@@ -117,7 +118,7 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             vec!["--data-dir".into(), data.display().to_string()]
         }
         "restore-set-aside.touch" => saved_session_on(work, "skip.nrrd").0.split_off(2),
-        "clip.touch" | "unsure.touch" | "finger-loops.touch" => volume_demo(),
+        "clip.touch" | "unsure.touch" | "finger-loops.touch" | "shaky-finger.touch" => volume_demo(),
         "opacity.touch" => {
             let sessions = work.join("sessions");
             [volume_demo(), vec!["--session-dir".into(), sessions.display().to_string()]].concat()

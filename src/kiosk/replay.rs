@@ -130,6 +130,7 @@ impl Run {
             return harness.wait_idle(IDLE_TIMEOUT);
         }
         let steps = script::parse(&text).map_err(|source| KioskError::Script { source, path: path.to_path_buf() })?;
+        let mut finger = script::FingerStyle::default();
         for step in &steps {
             self.report.steps += 1;
             self.compiled.comment(&step.source);
@@ -140,11 +141,12 @@ impl Run {
                     // jitter's seed must not, or one script would draw other lassos each run.
                     let start_us = harness.now().as_micros() as u64 + 1_000;
                     let seed = self.report.steps as u64;
-                    match script::touch_events_seeded(command, &Locator(harness), &device, start_us, seed) {
+                    match script::touch_events_seeded(command, &Locator(harness), &device, start_us, seed, &finger) {
                         Ok(events) => self.feed(harness, &device, &events),
                         Err(error) => self.report.failures.push(at(error.to_string())),
                     }
                 }
+                ScriptAction::Finger(style) => finger = *style,
                 ScriptAction::Wait { duration_ms } => harness.wait(Duration::from_millis(*duration_ms)),
                 ScriptAction::WaitIdle => {
                     if let Err(error) = harness.wait_idle(IDLE_TIMEOUT) {

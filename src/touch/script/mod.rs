@@ -19,7 +19,8 @@
 //! `path ELEMENT P P P...` (open, exactly as given: an overshoot, a spiral), `tap ELEMENT [P]`,
 //! `double-tap ELEMENT [P]`, `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`,
 //! `pinch ELEMENT SCALE`, `pan ELEMENT DX,DY` (fractions of the element's size), `rotate ELEMENT
-//! DEGREES` (clockwise);
+//! DEGREES` (clockwise); `finger [jitter PX] [speed PX_PER_S]` (how the finger moves from
+//! then on, [`FingerStyle`]: a value left out goes back to its default);
 //! and `wait DURATION` (`500ms`, `2s`), `wait-idle`, `screenshot NAME`, `expect KEY VALUE`
 //! (generic: the runner knows the keys; [`expectations`] measures the label volume for
 //! `face-air-classified-below` and `lasso-voxels-kept`), `# comments`.
@@ -41,7 +42,8 @@ mod synthesis;
 
 pub use parse::parse;
 pub use synthesis::{
-    GAP_AFTER_TOUCH_US, JITTER_PX, MOVE_INTERVAL_US, TAP_HOLD_US, TWO_FINGER_FRAMES, touch_events, touch_events_seeded,
+    FingerStyle, GAP_AFTER_TOUCH_US, JITTER_PX, MOVE_INTERVAL_US, TAP_HOLD_US, TWO_FINGER_FRAMES, touch_events,
+    touch_events_seeded,
 };
 
 use super::event::DeviceInfo;
@@ -164,6 +166,8 @@ impl TouchCommand {
 #[derive(Clone, Debug, PartialEq)]
 pub enum ScriptAction {
     Touch(TouchCommand),
+    /// How the finger moves for the touch commands after this one.
+    Finger(FingerStyle),
     Wait {
         duration_ms: u64,
     },
@@ -213,20 +217,22 @@ pub enum ScriptError {
 pub fn compile(steps: &[ScriptStep], locator: &dyn ElementLocator, device: &DeviceInfo) -> Result<String, ScriptError> {
     let mut text = EventsText::new(device);
     let mut time_us = 0u64;
+    let mut style = FingerStyle::default();
     for step in steps {
         text.comment(&format!("line {}: {}", step.line_number, step.source));
         match &step.action {
             ScriptAction::Touch(command) => {
-                let events = touch_events(command, locator, device, time_us).map_err(|source| ScriptError::AtLine {
-                    line_number: step.line_number,
-                    source: Box::new(source),
-                })?;
+                let events =
+                    touch_events_seeded(command, locator, device, time_us, time_us, &style).map_err(|source| {
+                        ScriptError::AtLine { line_number: step.line_number, source: Box::new(source) }
+                    })?;
                 for event in &events {
                     text.event(event);
                 }
                 time_us = events.last().map_or(time_us, |e| e.time_us).saturating_add(GAP_AFTER_TOUCH_US);
             }
             ScriptAction::Wait { duration_ms } => time_us = time_us.saturating_add(duration_ms.saturating_mul(1000)),
+            ScriptAction::Finger(finger) => style = *finger,
             ScriptAction::WaitIdle | ScriptAction::Screenshot { .. } | ScriptAction::Expect { .. } => {}
         }
     }

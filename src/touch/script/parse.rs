@@ -1,7 +1,7 @@
 //! Parsing replay scripts into [`ScriptStep`]s (syntax only; see the parent module for the
 //! language). Never panics; each problem names its line.
 
-use super::{ScriptAction, ScriptError, ScriptStep, SwipeDirection, TouchCommand};
+use super::{FingerStyle, ScriptAction, ScriptError, ScriptStep, SwipeDirection, TouchCommand};
 
 /// Most lines a script may have.
 pub const MAX_SCRIPT_LINES: usize = 100_000;
@@ -127,6 +127,24 @@ fn parse_line(line: &str) -> Result<ScriptAction, String> {
         "wait" => {
             arity(1..=1, "wait DURATION (e.g. 500ms, 2s)")?;
             Ok(ScriptAction::Wait { duration_ms: duration_ms(&arguments[0])? })
+        }
+        "finger" => {
+            let mut style = FingerStyle::default();
+            let usage = "usage: finger [jitter PX] [speed PX_PER_S]";
+            for pair in arguments.chunks(2) {
+                let [key, value] = pair else { return Err(usage.into()) };
+                let value = number(value)?;
+                let (field, range) = match key.as_str() {
+                    "jitter" => (&mut style.jitter_px, FingerStyle::JITTER_RANGE_PX),
+                    "speed" => (&mut style.speed_px_per_s, FingerStyle::SPEED_RANGE_PX_PER_S),
+                    other => return Err(format!("'{other}' is not jitter or speed; {usage}")),
+                };
+                if !range.contains(&value) {
+                    return Err(format!("finger {key} {value} is outside {range:?}"));
+                }
+                *field = value;
+            }
+            Ok(ScriptAction::Finger(style))
         }
         "wait-idle" => {
             arity(0..=0, "wait-idle")?;

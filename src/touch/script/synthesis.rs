@@ -5,7 +5,8 @@
 //! Timing is finger-like: a frame every [`MOVE_INTERVAL_US`], paths interpolated along their
 //! length at about [`DRAG_SPEED_PX_PER_S`], taps held [`TAP_HOLD_US`], and a little positional
 //! jitter ([`JITTER_PX`], from the crate's seeded SplitMix64) on every point except where a
-//! finger lands and lifts, so gestures end exactly where the script says.
+//! finger lands and lifts, so gestures end exactly where the script says. A [`FingerStyle`]
+//! changes the speed and the jitter: a slow, shaking fingertip on a noisy panel.
 //!
 //! Never: feeds the events anywhere; the runner does.
 
@@ -31,32 +32,56 @@ pub const JITTER_PX: f32 = 0.4;
 /// Rest after a command before the next may start, longer than the double-tap interval so
 /// that two scripted taps never make a double tap.
 pub const GAP_AFTER_TOUCH_US: u64 = 400_000;
+/// How the simulated finger moves: its speed along drags, lassos and paths, and the jitter of
+/// the points it reports. The script command `finger` sets it for the commands after it.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FingerStyle {
+    /// Standard deviation of each reported point's jitter, in x and in y (screen pixels).
+    pub jitter_px: f32,
+    /// Speed along drags, lassos and paths.
+    pub speed_px_per_s: f32,
+}
+
+impl Default for FingerStyle {
+    fn default() -> FingerStyle {
+        FingerStyle { jitter_px: JITTER_PX, speed_px_per_s: DRAG_SPEED_PX_PER_S }
+    }
+}
+
+impl FingerStyle {
+    /// The jitters a `finger` line may ask for: none up to a tremor several millimetres wide.
+    pub const JITTER_RANGE_PX: std::ops::RangeInclusive<f32> = 0.0..=20.0;
+    /// The speeds a `finger` line may ask for: a careful crawl to a flick.
+    pub const SPEED_RANGE_PX_PER_S: std::ops::RangeInclusive<f32> = 20.0..=5000.0;
+}
+
 /// Seed of the jitter (mixed with the command's start time).
 const JITTER_SEED: u64 = 0x766f_6c61_7373_6f31;
 /// Most frames one path is cut into.
 const MAX_PATH_FRAMES: usize = 2_000;
 
 /// The raw events of `command`, starting at `start_time_us`, on `device`, with elements placed
-/// by `locator`. The device spans the locator's whole screen (identity mapping). The jitter is
-/// seeded by the start time.
+/// by `locator`. The device spans the locator's whole screen (identity mapping). The finger
+/// moves as [`FingerStyle::default`]; the jitter is seeded by the start time.
 pub fn touch_events(
     command: &TouchCommand,
     locator: &dyn ElementLocator,
     device: &DeviceInfo,
     start_time_us: u64,
 ) -> Result<Vec<RawEvent>, ScriptError> {
-    touch_events_seeded(command, locator, device, start_time_us, start_time_us)
+    touch_events_seeded(command, locator, device, start_time_us, start_time_us, &FingerStyle::default())
 }
 
-/// As [`touch_events`], with the jitter seeded by `jitter_seed`: a runner whose clock depends
-/// on how long background work took (the replay harness's idle waits) still draws the same
-/// path for the same command.
+/// As [`touch_events`], with the finger moving as `style` and its jitter seeded by
+/// `jitter_seed`: a runner whose clock depends on how long background work took (the replay
+/// harness's idle waits) still draws the same path for the same command.
 pub fn touch_events_seeded(
     command: &TouchCommand,
     locator: &dyn ElementLocator,
     device: &DeviceInfo,
     start_time_us: u64,
     jitter_seed: u64,
+    style: &FingerStyle,
 ) -> Result<Vec<RawEvent>, ScriptError> {
     let size = locator.screen_size();
     if !(size.iter().all(|v| v.is_finite() && *v >= 1.0)) {
@@ -68,7 +93,7 @@ pub fn touch_events_seeded(
     if two_fingers && !device.multitouch {
         return Err(ScriptError::NeedsMultitouch { command: command.keyword(), device: device.name.clone() });
     }
-    let mut finger = Finger::new(device, ScreenMapping::new(device, size), start_time_us, jitter_seed);
+    let mut finger = Finger::new(device, ScreenMapping::new(device, size), start_time_us, jitter_seed, *style);
     let centre = rect.point([0.5, 0.5]);
     let short_side = rect.width.min(rect.height);
     match command {
@@ -143,6 +168,7 @@ struct Finger {
     time_us: u64,
     events: Vec<RawEvent>,
     rng: SplitMix64,
+    style: FingerStyle,
     /// The slot the device last selected (`None` before the first).
     current_slot: Option<i32>,
     /// Per slot: the last device position sent (the kernel sends only changes).
@@ -151,13 +177,20 @@ struct Finger {
 }
 
 impl Finger {
-    fn new(device: &DeviceInfo, mapping: ScreenMapping, start_time_us: u64, jitter_seed: u64) -> Finger {
+    fn new(
+        device: &DeviceInfo,
+        mapping: ScreenMapping,
+        start_time_us: u64,
+        jitter_seed: u64,
+        style: FingerStyle,
+    ) -> Finger {
         Finger {
             multitouch: device.multitouch,
             mapping,
             time_us: start_time_us,
             events: Vec::new(),
             rng: SplitMix64::new(hash64(JITTER_SEED, jitter_seed)),
+            style,
             current_slot: None,
             sent_position: [None; 2],
             // Tracking ids grow over a device's life; derive them from the clock.
@@ -177,8 +210,8 @@ impl Finger {
     }
 
     fn jittered(&mut self, point: [f32; 2]) -> [f32; 2] {
-        let dx = self.rng.next_gaussian() * JITTER_PX;
-        let dy = self.rng.next_gaussian() * JITTER_PX;
+        let dx = self.rng.next_gaussian() * self.style.jitter_px;
+        let dy = self.rng.next_gaussian() * self.style.jitter_px;
         [point[0] + dx, point[1] + dy]
     }
 
@@ -235,10 +268,10 @@ impl Finger {
         self.report();
     }
 
-    /// One finger along `path` at [`DRAG_SPEED_PX_PER_S`].
+    /// One finger along `path` at the style's speed.
     fn stroke(&mut self, path: &[[f32; 2]]) {
         let length: f32 = path.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum();
-        let step_px = DRAG_SPEED_PX_PER_S * MOVE_INTERVAL_US as f32 / 1e6;
+        let step_px = self.style.speed_px_per_s * MOVE_INTERVAL_US as f32 / 1e6;
         let frames = (length / step_px).ceil();
         let frames = if frames.is_finite() { (frames as usize).clamp(4, MAX_PATH_FRAMES) } else { 4 };
         self.stroke_frames(path, frames);

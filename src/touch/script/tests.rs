@@ -99,6 +99,10 @@ fn syntax_errors_name_the_line() {
         ("tap view\"x", "stray quote"),
         ("fly view", "unknown command"),
         ("expect classes", "usage"),
+        ("finger jitter", "usage"),
+        ("finger wobble 3", "not jitter or speed"),
+        ("finger jitter 50", "outside"),
+        ("finger speed 0", "outside"),
     ];
     for (line, fragment) in cases {
         let text = format!("# first\n{line}\n");
@@ -243,14 +247,49 @@ fn a_seeded_path_is_the_same_at_any_start_time() {
     let device = DeviceInfo::virtual_touchscreen();
     let lasso = command("lasso view 0.3,0.3 0.7,0.3 0.7,0.7 0.3,0.7");
     let values = |start_us: u64, seed: u64| -> Vec<(u16, u16, i32)> {
-        let events = touch_events_seeded(&lasso, &Screen, &device, start_us, seed).unwrap();
+        let events = touch_events_seeded(&lasso, &Screen, &device, start_us, seed, &FingerStyle::default()).unwrap();
         events.iter().filter(|e| e.code != ABS_MT_TRACKING_ID).map(|e| (e.kind, e.code, e.value)).collect()
     };
     assert_eq!(values(5_000, 7), values(812_345, 7), "the start time moved the path");
     assert_ne!(values(5_000, 7), values(5_000, 8), "another seed, other jitter");
-    let times: Vec<u64> =
-        touch_events_seeded(&lasso, &Screen, &device, 812_345, 7).unwrap().iter().map(|e| e.time_us).collect();
+    let times: Vec<u64> = touch_events_seeded(&lasso, &Screen, &device, 812_345, 7, &FingerStyle::default())
+        .unwrap()
+        .iter()
+        .map(|e| e.time_us)
+        .collect();
     assert_eq!(times.first(), Some(&812_345));
+}
+
+#[test]
+fn a_finger_line_sets_the_speed_and_jitter_of_the_touches_after_it() {
+    let steps = parse("finger jitter 3 speed 200\nfinger speed 400\nfinger\n").unwrap();
+    let styles: Vec<FingerStyle> = steps
+        .iter()
+        .map(|step| match step.action {
+            ScriptAction::Finger(style) => style,
+            ref other => panic!("{other:?}"),
+        })
+        .collect();
+    assert_eq!(styles[0], FingerStyle { jitter_px: 3.0, speed_px_per_s: 200.0 });
+    assert_eq!(styles[1], FingerStyle { speed_px_per_s: 400.0, ..FingerStyle::default() });
+    assert_eq!(styles[2], FingerStyle::default());
+    // A quarter of the default speed takes four times the frames; no jitter: every reported
+    // point lies on the path (a horizontal drag keeps its row).
+    let device = DeviceInfo::virtual_touchscreen();
+    let drag = command("drag view 0.1,0.5 0.9,0.5");
+    let frames = |style: &FingerStyle| {
+        let events = touch_events_seeded(&drag, &Screen, &device, 0, 1, style).unwrap();
+        let rows: std::collections::BTreeSet<i32> =
+            events.iter().filter(|e| e.code == ABS_MT_POSITION_Y).map(|e| e.value).collect();
+        (events.iter().filter(|e| e.code == SYN_REPORT).count(), rows.len())
+    };
+    let steady = FingerStyle { jitter_px: 0.0, ..FingerStyle::default() };
+    let (fast, rows) = frames(&steady);
+    assert_eq!(rows, 1);
+    let (slow, _) = frames(&FingerStyle { speed_px_per_s: steady.speed_px_per_s / 4.0, ..steady });
+    assert!((4 * fast - 8..=4 * fast + 8).contains(&slow), "{fast} {slow}");
+    let (_, shaken_rows) = frames(&FingerStyle { jitter_px: 3.0, ..steady });
+    assert!(shaken_rows > 5, "{shaken_rows}");
 }
 
 #[test]
