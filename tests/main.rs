@@ -16,7 +16,8 @@
 //!   writes).
 //! * `rendering`: what `volasso render` draws with the default class table (every class seen).
 //! * `replay`: the kiosk UI driven by touch scripts through `volasso replay`;
-//!   `replay_gallery`: the same for kept results and attract mode.
+//!   `replay_gallery`: the same for kept results and attract mode; `replay_sessions`: hostile
+//!   files in the data folder and saved sessions that fail, stop the app or classify.
 //! * `deploy`: the appliance's scripts that run outside the image (the USB import).
 //! * `dicom_codecs`: compressed (dcmtk's JPEG lossless, JPEG-LS, RLE, deflate) and enhanced
 //!   multi-frame DICOM read to the voxels of the uncompressed series; the series listing.
@@ -42,4 +43,5 @@ mod mutations;
 mod rendering;
 mod replay;
 mod replay_gallery;
+mod replay_sessions;
 mod support;

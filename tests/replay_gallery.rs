@@ -2,7 +2,8 @@
 //! damaged entries say so on their cards, and the idle start screen turns the demo or the
 //! newest kept result.
 
-use crate::replay::{replay, script, session_file, session_files};
+use crate::replay::{replay, script};
+use crate::replay_sessions::{session_file, session_files};
 use std::path::{Path, PathBuf};
 
 /// The size the gallery and attract tests run at here; `.ci/replay-sizes` runs their scripts

@@ -32,7 +32,7 @@
 //!
 //! Never: touches the UI or the volume.
 
-use super::path_loops::{loops_within, steadied};
+use super::path_loops::{enclosed_area, loops_within, steadied};
 use crate::slices::{Axis, SliceGeometry, SliceLayout};
 use crate::strokes::Lasso;
 
@@ -296,7 +296,7 @@ struct Shape {
     /// The larger side of the bounding box, and the box's area.
     extent: f32,
     box_area: f32,
-    /// The area the path encloses when closed by the chord (shoelace, absolute).
+    /// The area the path encloses when closed by the chord ([`enclosed_area`]).
     area: f32,
 }
 
@@ -314,16 +314,6 @@ impl Shape {
         }
         let chord = [last[0] - first[0], last[1] - first[1]];
         let length = points.windows(2).map(|w| (w[1][0] - w[0][0]).hypot(w[1][1] - w[0][1])).sum();
-        // In f64 and about the first point, so long paths far from the origin keep their area.
-        let relative = |p: &[f32; 2]| [(p[0] - first[0]) as f64, (p[1] - first[1]) as f64];
-        let twice: f64 = points
-            .iter()
-            .zip(points.iter().cycle().skip(1))
-            .map(|(a, b)| {
-                let (a, b) = (relative(a), relative(b));
-                a[0] * b[1] - b[0] * a[1]
-            })
-            .sum();
         let size = [high[0] - low[0], high[1] - low[1]];
         Shape {
             chord,
@@ -331,7 +321,7 @@ impl Shape {
             length,
             extent: size[0].max(size[1]),
             box_area: size[0] * size[1],
-            area: (twice.abs() / 2.0) as f32,
+            area: enclosed_area(points),
         }
     }
 }

@@ -437,37 +437,9 @@ impl App {
         self.state.borrow().tools.picture.as_ref().map(|picture| [picture.width(), picture.height()])
     }
 
-    /// What a result is, in one line (replay's `same-result`): the volume, each class's name
-    /// and visibility, the template, a digest of the label volume shown, and the camera.
+    /// What a result is, in one line (replay's `same-result`; queries.rs).
     pub fn result_digest(&self) -> String {
-        let state = self.state.borrow();
-        let Some(work) = state.ctl.work.as_ref() else { return "no volume".into() };
-        let classes: Vec<String> = work
-            .session
-            .classes
-            .iter()
-            .map(|c| format!("{}{}", c.name, if c.visible { "" } else { " (hidden)" }))
-            .collect();
-        // FNV-1a over the labels: equal label volumes, equal digests.
-        let labels = work.classified.as_ref().map_or(0, |classified| {
-            classified.labels.iter().fold(0xcbf2_9ce4_8422_2325u64, |hash, &label| {
-                (hash ^ u64::from(label)).wrapping_mul(0x0000_0100_0000_01b3)
-            })
-        });
-        let template = state.template();
-        let camera = &state.camera;
-        format!(
-            "{}; classes {}; template {} {}; labels {labels:016x}; camera {:.1} {:.1} {:.2} {:.1},{:.1}",
-            work.loaded.source.key(),
-            classes.join(", "),
-            template.template.name(),
-            template.rotation_degrees,
-            camera.azimuth_degrees,
-            camera.elevation_degrees,
-            camera.zoom,
-            camera.pan_mm[0],
-            camera.pan_mm[1],
-        )
+        queries::result_digest(&self.state.borrow())
     }
 
     /// The 3-D view shows a whole frame at the size it is drawn at (not a smaller preview).

@@ -211,8 +211,10 @@ pub fn crossing_loops(points: &[[f32; 2]], closed: bool, least_area: f32) -> Opt
     Some(loops)
 }
 
-/// The area a closed polygon encloses (shoelace, absolute; about its first point, in f64).
-fn enclosed_area(points: &[[f32; 2]]) -> f32 {
+/// The area a polygon encloses, closed by the edge from its last point back to its first
+/// (shoelace, absolute; in f64 and about its first point, so that long paths far from the
+/// origin keep their area).
+pub fn enclosed_area(points: &[[f32; 2]]) -> f32 {
     let Some(&first) = points.first() else { return 0.0 };
     let relative = |p: &[f32; 2]| [(p[0] - first[0]) as f64, (p[1] - first[1]) as f64];
     let twice: f64 = points

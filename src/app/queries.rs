@@ -14,6 +14,8 @@
 //! `unsure-share` (the unsure share of the classified voxels in percent) and
 //! `on-unsure-slice` (`yes` when the panel "Draw here next" picks shows the slice it picks).
 //!
+//! [`result_digest`] is what a result is, in one line (replay's `same-result`).
+//!
 //! Never: changes anything.
 
 use super::{State, results, windowing};
@@ -80,4 +82,36 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         }
     };
     Some(value)
+}
+
+/// What a result is, in one line (replay's `same-result`): the volume, each class's name
+/// and visibility, the template, a digest of the label volume shown, and the camera.
+pub(super) fn result_digest(state: &State) -> String {
+    let Some(work) = state.ctl.work.as_ref() else { return "no volume".into() };
+    let classes: Vec<String> = work
+        .session
+        .classes
+        .iter()
+        .map(|c| format!("{}{}", c.name, if c.visible { "" } else { " (hidden)" }))
+        .collect();
+    // FNV-1a over the labels: equal label volumes, equal digests.
+    let labels = work.classified.as_ref().map_or(0, |classified| {
+        classified.labels.iter().fold(0xcbf2_9ce4_8422_2325u64, |hash, &label| {
+            (hash ^ u64::from(label)).wrapping_mul(0x0000_0100_0000_01b3)
+        })
+    });
+    let template = state.template();
+    let camera = &state.camera;
+    format!(
+        "{}; classes {}; template {} {}; labels {labels:016x}; camera {:.1} {:.1} {:.2} {:.1},{:.1}",
+        work.loaded.source.key(),
+        classes.join(", "),
+        template.template.name(),
+        template.rotation_degrees,
+        camera.azimuth_degrees,
+        camera.elevation_degrees,
+        camera.zoom,
+        camera.pan_mm[0],
+        camera.pan_mm[1],
+    )
 }
