@@ -369,23 +369,35 @@ fn a_recording_with_an_absurd_time_jump_is_refused_at_once() {
     assert!(started.elapsed().as_secs() < 60, "took {:?}", started.elapsed());
 }
 
+/// Replays the recording `events` on the demo volume once it has settled, then checks
+/// `expectations` (script lines).
+fn recording_on_the_demo_volume(events: &str, expectations: &str) {
+    let work = tempfile::tempdir().unwrap();
+    let settle = work.path().join("settle.touch");
+    std::fs::write(&settle, "wait-idle\n").unwrap();
+    let check = work.path().join("check.touch");
+    std::fs::write(&check, expectations).unwrap();
+    let paths = [settle, script(events), check];
+    let mut args = vec!["replay", "--volume", "demo"];
+    args.extend(paths.iter().map(|path| path.to_str().unwrap()));
+    let report = replay(&args, work.path());
+    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
+}
+
 /// A loop cut off by a second finger (`second-finger.events`: another hand lands on the 3-D
 /// view two thirds of the way round) is told on its slice, not dropped without a word; nothing
 /// is lassoed.
 #[test]
 fn a_loop_cut_off_by_a_second_finger_is_told_on_its_slice() {
-    let work = tempfile::tempdir().unwrap();
-    let settle = work.path().join("settle.touch");
-    std::fs::write(&settle, "wait-idle\n").unwrap();
-    let check = work.path().join("check.touch");
-    std::fs::write(
-        &check,
+    recording_on_the_demo_volume(
+        "second-finger.events",
         "expect pending 0\nexpect feedback A second touch interrupted the loop: draw it again with one finger\n",
-    )
-    .unwrap();
-    let paths = [settle, script("second-finger.events"), check];
-    let mut args = vec!["replay", "--volume", "demo"];
-    args.extend(paths.iter().map(|path| path.to_str().unwrap()));
-    let report = replay(&args, work.path());
-    assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
+    );
+}
+
+/// A palm resting on the panel while a finger draws (`palm.events`: the panel reports the
+/// contact as `MT_TOOL_PALM`) is no second finger: the loop becomes a lasso.
+#[test]
+fn a_palm_resting_on_the_panel_leaves_the_loop_drawn() {
+    recording_on_the_demo_volume("palm.events", "expect pending 1\nexpect feedback \"\"\n");
 }

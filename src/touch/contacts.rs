@@ -7,6 +7,11 @@
 //! changed. Single-touch absolute devices (QEMU's usb/virtio tablet: `ABS_X/Y` with `BTN_TOUCH`
 //! or `BTN_LEFT`) are tracked as one finger.
 //!
+//! A contact the device reports as a palm (`ABS_MT_TOOL_TYPE` [`MT_TOOL_PALM`], per slot like
+//! the position) is no finger: the heel of a hand resting on the panel while a finger draws
+//! gives no event, and a finger that turns out to be a palm is cancelled. It stays ignored
+//! until it lifts, as libinput ignores it.
+//!
 //! `SYN_DROPPED` means the kernel's buffer overflowed: every event up to the next `SYN_REPORT`
 //! is dropped, every contact is cancelled ([`FingerPhase::Cancel`]), and contacts are
 //! re-acquired from what follows: a slot that reports a position without having been given a
@@ -64,6 +69,10 @@ struct Slot {
     /// The finger this slot's contact is reported as, once reported down.
     finger: Option<u64>,
     last_position: [f32; 2],
+    /// The device says the slot's tool is a palm (persists per slot, as the position does).
+    palm_tool: bool,
+    /// The slot's contact has been a palm: it is ignored until it lifts.
+    ignored: bool,
 }
 
 /// Protocol-B (and single-touch) state machine; see the module docs.
@@ -164,6 +173,7 @@ impl ContactTracker {
                 slot.contact = SlotContact::Active { tracking_id: Some(value) };
                 slot.started = true;
             }
+            ABS_MT_TOOL_TYPE => slot.palm_tool = value == MT_TOOL_PALM,
             ABS_MT_POSITION_X | ABS_MT_POSITION_Y => {
                 slot.device_position[usize::from(code == ABS_MT_POSITION_Y)] = value;
                 slot.moved = true;
@@ -207,11 +217,22 @@ impl ContactTracker {
                     out.push(FingerEvent { id, phase: FingerPhase::Up, position: slot.last_position, time_us });
                 }
             }
+            if ended || slot.started {
+                slot.ignored = false;
+            }
+            if slot.palm_tool && matches!(slot.contact, SlotContact::Active { .. }) {
+                // A palm: what it began as a finger is abandoned, and it is no finger until it lifts.
+                if let Some(id) = slot.finger.take() {
+                    out.push(FingerEvent { id, phase: FingerPhase::Cancel, position: slot.last_position, time_us });
+                }
+                slot.ignored = true;
+            }
         }
         for index in 0..MAX_SLOTS {
             let slot = &self.slots[index];
             let active = matches!(slot.contact, SlotContact::Active { .. });
             let (started, moved, finger) = (slot.started, slot.moved, slot.finger);
+            let active = active && !slot.ignored;
             let position = self.mapping.map(slot.device_position).position;
             let slot = &mut self.slots[index];
             if active && finger.is_none() && (started || moved) {
@@ -295,6 +316,47 @@ mod tests {
                 (2, Move, [300.0, 450.0]),
                 (1, Up, [100.0, 200.0]),
                 (2, Up, [300.0, 450.0]),
+            ]
+        );
+        assert_eq!(t.active_fingers(), 0);
+    }
+
+    #[test]
+    fn a_palm_is_no_finger_and_a_finger_that_becomes_one_is_cancelled() {
+        let mut t = tracker(&screen_device());
+        let got = run(
+            &mut t,
+            &[
+                &[(EV_ABS, ABS_MT_SLOT, 0), (EV_ABS, ABS_MT_TRACKING_ID, 10), (EV_ABS, ABS_MT_POSITION_X, 100)],
+                // The heel of the hand lands as a palm while the finger moves: no event for it.
+                &[
+                    (EV_ABS, ABS_MT_POSITION_X, 110),
+                    (EV_ABS, ABS_MT_SLOT, 1),
+                    (EV_ABS, ABS_MT_TRACKING_ID, 11),
+                    (EV_ABS, ABS_MT_TOOL_TYPE, MT_TOOL_PALM),
+                    (EV_ABS, ABS_MT_POSITION_X, 600),
+                ],
+                &[(EV_ABS, ABS_MT_POSITION_X, 620), (EV_ABS, ABS_MT_SLOT, 0), (EV_ABS, ABS_MT_POSITION_X, 120)],
+                // Still a palm when the controller calls it a finger again: ignored until it lifts.
+                &[(EV_ABS, ABS_MT_SLOT, 1), (EV_ABS, ABS_MT_TOOL_TYPE, 0), (EV_ABS, ABS_MT_POSITION_X, 630)],
+                &[(EV_ABS, ABS_MT_TRACKING_ID, -1)],
+                // The next contact in that slot is a finger (the tool type persists: finger).
+                &[(EV_ABS, ABS_MT_TRACKING_ID, 12), (EV_ABS, ABS_MT_POSITION_X, 700)],
+                // A finger that turns out to be a palm is cancelled, then silent.
+                &[(EV_ABS, ABS_MT_TOOL_TYPE, MT_TOOL_PALM)],
+                &[(EV_ABS, ABS_MT_POSITION_X, 720)],
+                &[(EV_ABS, ABS_MT_TRACKING_ID, -1), (EV_ABS, ABS_MT_SLOT, 0), (EV_ABS, ABS_MT_TRACKING_ID, -1)],
+            ],
+        );
+        assert_eq!(
+            got,
+            vec![
+                (1, Down, [100.0, 0.0]),
+                (1, Move, [110.0, 0.0]),
+                (1, Move, [120.0, 0.0]),
+                (2, Down, [700.0, 0.0]),
+                (2, Cancel, [700.0, 0.0]),
+                (1, Up, [120.0, 0.0]),
             ]
         );
         assert_eq!(t.active_fingers(), 0);

@@ -105,6 +105,10 @@ pub const ABS_MT_ORIENTATION: u16 = 0x34;
 pub const ABS_MT_POSITION_X: u16 = 0x35;
 pub const ABS_MT_POSITION_Y: u16 = 0x36;
 pub const ABS_MT_TOOL_TYPE: u16 = 0x37;
+/// `ABS_MT_TOOL_TYPE`'s value for a palm (`MT_TOOL_PALM`): a touch controller's judgement that
+/// the contact is not a fingertip (hid-multitouch reports a contact without its confidence bit
+/// so).
+pub const MT_TOOL_PALM: i32 = 2;
 pub const ABS_MT_TRACKING_ID: u16 = 0x39;
 pub const ABS_MT_PRESSURE: u16 = 0x3a;
 
