@@ -384,9 +384,9 @@ fn recording_on_the_demo_volume(events: &str, expectations: &str) {
     assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
 }
 
-/// A loop cut off by a second finger (`second-finger.events`: another hand lands on the 3-D
-/// view two thirds of the way round) is told on its slice, not dropped without a word; nothing
-/// is lassoed.
+/// A loop cut off by a second finger on the same slice (`second-finger.events`: a palm lands
+/// beside the path two thirds of the way round) is told on its slice, not dropped without a
+/// word; nothing is lassoed.
 #[test]
 fn a_loop_cut_off_by_a_second_finger_is_told_on_its_slice() {
     recording_on_the_demo_volume(
@@ -400,4 +400,11 @@ fn a_loop_cut_off_by_a_second_finger_is_told_on_its_slice() {
 #[test]
 fn a_palm_resting_on_the_panel_leaves_the_loop_drawn() {
     recording_on_the_demo_volume("palm.events", "expect pending 1\nexpect feedback \"\"\n");
+}
+
+/// Another hand touching the 3-D view while a loop is drawn on a slice (`other-hand.events`) is
+/// no part of a gesture: the loop goes on and becomes a lasso.
+#[test]
+fn another_hand_on_the_view_leaves_the_loop_drawn() {
+    recording_on_the_demo_volume("other-hand.events", "expect pending 1\nexpect feedback \"\"\n");
 }

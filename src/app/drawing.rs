@@ -117,7 +117,7 @@ pub enum Unclear {
     TooSmall,
     /// The slice is not in the volume (it changed under the finger).
     NoSlice,
-    /// A second finger (another hand, a palm) touched the glass while this path was drawn.
+    /// A second finger (a palm, the other hand) touched the same slice while the path was drawn.
     Interrupted,
 }
 
@@ -170,9 +170,9 @@ impl FingerPath {
         path
     }
 
-    /// What a path cut off by a second finger (the touch cancelled: two fingers pinch or pan)
-    /// is told: nothing for a finger that had hardly moved (the first finger of a pinch), else
-    /// [`Unclear::Interrupted`], so a loop is never lost without a word.
+    /// What a path cut off by a second finger on its slice (the touch cancelled: two fingers
+    /// pinch or pan) is told: nothing for a finger that had hardly moved (the first finger of a
+    /// pinch), else [`Unclear::Interrupted`], so a loop is never lost without a word.
     pub fn cancelled(&self) -> Option<Unclear> {
         (Shape::of(&self.on_screen()).length >= INTERRUPTED_MIN_PX).then_some(Unclear::Interrupted)
     }

@@ -1,10 +1,14 @@
 //! Touches to the UI. The first finger down is Slint's pointer: taps, drags, lassos and
 //! one-finger orbits are ordinary pointer events for the `TouchArea`s. A second finger on the
-//! 3-D view or on a slice turns the touch into a two-finger gesture: the pointer press is
-//! cancelled (a lasso being drawn is dropped, not taken as a path; the slice says so) and pinch, pan and rotate go
-//! to the app directly, computed from finger positions by [`crate::touch::gestures`] (Slint
+//! 3-D view or on a slice, where the first finger landed too, turns the touch into a two-finger
+//! gesture: the pointer press is cancelled (a lasso being drawn is dropped, not taken as a path;
+//! the slice says so) and pinch, pan and rotate go to the app directly, computed from finger positions by [`crate::touch::gestures`] (Slint
 //! has no public multi-touch events). On a slice, pans are given in fractions of the slice's
 //! visible area, so the app needs no screen geometry.
+//!
+//! A second finger that lands anywhere else than where the first one did (another visitor's
+//! hand on the 3-D view while a loop is drawn on a slice, a palm on another panel) is no part of
+//! a gesture: it is ignored, and the first finger goes on as it was.
 //!
 //! Where things are comes from a locator asked by accessible label, only when a second finger
 //! lands: `view` and `slice area z` / `y` / `x`.
@@ -44,8 +48,9 @@ enum Target {
 
 /// See the module doc.
 pub struct TouchRouter {
-    /// The finger that is Slint's pointer.
+    /// The finger that is Slint's pointer, and where it landed.
     pointer_finger: Option<u64>,
+    pointer_landing: [f32; 2],
     /// From a second finger on the view or a slice until every finger has lifted.
     target: Option<Target>,
     fingers_down: Vec<u64>,
@@ -60,6 +65,7 @@ impl Default for TouchRouter {
     fn default() -> Self {
         TouchRouter {
             pointer_finger: None,
+            pointer_landing: [0.0; 2],
             target: None,
             fingers_down: Vec::new(),
             gestures: GestureRecognizer::new(),
@@ -92,7 +98,10 @@ impl TouchRouter {
             }
         }
         if self.fingers_down.len() >= 2 && self.target.is_none() && event.phase == FingerPhase::Down {
-            self.target = target_at(event.position, locate);
+            let target = target_at(event.position, locate);
+            // Both fingers of a gesture are on what it acts on (module doc).
+            let pointer_elsewhere = self.pointer_finger.is_some() && target_at(self.pointer_landing, locate) != target;
+            self.target = target.filter(|_| !pointer_elsewhere);
             if self.target.is_some() {
                 self.totals = (1.0, [0.0; 2], 0.0);
                 if self.pointer_finger.take().is_some() {
@@ -143,6 +152,7 @@ impl TouchRouter {
         match (event.phase, self.pointer_finger) {
             (FingerPhase::Down, None) => {
                 self.pointer_finger = Some(event.id);
+                self.pointer_landing = event.position;
                 out.push(Routed::Pointer(WindowEvent::PointerMoved { position }));
                 out.push(Routed::Pointer(WindowEvent::PointerPressed { position, button: PointerEventButton::Left }));
             }
@@ -246,6 +256,20 @@ mod tests {
         assert!(!out.iter().any(|routed| matches!(routed, Routed::SliceGesture { .. })));
         // Elsewhere (no element there), two fingers are just a pointer and an ignored finger.
         let out = two_fingers([400.0, 500.0], [460.0, 500.0], [-30.0, 0.0], [30.0, 0.0]);
+        assert!(out.iter().all(|routed| matches!(routed, Routed::Pointer(_))));
+    }
+
+    #[test]
+    fn a_second_finger_elsewhere_leaves_the_first_finger_drawing() {
+        // A loop drawn on the slice while another hand lands on the 3-D view and moves: the
+        // pointer goes on (presses, moves, releases) and nothing gestures.
+        let out = two_fingers([100.0, 100.0], [700.0, 100.0], [40.0, 40.0], [-30.0, 20.0]);
+        assert!(out.iter().all(|routed| matches!(routed, Routed::Pointer(_))), "a gesture");
+        let moves = out.iter().filter(|r| matches!(r, Routed::Pointer(WindowEvent::PointerMoved { .. }))).count();
+        assert_eq!(moves, 11, "the first finger's landing and its ten moves");
+        assert!(matches!(out[out.len() - 2], Routed::Pointer(WindowEvent::PointerReleased { .. })));
+        // And the other way round: drawing on the view's orbit, a finger on a slice.
+        let out = two_fingers([700.0, 100.0], [100.0, 100.0], [40.0, 0.0], [0.0, 40.0]);
         assert!(out.iter().all(|routed| matches!(routed, Routed::Pointer(_))));
     }
 }
