@@ -32,7 +32,7 @@
 //!
 //! Never: touches the UI or the volume.
 
-use super::path_loops::{enclosed_area, loops_within, steadied};
+use super::path_loops::{enclosed_area, loops_within, steadied, uncurled};
 use crate::slices::{Axis, SliceGeometry, SliceLayout};
 use crate::strokes::Lasso;
 
@@ -223,7 +223,8 @@ impl FingerPath {
         if SliceGeometry::new(dims, axis, slice).is_none() {
             return PathMeaning::Unclear(Unclear::NoSlice);
         }
-        let on_screen = self.on_screen();
+        // Without a tremor's curls, which would be holes or specks under the even-odd rule.
+        let on_screen = uncurled(&self.on_screen(), LOOP_MIN_AREA_PX);
         let shape = Shape::of(&on_screen);
         if shape.extent < TAP_EXTENT_PX {
             return PathMeaning::Unclear(Unclear::Tap);

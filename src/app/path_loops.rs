@@ -71,6 +71,55 @@ pub fn steadied(points: &[[f32; 2]], reach: f32) -> Vec<[f32; 2]> {
         .collect()
 }
 
+/// `points` with every curl cut out: where a segment crosses one of the segments before it
+/// within [`CURL_MAX_LENGTH`] of path and the loop between them encloses less than
+/// `least_area`, the loop is replaced by the crossing. Under the strokes file's even-odd rule a
+/// tremor's curl would be a hole in the lasso, or a speck of the outside in it.
+pub fn uncurled(points: &[[f32; 2]], least_area: f32) -> Vec<[f32; 2]> {
+    let mut path: Vec<[f32; 2]> = Vec::with_capacity(points.len());
+    // The path's length from its first point to each of its points.
+    let mut along: Vec<f32> = Vec::with_capacity(points.len());
+    for &point in points {
+        let n = path.len();
+        if n >= 3 {
+            let last = path[n - 1];
+            // Segments (j, j + 1) that do not touch the new one, nearest first.
+            let mut curl = None;
+            for j in (0..n - 2).rev() {
+                if along[n - 1] - along[j + 1] > CURL_MAX_LENGTH {
+                    break;
+                }
+                let Some(crossing) = crossing_point((path[j], path[j + 1]), (last, point)) else { continue };
+                let mut inner = vec![crossing];
+                inner.extend_from_slice(&path[j + 1..]);
+                if enclosed_area(&inner) < least_area {
+                    curl = Some((j, crossing));
+                }
+                break;
+            }
+            if let Some((j, crossing)) = curl {
+                path.truncate(j + 1);
+                along.truncate(j + 1);
+                if path.last() != Some(&crossing) {
+                    push_along(&mut path, &mut along, crossing);
+                }
+            }
+        }
+        push_along(&mut path, &mut along, point);
+    }
+    path
+}
+
+/// Appends `point` to `path`, and its length along the path to `along`.
+fn push_along(path: &mut Vec<[f32; 2]>, along: &mut Vec<f32>, point: [f32; 2]) {
+    let length = match (path.last(), along.last()) {
+        (Some(last), Some(&so_far)) => so_far + (point[0] - last[0]).hypot(point[1] - last[1]),
+        _ => 0.0,
+    };
+    path.push(point);
+    along.push(length);
+}
+
 /// A loop within a path: where the path crosses itself (if it closes there) and the runs of the
 /// path's points that go round from there. Found on one rendition of a path (a steadied one),
 /// it is drawn through the points of another with the same indices ([`PathLoop::on`]).
@@ -355,6 +404,27 @@ mod tests {
             }
         }
         assert!(crossing_loops(&path, true, 64.0).expect("curls are not crossings").is_empty());
+    }
+
+    #[test]
+    fn a_curl_is_cut_out_of_the_path_and_a_loop_is_not() {
+        // Along the top of a square, a curl of 4 x 4 px; then round the square.
+        let path = [
+            [0.0, 0.0],
+            [50.0, 0.0],
+            [54.0, 4.0],
+            [54.0, -4.0],
+            [48.0, 2.0],
+            [100.0, 0.0],
+            [100.0, 100.0],
+            [0.0, 100.0],
+        ];
+        let plain = uncurled(&path, 64.0);
+        assert!(!plain.contains(&[54.0, 4.0]) && !plain.contains(&[54.0, -4.0]), "{plain:?}");
+        assert!(crossing_loops(&plain, true, 0.0).expect("no scribble").is_empty(), "{plain:?}");
+        assert!((enclosed_area(&plain) - 10_000.0).abs() < 64.0, "{}", enclosed_area(&plain));
+        // A loop larger than the least area stays.
+        assert_eq!(uncurled(&path, 4.0), path.to_vec());
     }
 
     #[test]
