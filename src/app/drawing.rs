@@ -19,7 +19,7 @@
 //! A shaking fingertip or a jittery panel sends points a few pixels to and fro, which cross the
 //! path over itself in tiny curls and, where it runs along itself, again and again: the loops
 //! within a path are found on a steadied copy of it ([`STEADY_REACH_PX`]) and drawn through the
-//! points the finger gave.
+//! points the finger gave, without the tremor's curls.
 //!
 //! A finger that loses the glass for a moment (a dry fingertip skips) and lands again where it
 //! left goes on with the same path ([`FingerPath::resumed_or_new`]), so a loop drawn in two

@@ -15,9 +15,10 @@
 //!
 //! A tremor's curls (loops smaller than the caller's least loop, closed within a short stretch
 //! of path) close nothing, and a finger running along its own path, crossing it at every wobble,
-//! closes one loop there, not one per crossing. [`steadied`] averages jitter out of a path
-//! before its loops are looked for; a [`PathLoop`] found on it is drawn through the points
-//! the finger gave.
+//! closes one loop there, not one per crossing. [`uncurled`] cuts the curls out of a path (under
+//! the even-odd rule each would be a hole in a lasso); [`steadied`] averages jitter out of it
+//! before its loops are looked for, and a [`PathLoop`] found on the steadied path is drawn
+//! through the points the finger gave.
 //!
 //! The caller ([`super::drawing`]) weighs them with the whole path.
 //!
