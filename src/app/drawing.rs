@@ -37,7 +37,7 @@ use crate::slices::{Axis, SliceGeometry, SliceLayout};
 use crate::strokes::Lasso;
 
 /// How near (screen pixels) the neighbours a point is averaged with lie, on the path the loops
-/// within it are found on ([`steadied`]): a fingertip's tremor and a panel's jitter, a few
+/// within it are found on (`path_loops::steadied`): a fingertip's tremor and a panel's jitter, a few
 /// pixels to and fro between reports, would otherwise cross the path over itself again and
 /// again. A third of a fingertip's width; a loop within a path smaller than that is not one a
 /// finger can draw. Random jitter of 4 px (standard deviation) between reports 1.5 px apart
