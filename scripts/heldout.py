@@ -16,9 +16,12 @@ It prints, per case and hand, the macro Dice of both, the share of the air conne
 volume's faces that got a class when the air was not lassoed, and the share of lassoed voxels
 that kept their class; then the means per hand and the worst difference to the forest.
 
+`--thick N` cuts every scan in slices N times as thick (the mean of N slices, truth their
+majority), as most hospital series come: 5 mm slices of pixels a tenth of that.
+
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
                                   [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
-                                  [--hands clean,leaky,offset,wide]
+                                  [--hands clean,leaky,offset,wide] [--thick N]
 Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn);
 the real brain (mni-t1) also nilearn's data files: pip install nilearn, or unpack its wheel
 (pip download nilearn --no-deps) and set VOLASSO_MNI_DIR to its nilearn/datasets/data folder.
@@ -248,6 +251,20 @@ PHANTOMS = {"abdomen-ct16": abdomen_ct16, "head-t1-16": head_t1_16, "vessels-ct8
 WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16", "mni-t1"}
 
 
+def thick_slices(image, truth, spacing, count):
+    """The scan cut in slices `count` times as thick: each new slice the mean of `count` slices
+    along z (a thick slice's partial volume), its truth the class most of them hold."""
+    if count <= 1:
+        return image, truth, spacing
+    z = image.shape[0] // count * count
+    mean = image[:z].astype(np.float64).reshape(z // count, count, *image.shape[1:]).mean(axis=1)
+    info = np.iinfo(image.dtype)
+    stacked = truth[:z].reshape(z // count, count, *truth.shape[1:])
+    votes = np.stack([(stacked == c).sum(axis=1) for c in range(int(truth.max()) + 1)])
+    return (np.clip(np.rint(mean), info.min, info.max).astype(image.dtype), votes.argmax(axis=0).astype(np.uint8),
+            (spacing[0], spacing[1], spacing[2] * count))
+
+
 def write_nrrd(path, image, spacing):
     kind = {np.dtype(np.uint8): "uint8", np.dtype(np.int16): "int16", np.dtype(np.uint16): "uint16"}[image.dtype]
     z, y, x = image.shape
@@ -416,6 +433,9 @@ def main():
     parser.add_argument("--volasso", default="target/release/volasso")
     parser.add_argument("--seeds", default="101,102,103")
     parser.add_argument("--only", default=None)
+    parser.add_argument("--thick", type=int, default=1,
+                        help="cut every scan in slices this many times as thick (each the mean of that many "
+                             "slices along z), as hospital series of 5 mm slices are")
     parser.add_argument("--classify-args", default="", help="extra arguments for volasso classify")
     parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
     parser.add_argument("--hands", default="clean,leaky",
@@ -441,6 +461,7 @@ def main():
         for seed in [int(s) for s in args.seeds.split(",")]:
             rng = np.random.default_rng(seed * 7919 + len(name))
             image, truth, names, spacing = make(rng)
+            image, truth, spacing = thick_slices(image, truth, spacing, args.thick)
             lasso_air = name not in WITH_AIR or seed % 2 == 0
             volume = os.path.join(folder, f"{name}-{seed}.nrrd")
             write_nrrd(volume, image, spacing)

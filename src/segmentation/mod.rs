@@ -162,7 +162,8 @@ pub enum Coherence {
     /// Labels as the classifier gave them.
     None,
     /// [`coherence::DEFAULT_PASSES`] passes of the majority filter
-    /// ([`coherence::majority_passes`]).
+    /// ([`coherence::majority_passes`]), within each slice on a scan cut in thick slices
+    /// ([`coherence::Neighbourhood::for_spacing`]).
     Majority,
 }
 

@@ -210,7 +210,8 @@ fn label_volume_in(
             (0..=u8::MAX).map(|label| segmenter.band(label).map(|band| (band.low, band.high))).collect(),
             &intensity,
         );
-        let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands));
+        let neighbourhood = super::coherence::Neighbourhood::for_spacing(volume.spacing_mm);
+        let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands), neighbourhood);
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
     }
     for &(voxel, class) in &segmenter.lassoed {
