@@ -384,15 +384,31 @@ fn recording_on_the_demo_volume(events: &str, expectations: &str) {
     assert_eq!(report["failures"].as_array().map(Vec::len), Some(0), "{report}");
 }
 
-/// A loop cut off by a second finger on the same slice (`second-finger.events`: a palm lands
-/// beside the path two thirds of the way round) is told on its slice, not dropped without a
-/// word; nothing is lassoed.
+/// A loop cut off by a second finger on the same slice (`second-finger.events`: two thirds of
+/// the way round a second finger lands beside the path and moves, as a two-finger pan does) is
+/// told on its slice, not dropped without a word; nothing is lassoed.
 #[test]
 fn a_loop_cut_off_by_a_second_finger_is_told_on_its_slice() {
     recording_on_the_demo_volume(
         "second-finger.events",
         "expect pending 0\nexpect feedback A second touch interrupted the loop: draw it again with one finger\n",
     );
+}
+
+/// A second touch resting beside the path on the same slice (`resting-hand.events`: the heel of
+/// the drawing hand, or a palm the panel reports as a finger) does not cut the loop off: it
+/// becomes a lasso.
+#[test]
+fn a_touch_resting_beside_the_path_leaves_the_loop_drawn() {
+    recording_on_the_demo_volume("resting-hand.events", "expect pending 1\nexpect feedback \"\"\n");
+}
+
+/// A palm beside the path that the panel reports as a finger for its first frames and then as a
+/// palm (`palm-late.events`), as controllers that judge a contact over a few frames do: it is
+/// held while it rests, then cancelled, and the loop becomes a lasso.
+#[test]
+fn a_palm_first_reported_as_a_finger_leaves_the_loop_drawn() {
+    recording_on_the_demo_volume("palm-late.events", "expect pending 1\nexpect feedback \"\"\n");
 }
 
 /// A palm resting on the panel while a finger draws (`palm.events`: the panel reports the

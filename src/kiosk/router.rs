@@ -10,6 +10,12 @@
 //! hand on the 3-D view while a loop is drawn on a slice, a palm on another panel) is no part of
 //! a gesture: it is ignored, and the first finger goes on as it was.
 //!
+//! A second touch that lands where the first finger is already drawing (it has moved past a
+//! tap's slop) is held: the loop goes on until that touch itself moves by
+//! [`HELD_TOUCH_SLOP_PX`], as both fingers of a deliberate pinch or pan do. The heel of the
+//! drawing hand, a knuckle, or a palm the panel reports as a finger for its first frames (and
+//! then as a palm, which cancels it) rests where it landed and never interrupts the loop.
+//!
 //! Where things are comes from a locator asked by accessible label, only when a second finger
 //! lands: `view` and `slice area z` / `y` / `x`.
 //!
@@ -46,11 +52,27 @@ enum Target {
     Slice(Axis, Rect),
 }
 
+/// How far (screen pixels) a second touch held while the first finger draws must move to start
+/// a two-finger gesture (module doc): twice a tap's slop, more than a resting palm's centre
+/// wanders as it settles, less than the first frames of a pinch.
+pub const HELD_TOUCH_SLOP_PX: f32 = 2.0 * crate::touch::gestures::TAP_SLOP_PX;
+
+/// A second touch on what the first finger is drawing on, not yet a gesture.
+#[derive(Clone, Copy, Debug)]
+struct HeldTouch {
+    id: u64,
+    landing: [f32; 2],
+    target: Target,
+}
+
 /// See the module doc.
 pub struct TouchRouter {
-    /// The finger that is Slint's pointer, and where it landed.
+    /// The finger that is Slint's pointer, where it landed and how far it has gone from there.
     pointer_finger: Option<u64>,
     pointer_landing: [f32; 2],
+    pointer_travel: f32,
+    /// A second touch held while the pointer finger draws (module doc).
+    held: Option<HeldTouch>,
     /// From a second finger on the view or a slice until every finger has lifted.
     target: Option<Target>,
     fingers_down: Vec<u64>,
@@ -66,6 +88,8 @@ impl Default for TouchRouter {
         TouchRouter {
             pointer_finger: None,
             pointer_landing: [0.0; 2],
+            pointer_travel: 0.0,
+            held: None,
             target: None,
             fingers_down: Vec::new(),
             gestures: GestureRecognizer::new(),
@@ -90,29 +114,50 @@ impl TouchRouter {
                 }
                 self.fingers_down.push(event.id);
             }
-            FingerPhase::Up | FingerPhase::Cancel => self.fingers_down.retain(|&id| id != event.id),
+            FingerPhase::Up | FingerPhase::Cancel => {
+                self.fingers_down.retain(|&id| id != event.id);
+                if self.held.is_some_and(|held| held.id == event.id) || self.pointer_finger == Some(event.id) {
+                    self.held = None;
+                }
+            }
             FingerPhase::Move => {
                 if !self.fingers_down.contains(&event.id) {
                     return;
                 }
-            }
-        }
-        if self.fingers_down.len() >= 2 && self.target.is_none() && event.phase == FingerPhase::Down {
-            let target = target_at(event.position, locate);
-            // Both fingers of a gesture are on what it acts on (module doc).
-            let pointer_elsewhere = self.pointer_finger.is_some() && target_at(self.pointer_landing, locate) != target;
-            self.target = target.filter(|_| !pointer_elsewhere);
-            if self.target.is_some() {
-                self.totals = (1.0, [0.0; 2], 0.0);
-                if self.pointer_finger.take().is_some() {
-                    out.push(Routed::Pointer(WindowEvent::PointerExited));
+                if self.pointer_finger == Some(event.id) {
+                    self.pointer_travel = self.pointer_travel.max(distance(event.position, self.pointer_landing));
+                }
+                if let Some(held) = self.held.filter(|held| held.id == event.id)
+                    && distance(event.position, held.landing) > HELD_TOUCH_SLOP_PX
+                {
+                    self.held = None;
+                    self.start_gesture(held.target, out);
                 }
             }
         }
-        // The recogniser sees every finger, so it knows both when a second one lands.
+        if self.fingers_down.len() >= 2 && self.target.is_none() && event.phase == FingerPhase::Down {
+            if self.fingers_down.len() == 2 {
+                // The recogniser's totals start again with a second finger.
+                self.totals = (1.0, [0.0; 2], 0.0);
+            }
+            let target = target_at(event.position, locate);
+            // Both fingers of a gesture are on what it acts on (module doc).
+            let pointer_elsewhere = self.pointer_finger.is_some() && target_at(self.pointer_landing, locate) != target;
+            let drawing = self.pointer_finger.is_some() && self.pointer_travel > crate::touch::gestures::TAP_SLOP_PX;
+            match target.filter(|_| !pointer_elsewhere) {
+                Some(target) if drawing && self.held.is_none() => {
+                    self.held = Some(HeldTouch { id: event.id, landing: event.position, target });
+                }
+                Some(_) if drawing => {}
+                Some(target) => self.start_gesture(target, out),
+                None => {}
+            }
+        }
+        // The recogniser sees every finger, so it knows both when a second one lands; the totals
+        // follow it while a touch is held, so a gesture that starts late starts without a jump.
         self.recognised.clear();
         self.gestures.feed(event, &mut self.recognised);
-        if let Some(target) = self.target {
+        if self.target.is_some() || self.held.is_some() {
             for gesture in &self.recognised {
                 let (scale, translation, angle) = &mut self.totals;
                 let (zoom, pan_pixels, turn_degrees) = match *gesture {
@@ -133,6 +178,7 @@ impl TouchRouter {
                     }
                     _ => continue,
                 };
+                let Some(target) = self.target else { continue };
                 out.push(match target {
                     Target::View => Routed::ViewGesture { zoom, pan_pixels, turn_degrees },
                     // Slices do not turn: their orientation is the patient's.
@@ -144,15 +190,18 @@ impl TouchRouter {
                     },
                 });
             }
-            if self.fingers_down.is_empty() {
-                self.target = None;
+            if self.target.is_some() {
+                if self.fingers_down.is_empty() {
+                    self.target = None;
+                }
+                return;
             }
-            return;
         }
         match (event.phase, self.pointer_finger) {
             (FingerPhase::Down, None) => {
                 self.pointer_finger = Some(event.id);
                 self.pointer_landing = event.position;
+                self.pointer_travel = 0.0;
                 out.push(Routed::Pointer(WindowEvent::PointerMoved { position }));
                 out.push(Routed::Pointer(WindowEvent::PointerPressed { position, button: PointerEventButton::Left }));
             }
@@ -171,6 +220,20 @@ impl TouchRouter {
             _ => {}
         }
     }
+}
+
+impl TouchRouter {
+    /// Two fingers on `target` from now on: the pointer press is cancelled.
+    fn start_gesture(&mut self, target: Target, out: &mut Vec<Routed>) {
+        self.target = Some(target);
+        if self.pointer_finger.take().is_some() {
+            out.push(Routed::Pointer(WindowEvent::PointerExited));
+        }
+    }
+}
+
+fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
+    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 /// The gesture target under `position`: the 3-D view, or a slice's visible area.
@@ -257,6 +320,83 @@ mod tests {
         // Elsewhere (no element there), two fingers are just a pointer and an ignored finger.
         let out = two_fingers([400.0, 500.0], [460.0, 500.0], [-30.0, 0.0], [30.0, 0.0]);
         assert!(out.iter().all(|routed| matches!(routed, Routed::Pointer(_))));
+    }
+
+    /// A finger drawing on the slice area from (100, 100) for 30 frames, 3 px a frame; a second
+    /// touch lands on the slice at frame 10 and then goes to `second(frame)` each frame (`None`:
+    /// it lifts there, or is cancelled as a palm with `cancelled`).
+    fn drawing_with_a_second_touch(second: impl Fn(u64) -> Option<[f32; 2]>, cancelled: bool) -> Vec<Routed> {
+        let locate =
+            |label: &str| (label == "slice area z").then_some(Rect { x: 0.0, y: 0.0, width: 400.0, height: 400.0 });
+        let mut router = TouchRouter::default();
+        let mut out = Vec::new();
+        let first = |frame: u64| [100.0 + 3.0 * frame as f32, 100.0];
+        router.route(&finger(1, FingerPhase::Down, first(0), 0), &locate, &mut out);
+        let mut down = false;
+        for frame in 1..=30u64 {
+            let time = frame * 8_000;
+            router.route(&finger(1, FingerPhase::Move, first(frame), time), &locate, &mut out);
+            if frame < 10 {
+                continue;
+            }
+            match (second(frame), down) {
+                (Some(at), false) => router.route(&finger(2, FingerPhase::Down, at, time + 1), &locate, &mut out),
+                (Some(at), true) => router.route(&finger(2, FingerPhase::Move, at, time + 1), &locate, &mut out),
+                (None, true) => {
+                    let phase = if cancelled { FingerPhase::Cancel } else { FingerPhase::Up };
+                    router.route(&finger(2, phase, [300.0, 300.0], time + 1), &locate, &mut out);
+                }
+                (None, false) => {}
+            }
+            down = second(frame).is_some();
+        }
+        router.route(&finger(1, FingerPhase::Up, first(30), 300_000), &locate, &mut out);
+        out
+    }
+
+    #[test]
+    fn a_touch_resting_where_a_finger_draws_leaves_it_drawing() {
+        // The heel of the hand lands beside the path and wanders a few pixels as it settles;
+        // it lifts, or the panel turns it into a palm and cancels it: the loop goes on.
+        let resting =
+            |frame: u64| (frame < 20).then_some([300.0 + (frame % 3) as f32 * 4.0, 300.0 - frame as f32 * 0.5]);
+        for cancelled in [false, true] {
+            let out = drawing_with_a_second_touch(resting, cancelled);
+            assert!(out.iter().all(|routed| matches!(routed, Routed::Pointer(_))), "a gesture");
+            let moves = out.iter().filter(|r| matches!(r, Routed::Pointer(WindowEvent::PointerMoved { .. }))).count();
+            assert_eq!(moves, 31, "the landing and all thirty moves");
+            assert!(matches!(out[out.len() - 2], Routed::Pointer(WindowEvent::PointerReleased { .. })));
+        }
+        // Resting until the drawing finger lifts, too.
+        let out = drawing_with_a_second_touch(|_| Some([300.0, 300.0]), false);
+        assert!(matches!(out[out.len() - 2], Routed::Pointer(WindowEvent::PointerReleased { .. })));
+    }
+
+    #[test]
+    fn a_held_touch_that_moves_starts_the_gesture_without_a_jump() {
+        // The second finger pans down 5 px a frame from frame 10: past the held slop (24 px) at
+        // frame 15 the gesture starts, the loop is cancelled, and the pans given from then on add
+        // up to what the fingers moved from that frame on, not since the second one landed.
+        let out = drawing_with_a_second_touch(|frame| Some([300.0, 300.0 + 5.0 * (frame - 10) as f32]), false);
+        let exited = out.iter().position(|r| matches!(r, Routed::Pointer(WindowEvent::PointerExited))).unwrap();
+        assert!(
+            out[exited + 1..].iter().all(|r| matches!(r, Routed::SliceGesture { axis: Axis::Z, .. })),
+            "after the start"
+        );
+        let moves =
+            out[..exited].iter().filter(|r| matches!(r, Routed::Pointer(WindowEvent::PointerMoved { .. }))).count();
+        assert_eq!(moves, 1 + 15, "the loop went on until the second finger had moved 25 px");
+        let pan: f32 = out
+            .iter()
+            .filter_map(|routed| match routed {
+                Routed::SliceGesture { pan_fraction, .. } => Some(pan_fraction[1] * 400.0),
+                _ => None,
+            })
+            .sum();
+        // The recogniser's pan is the mean of both fingers' movement: the drawing finger moves
+        // across, the second one 5 px down a frame, 2.5 px for the pair; from the frame that
+        // started the gesture on (15 to 30) 40 px, where the whole movement since it landed is 50.
+        assert!((pan - 40.0).abs() < 1e-3, "{pan}");
     }
 
     #[test]
