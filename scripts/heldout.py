@@ -15,9 +15,7 @@ forest (100 trees) on the paper's 5 features computed here, on the same lassoed 
 It prints, per case and hand, the macro Dice of both, the share of the air connected to the
 volume's faces that got a class when the air was not lassoed, and the share of lassoed voxels
 that kept their class; then the means per hand and the worst difference to the forest.
-
-`--thick N` cuts every scan in slices N times as thick (the mean of N slices, truth their
-majority), as most hospital series come: 5 mm slices of pixels a tenth of that.
+`--thick N` cuts every scan in slices N times as thick (the mean of N, truth their majority).
 
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
                                   [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
@@ -256,9 +254,8 @@ def thick_slices(image, truth, spacing, count):
     along z (a thick slice's partial volume), its truth the class most of them hold."""
     if count <= 1:
         return image, truth, spacing
-    z = image.shape[0] // count * count
+    z, info = image.shape[0] // count * count, np.iinfo(image.dtype)
     mean = image[:z].astype(np.float64).reshape(z // count, count, *image.shape[1:]).mean(axis=1)
-    info = np.iinfo(image.dtype)
     stacked = truth[:z].reshape(z // count, count, *truth.shape[1:])
     votes = np.stack([(stacked == c).sum(axis=1) for c in range(int(truth.max()) + 1)])
     return (np.clip(np.rint(mean), info.min, info.max).astype(image.dtype), votes.argmax(axis=0).astype(np.uint8),
@@ -433,9 +430,7 @@ def main():
     parser.add_argument("--volasso", default="target/release/volasso")
     parser.add_argument("--seeds", default="101,102,103")
     parser.add_argument("--only", default=None)
-    parser.add_argument("--thick", type=int, default=1,
-                        help="cut every scan in slices this many times as thick (each the mean of that many "
-                             "slices along z), as hospital series of 5 mm slices are")
+    parser.add_argument("--thick", type=int, default=1, help="slices N times as thick (the mean of N along z)")
     parser.add_argument("--classify-args", default="", help="extra arguments for volasso classify")
     parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
     parser.add_argument("--hands", default="clean,leaky",

@@ -23,7 +23,7 @@
 
 use crate::slices::Axis;
 use crate::touch::contacts::{FingerEvent, FingerPhase};
-use crate::touch::gestures::{Gesture, GestureRecognizer};
+use crate::touch::gestures::{Gesture, GestureRecognizer, distance};
 use crate::touch::script::Rect;
 use slint::LogicalPosition;
 use slint::platform::{PointerEventButton, WindowEvent};
@@ -230,10 +230,6 @@ impl TouchRouter {
             out.push(Routed::Pointer(WindowEvent::PointerExited));
         }
     }
-}
-
-fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
-    (a[0] - b[0]).hypot(a[1] - b[1])
 }
 
 /// The gesture target under `position`: the 3-D view, or a slice's visible area.

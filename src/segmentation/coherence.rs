@@ -47,7 +47,13 @@
 //! Never: changes background voxels (label 0) or counts them as votes, so it never grows a
 //! class into the air or erodes it there.
 
+mod rows;
+
 use rayon::prelude::*;
+use rows::{
+    ROW_COUNT_SHARE, UNBEATABLE_VOTES, UNBEATABLE_VOTES_IN_PLANE, classified_span, disagreeing_voxels,
+    unflag_unbeatable, unopposed,
+};
 
 /// How far past its drawn band a label's intensities may reach for a voxel to take that label,
 /// as a share of the band's width. Chosen with `volasso accuracy` (seeds 1-8) and
@@ -358,112 +364,6 @@ fn sandwiching_labels(faces: &[Option<u8>; 6], own: u8) -> ([u8; 6], usize) {
         }
     }
     (labels, count)
-}
-
-/// The first and the last position of a non-zero label in `row`; `None` when it has none.
-/// Rows are mostly background: an OR over the row (which vectorises) finds the empty ones,
-/// and the span's ends are searched eight labels at a time.
-fn classified_span(row: &[u8]) -> Option<(usize, usize)> {
-    if row.iter().fold(0u8, |any, &label| any | label) == 0 {
-        return None;
-    }
-    // A little-endian word's first label is its lowest byte.
-    let word = |index: usize| u64::from_le_bytes(row[8 * index..][..8].try_into().unwrap_or_default());
-    let words = row.len() / 8;
-    let tail = &row[8 * words..];
-    let first = match (0..words).find(|&index| word(index) != 0) {
-        Some(index) => 8 * index + (word(index).trailing_zeros() / 8) as usize,
-        None => 8 * words + tail.iter().position(|&label| label != 0)?,
-    };
-    let last = match tail.iter().rposition(|&label| label != 0) {
-        Some(offset) => 8 * words + offset,
-        None => {
-            let index = (0..words).rev().find(|&index| word(index) != 0)?;
-            8 * index + 7 - (word(index).leading_zeros() / 8) as usize
-        }
-    };
-    Some((first, last))
-}
-
-/// Into `flags` (one per voxel of `row`): 1 where the voxel is classified and a face
-/// neighbour (beside it in the row, or in one of the `neighbours` rows) holds another class
-/// (background neither agrees nor disagrees), 0 elsewhere. Whole-row loops of byte operations
-/// without branches, which vectorise; the caller visits only the flagged voxels.
-fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u8]) {
-    let disagrees = |own: u8, other: u8| u8::from(own != 0) & u8::from(other != 0) & u8::from(other != own);
-    flags.fill(0);
-    for neighbour in neighbours.into_iter().flatten() {
-        for ((flag, &own), &other) in flags.iter_mut().zip(row).zip(neighbour) {
-            *flag |= disagrees(own, other);
-        }
-    }
-    let Some(last) = row.len().checked_sub(1) else { return };
-    for ((flag, &own), &left) in flags[1..].iter_mut().zip(&row[1..]).zip(&row[..last]) {
-        *flag |= disagrees(own, left);
-    }
-    for ((flag, &own), &right) in flags[..last].iter_mut().zip(&row[..last]).zip(&row[1..]) {
-        *flag |= disagrees(own, right);
-    }
-}
-
-/// A row's flagged voxels are first cleared of unbeatable ones ([`unflag_unbeatable`]) when
-/// at least one in this many of its span is flagged: the row-wise count costs about as much
-/// as counting a few voxels label by label. Measured with `RUST_LOG=volasso::segmentation::refine=debug`
-/// (median filter time over `classify --repeat 21`): 1 in 8 took the Visible Male head's
-/// filter from 53.6 to 37.7 ms and the lobster's from 3.2 to 3.3 ms; 1 in 4, 16 and 32 were no
-/// better on either.
-const ROW_COUNT_SHARE: usize = 8;
-
-/// Votes a voxel's own label needs in its 3 x 3 x 3 neighbourhood (itself included) so that
-/// no other label can have strictly more: the other 13 of 27 at most.
-const UNBEATABLE_VOTES: u8 = 14;
-
-/// The same in its 3 x 3 neighbourhood within its plane ([`Neighbourhood::Plane`]): the other
-/// 4 of 9 at most.
-const UNBEATABLE_VOTES_IN_PLANE: u8 = 5;
-
-/// Clears the flag of every voxel of `row` (flags and `votes` from position `first` on) whose
-/// own label holds `unbeatable` votes of its neighbourhood in `rows_around` (the nine rows
-/// at y - 1, y, y + 1 in the planes below, here and above; `None` past the volume or outside
-/// the neighbourhood): the majority cannot change it, so it need not be counted label by
-/// label. Counted row-wise, in byte loops that vectorise; most flagged voxels lie on smooth
-/// borders and are cleared here.
-fn unflag_unbeatable(
-    row: &[u8],
-    first: usize,
-    rows_around: &[Option<&[u8]>],
-    flags: &mut [u8],
-    votes: &mut [u8],
-    unbeatable: u8,
-) {
-    let span = first..first + flags.len();
-    votes.fill(0);
-    // One vote where a voxel's own label equals the neighbour's at the same position in `other`.
-    let count = |votes: &mut [u8], own: &[u8], other: &[u8]| {
-        for ((vote, &own), &other) in votes.iter_mut().zip(own).zip(other) {
-            *vote += u8::from(own == other);
-        }
-    };
-    for neighbour in rows_around.iter().flatten() {
-        // dx = 0; -1 (the voxel at x - 1 exists from x = 1 on); +1 (up to x = size_x - 2).
-        count(votes, &row[span.clone()], &neighbour[span.clone()]);
-        let left = span.start.max(1)..span.end;
-        count(&mut votes[left.start - span.start..], &row[left.clone()], &neighbour[left.start - 1..]);
-        let right = span.start..span.end.min(row.len() - 1);
-        count(votes, &row[right.clone()], &neighbour[right.start + 1..]);
-    }
-    for (flag, &vote) in flags.iter_mut().zip(votes.iter()) {
-        *flag &= u8::from(vote < unbeatable);
-    }
-}
-
-/// Whether `row` and each neighbouring row (the rows beside it in y and in z, where they
-/// exist, over the same columns) hold only `label` or background: then no voxel of `row`
-/// disagrees with a face neighbour. Folds without early exit, which vectorise.
-fn unopposed(row: &[u8], label: u8, neighbours: [Option<&[u8]>; 4]) -> bool {
-    let agrees = |agrees: bool, &other: &u8| agrees & ((other == label) | (other == 0));
-    row.iter().fold(true, agrees)
-        && neighbours.into_iter().flatten().all(|neighbour| neighbour.iter().fold(true, agrees))
 }
 
 /// The non-zero label with the most votes in the 3 x 3 x 3 neighbourhood of (x, y) over

@@ -134,7 +134,8 @@ impl Default for GestureRecognizer {
     }
 }
 
-fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
+/// The distance between two screen points, in pixels.
+pub fn distance(a: [f32; 2], b: [f32; 2]) -> f32 {
     (a[0] - b[0]).hypot(a[1] - b[1])
 }
 

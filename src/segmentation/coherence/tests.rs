@@ -199,23 +199,6 @@ fn a_uniform_row_outvoted_by_a_neighbouring_row_in_any_direction_changes() {
     }
 }
 
-#[test]
-fn a_row_s_classified_span_runs_from_its_first_to_its_last_label() {
-    let mut rng = crate::rng::SplitMix64::new(7);
-    for length in [0, 1, 7, 8, 9, 16, 17, 31, 301] {
-        for _ in 0..50 {
-            let mut row = vec![0u8; length];
-            for _ in 0..rng.below(4) {
-                if length > 0 {
-                    row[rng.below(length as u64) as usize] = 1 + rng.below(3) as u8;
-                }
-            }
-            let expected = row.iter().position(|&label| label != 0).zip(row.iter().rposition(|&label| label != 0));
-            assert_eq!(classified_span(&row), expected, "{row:?}");
-        }
-    }
-}
-
 /// Bands per label, as [`LabelBands::new`] takes them.
 type Bands = Vec<Option<(f32, f32)>>;
 
