@@ -23,7 +23,7 @@
 
 use crate::slices::Axis;
 use crate::touch::contacts::{FingerEvent, FingerPhase};
-use crate::touch::gestures::{Gesture, GestureRecognizer, distance};
+use crate::touch::gestures::{Gesture, GestureRecognizer, TAP_SLOP_PX, distance};
 use crate::touch::script::Rect;
 use slint::LogicalPosition;
 use slint::platform::{PointerEventButton, WindowEvent};
@@ -55,7 +55,7 @@ enum Target {
 /// How far (screen pixels) a second touch held while the first finger draws must move to start
 /// a two-finger gesture (module doc): twice a tap's slop, more than a resting palm's centre
 /// wanders as it settles, less than the first frames of a pinch.
-pub const HELD_TOUCH_SLOP_PX: f32 = 2.0 * crate::touch::gestures::TAP_SLOP_PX;
+pub const HELD_TOUCH_SLOP_PX: f32 = 2.0 * TAP_SLOP_PX;
 
 /// A second touch on what the first finger is drawing on, not yet a gesture.
 #[derive(Clone, Copy, Debug)]
@@ -143,7 +143,7 @@ impl TouchRouter {
             let target = target_at(event.position, locate);
             // Both fingers of a gesture are on what it acts on (module doc).
             let pointer_elsewhere = self.pointer_finger.is_some() && target_at(self.pointer_landing, locate) != target;
-            let drawing = self.pointer_finger.is_some() && self.pointer_travel > crate::touch::gestures::TAP_SLOP_PX;
+            let drawing = self.pointer_finger.is_some() && self.pointer_travel > TAP_SLOP_PX;
             match target.filter(|_| !pointer_elsewhere) {
                 Some(target) if drawing && self.held.is_none() => {
                     self.held = Some(HeldTouch { id: event.id, landing: event.position, target });

@@ -50,10 +50,7 @@
 mod rows;
 
 use rayon::prelude::*;
-use rows::{
-    ROW_COUNT_SHARE, UNBEATABLE_VOTES, UNBEATABLE_VOTES_IN_PLANE, classified_span, disagreeing_voxels,
-    unflag_unbeatable, unopposed,
-};
+use rows::{ROW_COUNT_SHARE, classified_span, disagreeing_voxels, unflag_unbeatable, unopposed};
 
 /// How far past its drawn band a label's intensities may reach for a voxel to take that label,
 /// as a share of the band's width. Chosen with `volasso accuracy` (seeds 1-8) and
@@ -170,8 +167,8 @@ pub enum Neighbourhood {
 /// and below to vote ([`Neighbourhood::for_spacing`]). Scans are thin-sliced (a ratio up to
 /// about 2) or thick-sliced (5 and more); between, `scripts/heldout.py`'s phantoms were mixed
 /// (averaged over three slices, ratios 3 to 9: the mean 0.830 -> 0.842 clean, but the abdomen
-/// at 3.1 and the vessels at 4.3 lost up to 0.02 and 0.04), and at 3.5 every case of its own
-/// spacings votes in the cube as before.
+/// at 3.1 and the vessels at 4.3 lost up to 0.02 and 0.04); at 3.5 every case of its own
+/// spacings, the thickest 3.1, votes in the cube.
 pub const THICK_SLICE_RATIO: f64 = 3.5;
 
 impl Neighbourhood {
@@ -180,6 +177,16 @@ impl Neighbourhood {
     pub fn for_spacing(spacing_mm: [f64; 3]) -> Neighbourhood {
         let in_plane = spacing_mm[0].max(spacing_mm[1]);
         if spacing_mm[2] > THICK_SLICE_RATIO * in_plane { Neighbourhood::Plane } else { Neighbourhood::Cube }
+    }
+
+    /// Votes a voxel's own label needs in the neighbourhood (itself included) so that no other
+    /// label can have strictly more: more than half of 27, or of 9.
+    fn unbeatable_votes(self) -> u8 {
+        let voxels = match self {
+            Neighbourhood::Cube => 27,
+            Neighbourhood::Plane => 9,
+        };
+        voxels / 2 + 1
     }
 }
 
@@ -191,9 +198,10 @@ pub fn majority_pass(labels: &mut [u8], dims: [usize; 3]) -> usize {
 
 /// `passes` passes, each on the labels the one before left; returns the voxels changed in all.
 /// With `bands`, a voxel takes only a label its intensity could be mixed from
-/// ([`LabelBands`]). After the first, a pass visits only the planes next to a plane the pass
-/// before changed (a plane whose three planes kept their labels would give the same result
-/// again), and the passes stop early once one changes nothing.
+/// ([`LabelBands`]). After the first, a pass visits only the planes a change of the pass before
+/// can reach (in the cube the planes next to a changed plane, within the plane that plane
+/// alone: a plane whose neighbourhood kept its labels would give the same result again), and
+/// the passes stop early once one changes nothing.
 pub fn majority_passes(
     labels: &mut [u8],
     dims: [usize; 3],
@@ -249,7 +257,7 @@ fn majority_plane(
     let across = neighbourhood == Neighbourhood::Cube;
     let below = (across && z > 0).then(|| &original[(z - 1) * plane..][..plane]);
     let above = (across && z + 1 < size_z).then(|| &original[(z + 1) * plane..][..plane]);
-    let unbeatable = if across { UNBEATABLE_VOTES } else { UNBEATABLE_VOTES_IN_PLANE };
+    let unbeatable = neighbourhood.unbeatable_votes();
     let mut changes = Vec::new();
     let mut flags = vec![0u8; size_x];
     let mut votes = vec![0u8; size_x];

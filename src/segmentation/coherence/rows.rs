@@ -59,14 +59,6 @@ pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], fla
 /// better on either.
 pub(super) const ROW_COUNT_SHARE: usize = 8;
 
-/// Votes a voxel's own label needs in its 3 x 3 x 3 neighbourhood (itself included) so that
-/// no other label can have strictly more: the other 13 of 27 at most.
-pub(super) const UNBEATABLE_VOTES: u8 = 14;
-
-/// The same in its 3 x 3 neighbourhood within its plane ([`super::Neighbourhood::Plane`]): the other
-/// 4 of 9 at most.
-pub(super) const UNBEATABLE_VOTES_IN_PLANE: u8 = 5;
-
 /// Clears the flag of every voxel of `row` (flags and `votes` from position `first` on) whose
 /// own label holds `unbeatable` votes of its neighbourhood in `rows_around` (the nine rows
 /// at y - 1, y, y + 1 in the planes below, here and above; `None` past the volume or outside
