@@ -124,6 +124,9 @@ pub enum FeatureChoice {
     Multiscale,
     /// 9-D: the same at the two finest scales (a third of the work).
     MultiscaleFine,
+    /// 6-D: the paper's five and the gap depth (a grey closing minus the value: a thin dark
+    /// layer between bright structures stands out, a blurred edge does not).
+    Paper5Gap,
 }
 
 impl From<FeatureChoice> for crate::features::FeatureSet {
@@ -132,6 +135,7 @@ impl From<FeatureChoice> for crate::features::FeatureSet {
             FeatureChoice::Paper5 => crate::features::FeatureSet::Paper5,
             FeatureChoice::Multiscale => crate::features::FeatureSet::Multiscale,
             FeatureChoice::MultiscaleFine => crate::features::FeatureSet::MultiscaleFine,
+            FeatureChoice::Paper5Gap => crate::features::FeatureSet::Paper5Gap,
         }
     }
 }

@@ -7,6 +7,7 @@
 //! rayon makes a reader per split of a parallel pass, often dozens per classification, and
 //! fresh buffers cost a zero fill and a page fault per 4 KiB page each time.
 
+use super::gap::GapPlanes;
 use super::multiscale::MultiscaleSlabReader;
 use super::{FeatureError, FeatureSet, Neighbourhood, PAPER5_DIM, check_slab, inverse_span_mm};
 use crate::volume::{ForegroundRows, Volume};
@@ -24,6 +25,8 @@ pub struct FeatureSlabReader<'v> {
     volume: &'v Volume,
     /// The multi-scale set's block reader (`None` for the paper's set).
     multiscale: Option<MultiscaleSlabReader<'v>>,
+    /// The closing's planes for [`FeatureSet::Paper5Gap`] (`None` for the other sets).
+    gap: Option<GapPlanes>,
     feature_set: FeatureSet,
     /// Where the foreground is, when the caller promised to ask only for it: then only the
     /// rows near foreground are decoded.
@@ -48,6 +51,7 @@ impl<'v> FeatureSlabReader<'v> {
         FeatureSlabReader {
             volume,
             multiscale: feature_set.scales().map(|scales| MultiscaleSlabReader::new(volume, scales)),
+            gap: (feature_set == FeatureSet::Paper5Gap).then(GapPlanes::default),
             feature_set,
             foreground_rows: None,
             planes: SPARE_PLANES.with(|spare| spare.borrow_mut().take()).unwrap_or_default(),
@@ -96,10 +100,16 @@ impl<'v> FeatureSlabReader<'v> {
             }
             return;
         }
-        let dim = PAPER5_DIM;
+        let dim = self.feature_set.dim();
         out.clear();
         out.resize(z_range.len() * plane * dim, 0.0);
         for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
+            if let Some(gap) = &mut self.gap {
+                let depths = gap.plane(self.volume, z);
+                for (voxel_out, &depth) in slice_out.chunks_exact_mut(dim).zip(depths) {
+                    voxel_out[PAPER5_DIM] = depth;
+                }
+            }
             let [previous, current, next] = self.load_planes_around(z);
             let previous = &self.planes[previous];
             let current = &self.planes[current];
@@ -111,7 +121,7 @@ impl<'v> FeatureSlabReader<'v> {
                 let mut emit = |x: usize, x_minus: usize, x_plus: usize, x_scale: f32| {
                     let neighbourhood =
                         rows.neighbourhood([x_minus, x, x_plus], [x_scale, y_gradient_scale, z_gradient_scale]);
-                    let voxel_out = &mut row_out[x * dim..(x + 1) * dim];
+                    let voxel_out = &mut row_out[x * dim..x * dim + PAPER5_DIM];
                     voxel_out.copy_from_slice(&neighbourhood.paper5());
                 };
                 // The first and last columns clamp; the columns between need no table.
@@ -144,17 +154,24 @@ impl<'v> FeatureSlabReader<'v> {
             return Ok(());
         }
         // Every value is written below: no need to zero them first.
-        out.resize(selected.len() * PAPER5_DIM, 0.0);
-        out.truncate(selected.len() * PAPER5_DIM);
+        let dim = self.feature_set.dim();
+        out.resize(selected.len() * dim, 0.0);
+        out.truncate(selected.len() * dim);
         if selected.is_empty() {
             return Ok(());
+        }
+        if let Some(gap) = &mut self.gap {
+            let depths = gap.plane(self.volume, z);
+            for (voxel_out, &index) in out.chunks_exact_mut(dim).zip(selected) {
+                voxel_out[PAPER5_DIM] = depths[index];
+            }
         }
         let [previous, current, next] = self.load_planes_around(z);
         let planes = [&self.planes[previous][..], &self.planes[current][..], &self.planes[next][..]];
         let z_gradient_scale = inverse_span_mm(z, self.volume.dims[2], self.volume.spacing_mm[2]);
         // Selections come a row at a time: the nine rows are cut once per row, not per voxel.
         let mut row: Option<(usize, NineRows)> = None;
-        for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(PAPER5_DIM)) {
+        for (&index, voxel_out) in selected.iter().zip(out.chunks_exact_mut(dim)) {
             let (x, y) = (index % size_x, index / size_x);
             let rows = match row {
                 Some((row_y, rows)) if row_y == y => rows,
@@ -167,7 +184,7 @@ impl<'v> FeatureSlabReader<'v> {
             let [x_minus, x_plus] = self.x_neighbours[x];
             let gradient_scale = [self.x_gradient_scale[x], self.y_gradient_scale[y], z_gradient_scale];
             let neighbourhood = rows.neighbourhood([x_minus, x, x_plus], gradient_scale);
-            voxel_out.copy_from_slice(&neighbourhood.paper5());
+            voxel_out[..PAPER5_DIM].copy_from_slice(&neighbourhood.paper5());
         }
         Ok(())
     }

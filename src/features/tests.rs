@@ -115,6 +115,32 @@ fn slabs_equal_per_voxel_features_bit_for_bit_in_any_order_of_calls() {
 }
 
 #[test]
+fn the_gap_set_reads_the_same_values_by_voxel_by_slab_and_by_selection() {
+    let volume = random_volume([9, 7, 13], 21);
+    let set = FeatureSet::Paper5Gap;
+    let (dim, plane) = (set.dim(), 9 * 7);
+    let every: Vec<usize> = (0..volume.voxel_count()).collect();
+    let per_voxel = features_of_voxels(&volume, set, &every).unwrap();
+    for (index, row) in per_voxel.chunks_exact(dim).enumerate() {
+        assert_eq!(row[..5], features_at(&volume, index), "voxel {index}");
+    }
+    for depth in [1, 4, 16] {
+        let blocks = par_map_slabs(&volume, set, depth, |_, block| block.to_vec());
+        assert_eq!(blocks.concat(), per_voxel, "depth {depth}");
+    }
+    // Planes in the orders coarse-to-fine asks for them: every second one, then the rest.
+    let mut reader = FeatureSlabReader::new(&volume, set);
+    let mut block = Vec::new();
+    for z in (0..13).step_by(2).chain((1..13).step_by(2)).chain([5, 0, 12]) {
+        let selected: Vec<usize> = (0..plane).filter(|i| (i + z) % 3 != 0).collect();
+        reader.compute_selected(z, &selected, &mut block).unwrap();
+        let expected: Vec<f32> =
+            selected.iter().flat_map(|&i| per_voxel[(z * plane + i) * dim..][..dim].to_vec()).collect();
+        assert_eq!(block, expected, "z {z}");
+    }
+}
+
+#[test]
 fn selected_voxels_of_a_slice_equal_per_voxel_features() {
     let volume = random_volume([9, 7, 8], 11);
     let plane = 9 * 7;
@@ -294,6 +320,7 @@ fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughpu
 #[test]
 fn intensities_are_told_from_gradients_and_curvatures_in_every_set() {
     assert_eq!(FeatureSet::Paper5.intensity_features(), [true, false, true, true, true]);
+    assert_eq!(FeatureSet::Paper5Gap.intensity_features(), [true, false, true, true, true, false]);
     let fine = FeatureSet::MultiscaleFine.intensity_features();
     let marked: Vec<&str> =
         FeatureSet::MultiscaleFine.names().iter().zip(&fine).filter(|(_, m)| **m).map(|(n, _)| *n).collect();

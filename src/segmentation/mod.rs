@@ -115,11 +115,12 @@ impl SegmentationOptions {
 
 impl Default for SegmentationOptions {
     fn default() -> Self {
-        // The paper's SN-SVM on its 5-D features. `volasso accuracy` and benches/README.md
-        // give the figures: on phantoms nobody tuned for it generalises better than the forest
-        // on the multi-scale features, which had been chosen on the project's own phantoms.
+        // The paper's SN-SVM on its 5-D features and the gap depth. `volasso accuracy` and
+        // benches/README.md give the figures: on phantoms nobody tuned for it generalises better
+        // than the forest on the multi-scale features, which had been chosen on the project's
+        // own phantoms; the gap depth tells a joint space from a bone's blurred edge.
         SegmentationOptions {
-            feature_set: FeatureSet::Paper5,
+            feature_set: FeatureSet::Paper5Gap,
             classifier_kind: ClassifierKind::SnSvm,
             classifier: SnSvmParams::default(),
             kernel_width: KernelWidth::Automatic,

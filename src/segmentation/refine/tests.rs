@@ -14,7 +14,7 @@ fn exact_labels_are_the_classes_of_every_foreground_voxels_features() {
     let strokes = crate::phantom::lassos_inside(&phantom, &[1, 2], 3, 2.0);
     let training = crate::strokes::TrainingSet::from_strokes(&strokes, phantom.volume.dims).unwrap();
     let volume = &phantom.volume;
-    for options in [SegmentationOptions::paper(), SegmentationOptions::forest()] {
+    for options in [SegmentationOptions::default(), SegmentationOptions::paper(), SegmentationOptions::forest()] {
         let options = SegmentationOptions { coherence: crate::segmentation::Coherence::None, ..options };
         let segmenter = train(volume, &training, &options).unwrap();
         let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY);
