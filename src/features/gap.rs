@@ -126,11 +126,14 @@ fn extreme_of_planes<F: Fn(f32, f32) -> f32>(planes: &[&[f32]], out: &mut [f32],
     }
 }
 
-/// Gap depths a z plane at a time, for whole-volume passes. Planes asked for in rising order
-/// cost one new plane of each stage (the dilation in the plane, the dilation across planes and
-/// the erosion in the plane); planes asked for out of order are recomputed.
-#[derive(Default)]
+/// Gap depths a z plane at a time, for whole-volume passes, within a rectangle of each plane
+/// (the whole plane, or the foreground's box grown by the closing's reach: every depth inside
+/// the foreground box is then the whole volume's). Planes asked for in rising order cost one
+/// new plane of each stage (the dilation in the plane, the dilation across planes and the
+/// erosion in the plane); planes asked for out of order are recomputed.
 pub struct GapPlanes {
+    /// The x and y ranges computed.
+    region: [std::ops::Range<usize>; 2],
     /// Raw planes dilated in x and y, by z.
     dilated_xy: BTreeMap<usize, Vec<f32>>,
     /// Planes dilated in x, y and z, then eroded in x and y, by z.
@@ -143,9 +146,47 @@ pub struct GapPlanes {
 }
 
 impl GapPlanes {
-    /// The gap depths of z plane `z` of `volume` (x fastest).
+    /// Whole planes of a volume of `dims`.
+    pub fn whole(dims: [usize; 3]) -> GapPlanes {
+        GapPlanes::within([0..dims[0], 0..dims[1]], dims)
+    }
+
+    /// The rectangle `foreground` (x and y ranges) grown by the closing's reach, cut to a
+    /// volume of `dims`.
+    pub fn within(foreground: [std::ops::Range<usize>; 2], dims: [usize; 3]) -> GapPlanes {
+        let reach = 2 * GAP_RADIUS;
+        let region = [0, 1].map(|a| {
+            let range = &foreground[a];
+            let end = (range.end + reach).min(dims[a]);
+            range.start.saturating_sub(reach).min(end.saturating_sub(1))..end
+        });
+        GapPlanes {
+            region,
+            dilated_xy: BTreeMap::new(),
+            closed_xy: BTreeMap::new(),
+            raw: Vec::new(),
+            scratch: Vec::new(),
+            across: Vec::new(),
+            out: Vec::new(),
+        }
+    }
+
+    /// Where [`plane`](Self::plane)'s output holds plane index `index` (`x + size_x * y`);
+    /// `None` outside the rectangle.
+    pub fn positions(&self, size_x: usize) -> impl Fn(usize) -> Option<usize> + use<> {
+        let region = self.region.clone();
+        move |index| {
+            let (x, y) = (index % size_x, index / size_x);
+            (region[0].contains(&x) && region[1].contains(&y))
+                .then(|| (y - region[1].start) * region[0].len() + x - region[0].start)
+        }
+    }
+
+    /// The gap depths of z plane `z` of `volume` within the rectangle (x fastest, rows of the
+    /// rectangle's width).
     pub fn plane(&mut self, volume: &Volume, z: usize) -> &[f32] {
-        let [nx, ny, nz] = volume.dims;
+        let nz = volume.dims[2];
+        let [nx, ny] = [self.region[0].len(), self.region[1].len()];
         let plane = nx * ny;
         self.dilated_xy.retain(|&held, _| held + 2 * GAP_RADIUS >= z);
         self.closed_xy.retain(|&held, _| held + GAP_RADIUS >= z);
@@ -160,7 +201,7 @@ impl GapPlanes {
                 if self.dilated_xy.contains_key(&raw_z) {
                     continue;
                 }
-                volume.read_z_slice_f32(raw_z, &mut self.raw);
+                self.read_raw(volume, raw_z);
                 let mut dilated = vec![0f32; plane];
                 extreme_in_plane(&self.raw, &mut self.scratch, &mut dilated, nx, f32::max);
                 self.dilated_xy.insert(raw_z, dilated);
@@ -174,11 +215,19 @@ impl GapPlanes {
         let planes: Vec<&[f32]> = window(z, nz).map(|w| &self.closed_xy[&w][..]).collect();
         self.out.resize(plane, 0.0);
         extreme_of_planes(&planes, &mut self.out, f32::min);
-        volume.read_z_slice_f32(z, &mut self.raw);
+        self.read_raw(volume, z);
         for (depth, &value) in self.out.iter_mut().zip(&self.raw) {
             *depth -= value;
         }
         &self.out
+    }
+
+    /// The rectangle of z plane `z` into `raw`.
+    fn read_raw(&mut self, volume: &Volume, z: usize) {
+        let width = self.region[0].len();
+        for (row, y) in self.raw.chunks_exact_mut(width).zip(self.region[1].clone()) {
+            volume.read_f32(volume.index(self.region[0].start, y, z), row);
+        }
     }
 }
 
@@ -224,7 +273,7 @@ mod tests {
             (state >> 40) as f32 * 0.37 - 9000.0
         });
         let [nx, ny, nz] = volume.dims;
-        let mut planes = GapPlanes::default();
+        let mut planes = GapPlanes::whole(volume.dims);
         for z in [0, 1, 2, 3, 7, 8, 10, 4, 0, 10, 5] {
             let plane = planes.plane(&volume, z).to_vec();
             let indices: Vec<usize> = (0..nx * ny).map(|i| i + z * nx * ny).collect();
@@ -247,7 +296,7 @@ mod tests {
             ((state >> 33) % 1000) as f32
         });
         let [nx, ny, nz] = volume.dims;
-        let mut planes = GapPlanes::default();
+        let mut planes = GapPlanes::whole(volume.dims);
         let by_planes: Vec<f32> = (0..nz).flat_map(|z| planes.plane(&volume, z).to_vec()).collect();
         let value = |x: usize, y: usize, z: usize| volume.value_at(x, y, z) as f32;
         let dilated = |x: usize, y: usize, z: usize| {

@@ -8,7 +8,7 @@
 //! fresh buffers cost a zero fill and a page fault per 4 KiB page each time.
 
 use super::gap::GapPlanes;
-use super::multiscale::MultiscaleSlabReader;
+use super::multiscale::{MultiscaleSlabReader, foreground_box};
 use super::{FeatureError, FeatureSet, Neighbourhood, PAPER5_DIM, check_slab, inverse_span_mm};
 use crate::volume::{ForegroundRows, Volume};
 use rayon::prelude::*;
@@ -51,7 +51,7 @@ impl<'v> FeatureSlabReader<'v> {
         FeatureSlabReader {
             volume,
             multiscale: feature_set.scales().map(|scales| MultiscaleSlabReader::new(volume, scales)),
-            gap: (feature_set == FeatureSet::Paper5Gap).then(GapPlanes::default),
+            gap: (feature_set == FeatureSet::Paper5Gap).then(|| GapPlanes::whole(volume.dims)),
             feature_set,
             foreground_rows: None,
             planes: SPARE_PLANES.with(|spare| spare.borrow_mut().take()).unwrap_or_default(),
@@ -70,6 +70,10 @@ impl<'v> FeatureSlabReader<'v> {
     pub fn with_foreground_rows(mut self, rows: &'v ForegroundRows) -> Self {
         self.foreground_rows = Some(rows);
         self.multiscale = self.multiscale.take().map(|reader| reader.with_foreground_rows(rows));
+        if self.gap.is_some() {
+            let region = foreground_box(rows, 0..self.volume.dims[2]);
+            self.gap = Some(GapPlanes::within(region, self.volume.dims));
+        }
         self
     }
 
@@ -105,9 +109,12 @@ impl<'v> FeatureSlabReader<'v> {
         out.resize(z_range.len() * plane * dim, 0.0);
         for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
             if let Some(gap) = &mut self.gap {
+                // Voxels outside the rectangle are outside the foreground, whose values are
+                // not valid either.
+                let position = gap.positions(size_x);
                 let depths = gap.plane(self.volume, z);
-                for (voxel_out, &depth) in slice_out.chunks_exact_mut(dim).zip(depths) {
-                    voxel_out[PAPER5_DIM] = depth;
+                for (index, voxel_out) in slice_out.chunks_exact_mut(dim).enumerate() {
+                    voxel_out[PAPER5_DIM] = position(index).map_or(0.0, |p| depths[p]);
                 }
             }
             let [previous, current, next] = self.load_planes_around(z);
@@ -161,9 +168,11 @@ impl<'v> FeatureSlabReader<'v> {
             return Ok(());
         }
         if let Some(gap) = &mut self.gap {
+            // Selected voxels are foreground, inside the rectangle the planes cover.
+            let position = gap.positions(size_x);
             let depths = gap.plane(self.volume, z);
             for (voxel_out, &index) in out.chunks_exact_mut(dim).zip(selected) {
-                voxel_out[PAPER5_DIM] = depths[index];
+                voxel_out[PAPER5_DIM] = position(index).map_or(0.0, |p| depths[p]);
             }
         }
         let [previous, current, next] = self.load_planes_around(z);

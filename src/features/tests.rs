@@ -141,6 +141,28 @@ fn the_gap_set_reads_the_same_values_by_voxel_by_slab_and_by_selection() {
 }
 
 #[test]
+fn the_gap_set_within_the_foregrounds_box_reads_the_whole_volumes_values() {
+    // Foreground (at or above 0) in a box away from every face but one: the planes are
+    // computed only around it, and each foreground voxel's depth is still the volume's.
+    let mut rng = SplitMix64::new(4);
+    let volume = volume_from([20, 16, 9], [1.0; 3], |x, y, _| {
+        let inside = (6..11).contains(&x) && (0..7).contains(&y);
+        (rng.next_f64() * 1000.0) as f32 - if inside { 0.0 } else { 2000.0 }
+    });
+    let rows = crate::volume::ForegroundRows::find(&volume, 0.0);
+    let mut reader = FeatureSlabReader::new(&volume, FeatureSet::Paper5Gap).with_foreground_rows(&rows);
+    let plane = 20 * 16;
+    let mut block = Vec::new();
+    for z in (0..9).step_by(2).chain((1..9).step_by(2)) {
+        let selected: Vec<usize> = (0..plane).filter(|&i| volume.value(z * plane + i) >= 0.0).collect();
+        assert_eq!(selected.len(), 35);
+        reader.compute_selected(z, &selected, &mut block).unwrap();
+        let indices: Vec<usize> = selected.iter().map(|i| z * plane + i).collect();
+        assert_eq!(block, features_of_voxels(&volume, FeatureSet::Paper5Gap, &indices).unwrap(), "z {z}");
+    }
+}
+
+#[test]
 fn selected_voxels_of_a_slice_equal_per_voxel_features() {
     let volume = random_volume([9, 7, 8], 11);
     let plane = 9 * 7;

@@ -36,6 +36,7 @@
 mod box_filter;
 mod reader;
 
+pub(super) use reader::foreground_box;
 pub use reader::{MultiscaleSlabReader, multiscale_features_of_voxels};
 
 use super::eigen::symmetric_eigenvalues_lanes;

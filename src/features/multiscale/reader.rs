@@ -152,7 +152,7 @@ impl<'v> MultiscaleSlabReader<'v> {
 
 /// The x and y ranges of the foreground `rows` in z planes `planes` (a single voxel when there
 /// is none).
-fn foreground_box(rows: &ForegroundRows, planes: Range<usize>) -> [Range<usize>; 2] {
+pub(in crate::features) fn foreground_box(rows: &ForegroundRows, planes: Range<usize>) -> [Range<usize>; 2] {
     let (mut low, mut high) = ([usize::MAX; 2], [0usize; 2]);
     for z in planes {
         for y in 0..rows.size_y() {
