@@ -273,7 +273,8 @@ def write_nrrd(path, image, spacing):
 
 
 def read_nrrd_labels(path, shape):
-    data = open(path, "rb").read()
+    with open(path, "rb") as f:
+        data = f.read()
     body = data[data.index(b"\n\n") + 2:]
     return np.frombuffer(body, np.uint8).reshape(shape)
 
@@ -468,7 +469,8 @@ def main():
                     continue
                 strokes, class_truth = draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)
                 stroke_path = os.path.join(folder, f"{name}-{seed}-{hand}.strokes.json")
-                json.dump(strokes, open(stroke_path, "w"))
+                with open(stroke_path, "w") as f:
+                    json.dump(strokes, f)
                 out = os.path.join(folder, f"{name}-{seed}-{hand}.labels.nrrd")
                 subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out] + args.classify_args.split(),
                                check=True, capture_output=True, text=True)

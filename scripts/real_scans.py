@@ -49,7 +49,8 @@ def raw(path, shape, dtype):
 
 def nrrd(path):
     """The voxels of an attached-header raw NRRD (z, y, x), as the header says."""
-    data = open(path, "rb").read()
+    with open(path, "rb") as f:
+        data = f.read()
     header = data[:data.index(b"\n\n")].decode()
     fields = dict(line.split(":", 1) for line in header.splitlines()[1:] if ":" in line and not line.startswith("#"))
     x, y, z = [int(s) for s in fields["sizes"].split()]
@@ -61,7 +62,8 @@ def nrrd(path):
 
 def nifti(path):
     """The voxels of a single-file int16 NIfTI-1 (z, y, x), either byte order."""
-    data = open(path, "rb").read()
+    with open(path, "rb") as f:
+        data = f.read()
     order = "<" if np.frombuffer(data[:4], "<i4")[0] == 348 else ">"
     x, y, z = [int(v) for v in np.frombuffer(data[40:56], order + "i2")[1:4]]
     offset = int(np.frombuffer(data[108:112], order + "f4")[0])
@@ -114,7 +116,8 @@ def main():
                 lasso_air = seed == 3
                 strokes, class_truth = heldout.draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)
                 stroke_path = os.path.join(folder, f"{scan}-{seed}-{hand}.strokes.json")
-                json.dump(strokes, open(stroke_path, "w"))
+                with open(stroke_path, "w") as f:
+                    json.dump(strokes, f)
                 out = os.path.join(folder, f"{scan}-{seed}-{hand}.labels.nrrd")
                 started = time.time()
                 run = subprocess.run([args.volasso, "classify", path, "--strokes", stroke_path, "--out", out],
