@@ -51,10 +51,10 @@ use std::ops::Range;
 const PAPER5_DIM: usize = 5;
 
 /// A choice of per-voxel features.
-#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, Default)]
+/// (No `Default`: the product's default set is `segmentation::SegmentationOptions`'s.)
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]
 pub enum FeatureSet {
     /// Intensity, gradient magnitude, and the xy, xz, yz 8-neighbour means (§3.3).
-    #[default]
     Paper5,
     /// Intensity, smoothed intensity, gradient magnitude, Hessian eigenvalues and differences
     /// of Gaussians at scales 0.8-3.2 voxels (17-D, [`multiscale`]).
