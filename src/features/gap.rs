@@ -134,11 +134,12 @@ fn extreme_of_planes<F: Fn(f32, f32) -> f32>(planes: &[&[f32]], out: &mut [f32],
 pub struct GapPlanes {
     /// The x and y ranges computed.
     region: [std::ops::Range<usize>; 2],
+    /// Raw planes, by z: read once for the dilation and kept for the depth's subtraction.
+    raw: BTreeMap<usize, Vec<f32>>,
     /// Raw planes dilated in x and y, by z.
     dilated_xy: BTreeMap<usize, Vec<f32>>,
     /// Planes dilated in x, y and z, then eroded in x and y, by z.
     closed_xy: BTreeMap<usize, Vec<f32>>,
-    raw: Vec<f32>,
     scratch: Vec<f32>,
     across: Vec<f32>,
     /// The last plane given.
@@ -162,23 +163,37 @@ impl GapPlanes {
         });
         GapPlanes {
             region,
+            raw: BTreeMap::new(),
             dilated_xy: BTreeMap::new(),
             closed_xy: BTreeMap::new(),
-            raw: Vec::new(),
             scratch: Vec::new(),
             across: Vec::new(),
             out: Vec::new(),
         }
     }
 
-    /// Where [`plane`](Self::plane)'s output holds plane index `index` (`x + size_x * y`);
-    /// `None` outside the rectangle.
-    pub fn positions(&self, size_x: usize) -> impl Fn(usize) -> Option<usize> + use<> {
-        let region = self.region.clone();
-        move |index| {
+    /// Writes the gap depth of each voxel of z plane `z`, given by its index within the plane
+    /// (`x + size_x y`), into `rows[k][column]`, the row of the k-th index; 0 for a voxel
+    /// outside the rectangle (outside the foreground, whose features a reader restricted to
+    /// it does not give either).
+    pub fn write_depths<'r>(
+        &mut self,
+        volume: &Volume,
+        z: usize,
+        indices: impl Iterator<Item = usize>,
+        rows: impl Iterator<Item = &'r mut [f32]>,
+        column: usize,
+    ) {
+        self.plane(volume, z);
+        let size_x = volume.dims[0];
+        let [columns, lines] = &self.region;
+        for (index, row) in indices.zip(rows) {
             let (x, y) = (index % size_x, index / size_x);
-            (region[0].contains(&x) && region[1].contains(&y))
-                .then(|| (y - region[1].start) * region[0].len() + x - region[0].start)
+            row[column] = if columns.contains(&x) && lines.contains(&y) {
+                self.out[(y - lines.start) * columns.len() + x - columns.start]
+            } else {
+                0.0
+            };
         }
     }
 
@@ -188,11 +203,11 @@ impl GapPlanes {
         let nz = volume.dims[2];
         let [nx, ny] = [self.region[0].len(), self.region[1].len()];
         let plane = nx * ny;
+        self.raw.retain(|&held, _| held + 2 * GAP_RADIUS >= z);
         self.dilated_xy.retain(|&held, _| held + 2 * GAP_RADIUS >= z);
         self.closed_xy.retain(|&held, _| held + GAP_RADIUS >= z);
         self.scratch.resize(plane, 0.0);
         self.across.resize(plane, 0.0);
-        self.raw.resize(plane, 0.0);
         for closed_z in window(z, nz) {
             if self.closed_xy.contains_key(&closed_z) {
                 continue;
@@ -201,9 +216,9 @@ impl GapPlanes {
                 if self.dilated_xy.contains_key(&raw_z) {
                     continue;
                 }
-                self.read_raw(volume, raw_z);
+                let raw = self.raw.entry(raw_z).or_insert_with(|| read_rectangle(volume, &self.region, raw_z));
                 let mut dilated = vec![0f32; plane];
-                extreme_in_plane(&self.raw, &mut self.scratch, &mut dilated, nx, f32::max);
+                extreme_in_plane(raw, &mut self.scratch, &mut dilated, nx, f32::max);
                 self.dilated_xy.insert(raw_z, dilated);
             }
             let planes: Vec<&[f32]> = window(closed_z, nz).map(|w| &self.dilated_xy[&w][..]).collect();
@@ -215,20 +230,24 @@ impl GapPlanes {
         let planes: Vec<&[f32]> = window(z, nz).map(|w| &self.closed_xy[&w][..]).collect();
         self.out.resize(plane, 0.0);
         extreme_of_planes(&planes, &mut self.out, f32::min);
-        self.read_raw(volume, z);
-        for (depth, &value) in self.out.iter_mut().zip(&self.raw) {
+        // Plane z was read for the dilation of closed plane z (in its own window) and is kept
+        // as long as that dilation is.
+        let raw = self.raw.entry(z).or_insert_with(|| read_rectangle(volume, &self.region, z));
+        for (depth, &value) in self.out.iter_mut().zip(raw.iter()) {
             *depth -= value;
         }
         &self.out
     }
+}
 
-    /// The rectangle of z plane `z` into `raw`.
-    fn read_raw(&mut self, volume: &Volume, z: usize) {
-        let width = self.region[0].len();
-        for (row, y) in self.raw.chunks_exact_mut(width).zip(self.region[1].clone()) {
-            volume.read_f32(volume.index(self.region[0].start, y, z), row);
-        }
+/// The rectangle `region` (x and y ranges) of z plane `z`.
+fn read_rectangle(volume: &Volume, region: &[std::ops::Range<usize>; 2], z: usize) -> Vec<f32> {
+    let width = region[0].len();
+    let mut values = vec![0f32; width * region[1].len()];
+    for (row, y) in values.chunks_exact_mut(width).zip(region[1].clone()) {
+        volume.read_f32(volume.index(region[0].start, y, z), row);
     }
+    values
 }
 
 #[cfg(test)]

@@ -109,13 +109,7 @@ impl<'v> FeatureSlabReader<'v> {
         out.resize(z_range.len() * plane * dim, 0.0);
         for (z, slice_out) in z_range.clone().zip(out.chunks_exact_mut(plane * dim)) {
             if let Some(gap) = &mut self.gap {
-                // Voxels outside the rectangle are outside the foreground, whose values are
-                // not valid either.
-                let position = gap.positions(size_x);
-                let depths = gap.plane(self.volume, z);
-                for (index, voxel_out) in slice_out.chunks_exact_mut(dim).enumerate() {
-                    voxel_out[PAPER5_DIM] = position(index).map_or(0.0, |p| depths[p]);
-                }
+                gap.write_depths(self.volume, z, 0..plane, slice_out.chunks_exact_mut(dim), PAPER5_DIM);
             }
             let [previous, current, next] = self.load_planes_around(z);
             let previous = &self.planes[previous];
@@ -168,12 +162,7 @@ impl<'v> FeatureSlabReader<'v> {
             return Ok(());
         }
         if let Some(gap) = &mut self.gap {
-            // Selected voxels are foreground, inside the rectangle the planes cover.
-            let position = gap.positions(size_x);
-            let depths = gap.plane(self.volume, z);
-            for (voxel_out, &index) in out.chunks_exact_mut(dim).zip(selected) {
-                voxel_out[PAPER5_DIM] = position(index).map_or(0.0, |p| depths[p]);
-            }
+            gap.write_depths(self.volume, z, selected.iter().copied(), out.chunks_exact_mut(dim), PAPER5_DIM);
         }
         let [previous, current, next] = self.load_planes_around(z);
         let planes = [&self.planes[previous][..], &self.planes[current][..], &self.planes[next][..]];
