@@ -16,8 +16,9 @@
 //! for training voxels and [`GapPlanes`] for whole planes, take maxima and minima of the same
 //! values and so agree to the bit.
 //!
-//! Never: keeps a copy of the whole volume (a whole-volume pass holds about `6 GAP_RADIUS + 3`
-//! planes per worker), or knows about classes.
+//! Never: keeps a copy of the whole volume (a whole-volume pass holds about `10 GAP_RADIUS + 6`
+//! planes of its rectangle per worker: raw and dilated planes `2 GAP_RADIUS` either side, closed
+//! ones `GAP_RADIUS` either side, three buffers), or knows about classes.
 
 use crate::volume::Volume;
 use std::collections::BTreeMap;
