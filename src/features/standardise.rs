@@ -18,6 +18,31 @@ pub struct Standardiser {
     pub training_high: Vec<f64>,
 }
 
+/// How a feature set's vectors are standardised for the classifier's distance: each feature's
+/// weight, and the feature whose deviation is its unit ([`Standardiser::in_units_of`]).
+#[derive(Clone, Debug, PartialEq)]
+pub struct Scaling {
+    /// Each feature's weight in the distance between standardised vectors
+    /// ([`Standardiser::weighted`]).
+    pub weights: Vec<f64>,
+    /// For each feature, the feature whose deviation scales it (its own index for most).
+    pub unit_of: Vec<usize>,
+}
+
+impl Scaling {
+    /// Each feature at `weights[k]`, scaled by its own deviation.
+    pub fn weighted(weights: Vec<f64>) -> Scaling {
+        let unit_of = (0..weights.len()).collect();
+        Scaling { weights, unit_of }
+    }
+
+    /// Fits a [`Standardiser`] on row-major `vectors` of `dim` features (as
+    /// [`Standardiser::fit`]), with this scaling's units and weights.
+    pub fn fit(&self, vectors: &[f32], dim: usize) -> Result<Standardiser, FeatureError> {
+        Ok(Standardiser::fit(vectors, dim)?.in_units_of(&self.unit_of).weighted(&self.weights))
+    }
+}
+
 impl Standardiser {
     /// Fits on row-major `vectors` of `dim` features. Refuses no vectors, a length that is not
     /// a multiple of `dim`, and NaN or infinite features (naming the vector and feature).
@@ -66,6 +91,20 @@ impl Standardiser {
             }
         }
         Ok(Standardiser { mean, std, training_low, training_high })
+    }
+
+    /// The same standardisation with feature k scaled by the deviation of feature
+    /// `unit_of[k]` instead of its own: for a feature that is measured in another's units and
+    /// should keep their scale (the gap depth is a difference of intensities). Indices of
+    /// another length than the features, or out of range, leave it as it is.
+    pub fn in_units_of(mut self, unit_of: &[usize]) -> Standardiser {
+        if unit_of.len() == self.std.len() && unit_of.iter().all(|&unit| unit < self.std.len()) {
+            let own = self.std.clone();
+            for (deviation, &unit) in self.std.iter_mut().zip(unit_of) {
+                *deviation = own[unit];
+            }
+        }
+        self
     }
 
     /// The same standardisation with feature k multiplied by `weights[k]` after it: the

@@ -277,8 +277,30 @@ fn a_weighted_standardisation_scales_each_feature_after_it_in_both_paths() {
     assert!((block[1] as f64 - b[3]).abs() < 1e-6, "the prediction path weighs as training does");
     assert_eq!(plain.clone().weighted(&[1.0]), plain, "weights of another length change nothing");
     assert_eq!(plain.clone().weighted(&[1.0, 0.0]), plain, "a zero weight changes nothing");
-    assert_eq!(FeatureSet::Paper5.distance_weights()[1], crate::features::PAPER5_GRADIENT_WEIGHT);
-    assert!(FeatureSet::MultiscaleFine.distance_weights().iter().all(|&w| w == 1.0));
+    assert_eq!(FeatureSet::Paper5.scaling().weights[1], crate::features::PAPER5_GRADIENT_WEIGHT);
+    assert!(FeatureSet::MultiscaleFine.scaling().weights.iter().all(|&w| w == 1.0));
+}
+
+#[test]
+fn the_gap_depth_is_scaled_by_the_intensity_deviation_not_its_own() {
+    // Intensities 0, 100, 200 (deviation 81.6) and a gap depth of noise, 0, 2, 4 (1.63):
+    // on its own scale the noise would spread as far as the intensities do.
+    let training = [0.0f32, 0.0, 100.0, 2.0, 200.0, 4.0];
+    let own = Standardiser::fit(&training, 2).unwrap();
+    let shared = own.clone().in_units_of(&[0, 0]);
+    assert_eq!(shared.std, vec![own.std[0], own.std[0]]);
+    assert_eq!(shared.mean, own.mean, "only the scale changes");
+    let values = shared.apply(&training).unwrap();
+    assert!((values[5] - values[1] - 4.0 / own.std[0]).abs() < 1e-12, "a gap of 4 is 4 intensity units apart");
+    assert_eq!(own.clone().in_units_of(&[0]), own, "units of another length change nothing");
+    assert_eq!(own.clone().in_units_of(&[0, 2]), own, "a unit out of range changes nothing");
+    let scaling = FeatureSet::Paper5Gap.scaling();
+    assert_eq!(scaling.unit_of[5], 0, "the gap depth is measured in intensities");
+    assert_eq!(scaling.weights[5], crate::features::GAP_WEIGHT);
+    let vectors: Vec<f32> = (0..12).map(|i| [1.0, 5.0, 1.0, 2.0, 3.0, 0.5][i % 6] * (1 + i / 6) as f32).collect();
+    let fitted = scaling.fit(&vectors, 6).unwrap();
+    let plain = Standardiser::fit(&vectors, 6).unwrap();
+    assert!((fitted.std[5] - plain.std[0] / crate::features::GAP_WEIGHT).abs() < 1e-9);
 }
 
 #[test]

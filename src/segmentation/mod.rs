@@ -371,8 +371,8 @@ pub fn train(
             value: volume.value(voxels[sample]),
         });
     }
-    let weights = options.feature_set.distance_weights();
-    let standardiser = Standardiser::fit(&raw_features, dim)?.weighted(&weights);
+    let scaling = options.feature_set.scaling();
+    let standardiser = scaling.fit(&raw_features, dim)?;
     let values = standardiser.apply(&raw_features)?;
     let features_seconds = started.elapsed().as_secs_f64();
     let started = Instant::now();
@@ -385,7 +385,7 @@ pub fn train(
             let gate = drawn.gate();
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
-                &weights,
+                &scaling,
                 &labels,
                 &class_ids,
                 gate,

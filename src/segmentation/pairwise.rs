@@ -22,7 +22,7 @@
 use super::gate::{Band, ClassSet, IntensityGate};
 use super::{KernelWidth, SegmentationError, median_heuristic_width};
 use crate::classify::{self, Kernel, Model, SampleMatrix, SnSvmParams, TrainReport};
-use crate::features::Standardiser;
+use crate::features::{Scaling, Standardiser};
 use rayon::prelude::*;
 
 /// One pair's SN-SVM on its own standardisation.
@@ -54,14 +54,14 @@ pub struct PairwiseSnSvm {
 }
 
 impl PairwiseSnSvm {
-    /// Trains on `raw` feature vectors (one value per weight in a row, finite; the first is
-    /// the intensity) with class `labels` from `class_ids` (sorted, each present); each pair's
-    /// standardisation weighs its features by `weights` ([`Standardiser::weighted`]). `gate`
+    /// Trains on `raw` feature vectors (one value per weight of `scaling` in a row, finite; the
+    /// first is the intensity) with class `labels` from `class_ids` (sorted, each present);
+    /// each pair's standardisation is fitted on the pair's vectors with `scaling`. `gate`
     /// holds a band per class in `class_ids` order (or is open).
     #[allow(clippy::too_many_arguments)]
     pub fn train(
         raw: &[f32],
-        weights: &[f64],
+        scaling: &Scaling,
         labels: &[u8],
         class_ids: &[u8],
         gate: IntensityGate,
@@ -79,7 +79,7 @@ impl PairwiseSnSvm {
                 pair_classes.push((first, second));
             }
         }
-        let dim = weights.len();
+        let dim = scaling.weights.len();
         let pairs = pair_classes
             .par_iter()
             .map(|&(first, second)| {
@@ -88,7 +88,7 @@ impl PairwiseSnSvm {
                 let pair_raw: Vec<f32> =
                     rows.iter().flat_map(|&i| raw[i * dim..(i + 1) * dim].iter().copied()).collect();
                 let pair_labels: Vec<u8> = rows.iter().map(|&i| labels[i]).collect();
-                let standardiser = Standardiser::fit(&pair_raw, dim)?.weighted(weights);
+                let standardiser = scaling.fit(&pair_raw, dim)?;
                 let values = standardiser.apply(&pair_raw)?;
                 let mut params = *params;
                 if kernel_width == KernelWidth::Automatic {

@@ -23,7 +23,7 @@ fn four_classes(gate: IntensityGate) -> PairwiseSnSvm {
     let (raw, labels) = samples();
     PairwiseSnSvm::train(
         &raw,
-        &[1.0; 2],
+        &Scaling::weighted(vec![1.0; 2]),
         &labels,
         &[1, 2, 3, 4],
         gate,
@@ -79,7 +79,7 @@ fn the_gate_gives_a_voxel_its_band_s_class_and_leaves_the_rest_to_the_allowed_pa
     let train = |gate| {
         PairwiseSnSvm::train(
             &raw,
-            &[1.0; 2],
+            &Scaling::weighted(vec![1.0; 2]),
             &labels,
             &[1, 2, 3],
             gate,
@@ -143,7 +143,7 @@ fn a_voxel_beyond_every_band_is_voted_on_at_the_drawn_range_s_end_with_its_own_g
     let (raw, labels): (Vec<f32>, Vec<u8>) = (raw[..160].to_vec(), labels[..80].to_vec());
     let model = PairwiseSnSvm::train(
         &raw,
-        &[1.0; 2],
+        &Scaling::weighted(vec![1.0; 2]),
         &labels,
         &[1, 2],
         IntensityGate::from_bands(bands),
@@ -173,7 +173,7 @@ fn two_classes_are_the_single_model_on_their_standardisation() {
     let params = SnSvmParams::default();
     let model = PairwiseSnSvm::train(
         &raw,
-        &[1.0; 2],
+        &Scaling::weighted(vec![1.0; 2]),
         &labels,
         &[1, 2],
         IntensityGate::open(2),
@@ -211,7 +211,7 @@ fn one_class_is_refused_as_the_single_model_refuses_it() {
     let (raw, labels) = (&raw[..80], &labels[..40]);
     let refused = PairwiseSnSvm::train(
         raw,
-        &[1.0; 2],
+        &Scaling::weighted(vec![1.0; 2]),
         labels,
         &[1],
         IntensityGate::open(1),
