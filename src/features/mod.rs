@@ -82,8 +82,9 @@ pub const PAPER5_GRADIENT_WEIGHT: f64 = 0.25;
 /// knee's joint space let a leaky loop around a thin vessel take a whole organ with it. On the
 /// accuracy harness's tuning cases (seeds 1-4) weights 1, 1/2 and 1/4 on the intensity's scale
 /// give a mean macro Dice clean/leaky of 0.870/0.825, 0.870/0.828 and 0.864/0.829 (0.862/0.826
-/// for 1/4 on the gap's own scale); on `heldout.py`'s knee only 1 and above tell its joint space
-/// from the bones' blurred edges with leaky loops (benches/README.md).
+/// for 1/4 on the gap's own scale); with the cap's class sizes
+/// ([`crate::strokes::CAP_SIZE_EXPONENT`]) 1 tells `heldout.py`'s knee joint space from the
+/// bones' blurred edges with leaky loops and 1/2 does not (benches/README.md).
 pub const GAP_WEIGHT: f64 = 1.0;
 
 impl FeatureSet {

@@ -18,7 +18,7 @@ mod training;
 
 pub use file::{FORMAT, StrokesFile};
 pub use lasso::polygon_rows;
-pub use training::{ClassSamples, TrainingSet};
+pub use training::{CAP_SIZE_EXPONENT, ClassSamples, TrainingSet};
 
 use crate::slices::Axis;
 use serde::Serialize;
