@@ -422,7 +422,9 @@ def score(truth, labels, class_truth, names, masks, lasso_air):
                                          outside[:, -1].ravel(), outside[:, :, 0].ravel(), outside[:, :, -1].ravel()]))
     face_air = np.isin(outside, face_ids[face_ids > 0])
     air_classed = float((labels[face_air] > 0).mean()) if (not lasso_air and face_air.any()) else None
-    kept = min(float((labels[m] == k + 1).mean()) for k, m in enumerate(masks))
+    # A lassoed air's voxels kept as background (label 0: not drawn in 3-D) keep their class.
+    kept = min(float(((labels[m] == k + 1) | ((labels[m] == 0) & (class_truth[k] == AIR))).mean())
+               for k, m in enumerate(masks))
     return float(np.mean(per_class)), per_class, air_classed, kept
 
 
