@@ -36,10 +36,15 @@ impl Scaling {
         Scaling { weights, unit_of }
     }
 
-    /// Fits a [`Standardiser`] on row-major `vectors` of `dim` features (as
+    /// Features per vector.
+    pub fn dim(&self) -> usize {
+        self.weights.len()
+    }
+
+    /// Fits a [`Standardiser`] on row-major `vectors` of [`dim`](Self::dim) features (as
     /// [`Standardiser::fit`]), with this scaling's units and weights.
-    pub fn fit(&self, vectors: &[f32], dim: usize) -> Result<Standardiser, FeatureError> {
-        Ok(Standardiser::fit(vectors, dim)?.in_units_of(&self.unit_of).weighted(&self.weights))
+    pub fn fit(&self, vectors: &[f32]) -> Result<Standardiser, FeatureError> {
+        Ok(Standardiser::fit(vectors, self.dim())?.in_units_of(&self.unit_of).weighted(&self.weights))
     }
 }
 

@@ -298,7 +298,8 @@ fn the_gap_depth_is_scaled_by_the_intensity_deviation_not_its_own() {
     assert_eq!(scaling.unit_of[5], 0, "the gap depth is measured in intensities");
     assert_eq!(scaling.weights[5], crate::features::GAP_WEIGHT);
     let vectors: Vec<f32> = (0..12).map(|i| [1.0, 5.0, 1.0, 2.0, 3.0, 0.5][i % 6] * (1 + i / 6) as f32).collect();
-    let fitted = scaling.fit(&vectors, 6).unwrap();
+    assert_eq!(scaling.dim(), 6);
+    let fitted = scaling.fit(&vectors).unwrap();
     let plain = Standardiser::fit(&vectors, 6).unwrap();
     assert!((fitted.std[5] - plain.std[0] / crate::features::GAP_WEIGHT).abs() < 1e-9);
 }

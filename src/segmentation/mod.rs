@@ -372,7 +372,7 @@ pub fn train(
         });
     }
     let scaling = options.feature_set.scaling();
-    let standardiser = scaling.fit(&raw_features, dim)?;
+    let standardiser = scaling.fit(&raw_features)?;
     let values = standardiser.apply(&raw_features)?;
     let features_seconds = started.elapsed().as_secs_f64();
     let started = Instant::now();

@@ -79,7 +79,7 @@ impl PairwiseSnSvm {
                 pair_classes.push((first, second));
             }
         }
-        let dim = scaling.weights.len();
+        let dim = scaling.dim();
         let pairs = pair_classes
             .par_iter()
             .map(|&(first, second)| {
@@ -88,7 +88,7 @@ impl PairwiseSnSvm {
                 let pair_raw: Vec<f32> =
                     rows.iter().flat_map(|&i| raw[i * dim..(i + 1) * dim].iter().copied()).collect();
                 let pair_labels: Vec<u8> = rows.iter().map(|&i| labels[i]).collect();
-                let standardiser = scaling.fit(&pair_raw, dim)?;
+                let standardiser = scaling.fit(&pair_raw)?;
                 let values = standardiser.apply(&pair_raw)?;
                 let mut params = *params;
                 if kernel_width == KernelWidth::Automatic {
