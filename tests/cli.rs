@@ -189,8 +189,9 @@ fn strokes_errors_say_what_is_wrong_and_a_byte_order_mark_is_accepted() {
     let cases = [
         ("no-class", file(&[]), "the strokes file defines no class"),
         (
-            "inside-another",
-            file(&[class("bone", &square(40.0, 30.0)), class("marrow", &square(50.0, 5.0))]),
+            // Inside bone's loop but too large to be a loop drawn inside it (26 x 26 of 30 x 30).
+            "over-another",
+            file(&[class("bone", &square(40.0, 30.0)), class("marrow", &square(42.0, 26.0))]),
             "class 2 'marrow' select only voxels that class 1 'bone' also selects",
         ),
     ];
@@ -204,6 +205,17 @@ fn strokes_errors_say_what_is_wrong_and_a_byte_order_mark_is_accepted() {
         crate::support::assert_clean_error(&output, expected, name);
         assert!(!out.exists(), "{name}: nothing is written on error");
     }
+    // A loop drawn inside another class's loop is that class's: nothing is contested.
+    let path = folder.path().join("nested.json");
+    std::fs::write(&path, file(&[class("bone", &square(40.0, 30.0)), class("marrow", &square(50.0, 5.0))])).unwrap();
+    let output = volasso(
+        &["classify", "demo", "--strokes", path.to_str().unwrap(), "--out", out.to_str().unwrap()],
+        folder.path(),
+    );
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(summary["contested_voxels"], 0, "{summary}");
+    std::fs::remove_file(&out).unwrap();
     let strokes =
         std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json")).unwrap();
     let path = folder.path().join("bom.json");

@@ -152,11 +152,13 @@ pub struct ClassifyArgs {
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,
-    /// The classifier; without it, the paper's SN-SVM on its 5-D features. `forest` uses the
-    /// fine multi-scale features unless `--features` says otherwise.
+    /// The classifier; without it, the paper's SN-SVM on its 5-D features and the gap depth
+    /// (`paper5-gap`). `snsvm` and `svm` use the paper's 5-D features and `forest` the fine
+    /// multi-scale features unless `--features` says otherwise.
     #[arg(long, value_enum)]
     pub classifier: Option<ClassifierChoice>,
-    /// The voxel features (default: `paper5`, and `multiscale-fine` for the forest).
+    /// The voxel features (default: `paper5-gap`; `paper5` with `--classifier snsvm` or `svm`,
+    /// `multiscale-fine` with `--classifier forest`).
     #[arg(long, value_enum)]
     pub features: Option<FeatureChoice>,
     /// Random forest: number of trees.

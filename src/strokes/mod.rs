@@ -14,10 +14,12 @@
 
 mod file;
 mod lasso;
+mod nesting;
 mod training;
 
 pub use file::{FORMAT, StrokesFile};
 pub use lasso::polygon_rows;
+pub use nesting::{NESTED_SHARE, NESTED_SIZE_RATIO};
 pub use training::{CAP_SIZE_EXPONENT, ClassSamples, TrainingSet};
 
 use crate::slices::Axis;

@@ -1,11 +1,14 @@
 //! Training voxels per class from a strokes file, and a stratified cap on their number.
 //!
 //! Within a class a voxel selected by several strokes counts once, for the first of them.
-//! A voxel selected by two or more *classes* is contested: it is dropped from all of them
-//! (counted in [`TrainingSet::contested_voxels`] and logged as a warning), because a sample
-//! labelled twice teaches the classifier nothing and would make its classes overlap. This
-//! rule does not depend on the order of the classes.
+//! A voxel selected by two or more *classes* belongs to the one whose loop was drawn inside
+//! the others' loops on its slice (a nucleus circled inside its cell: `super::nesting`).
+//! Otherwise it is contested: it is dropped from all of them (counted in
+//! [`TrainingSet::contested_voxels`] and logged as a warning), because a sample labelled twice
+//! teaches the classifier nothing and would make its classes overlap. Neither rule depends on
+//! the order of the classes.
 
+use super::nesting::{self, DrawnLoop};
 use super::{StrokesError, StrokesFile};
 use crate::rng::{SplitMix64, hash64};
 
@@ -78,13 +81,17 @@ impl TrainingSet {
     /// first other class that selects one of them.
     fn build(file: &StrokesFile, dims: [usize; 3]) -> Result<(TrainingSet, Vec<Option<usize>>), StrokesError> {
         file.check_for_volume(dims)?;
+        let mut loops: Vec<DrawnLoop> = Vec::new();
         let mut classes: Vec<ClassSamples> = file
             .classes
             .iter()
-            .map(|class| {
+            .enumerate()
+            .map(|(position, class)| {
                 let mut tagged: Vec<(usize, u32)> = Vec::new();
                 for (stroke, lasso) in class.strokes.iter().enumerate() {
-                    tagged.extend(lasso.selected_voxels(dims).into_iter().map(|v| (v, stroke as u32)));
+                    let voxels = lasso.selected_voxels(dims);
+                    tagged.extend(voxels.iter().map(|&v| (v, stroke as u32)));
+                    loops.push(DrawnLoop { class: position, plane: (lasso.axis, lasso.slice), voxels });
                 }
                 // Sorting by (voxel, stroke) and keeping the first of each voxel gives it to
                 // its first stroke.
@@ -101,17 +108,30 @@ impl TrainingSet {
             })
             .collect();
         let mut overlapped_by = vec![None; classes.len()];
-        let contested = contested_voxels(&classes);
-        if !contested.is_empty() {
-            log::warn!("{} voxels are selected by more than one class; they are left out of training", contested.len());
+        let shared = shared_voxels(&classes);
+        let inner = nesting::inner_classes(&loops, &shared);
+        let contested_count = inner.iter().filter(|class| class.is_none()).count();
+        if !shared.is_empty() {
+            if contested_count > 0 {
+                log::warn!(
+                    "{contested_count} voxels are selected by more than one class; they are left out of training"
+                );
+            }
+            if contested_count < shared.len() {
+                log::info!(
+                    "{} voxels lie in a loop drawn inside another class's loop: they are the inner class's",
+                    shared.len() - contested_count
+                );
+            }
             let selected: Vec<Vec<usize>> = classes.iter().map(|c| c.voxels.clone()).collect();
             for (position, class) in classes.iter_mut().enumerate() {
-                let (voxels, strokes): (Vec<usize>, Vec<u32>) = class
-                    .voxels
-                    .iter()
-                    .zip(&class.stroke_of_voxel)
-                    .filter(|(voxel, _)| contested.binary_search(voxel).is_err())
-                    .unzip();
+                // A shared voxel stays with the class whose loop lies inside the others'.
+                let keeps = |voxel: &usize| match shared.binary_search(voxel) {
+                    Ok(k) => inner[k] == Some(position),
+                    Err(_) => true,
+                };
+                let (voxels, strokes): (Vec<usize>, Vec<u32>) =
+                    class.voxels.iter().zip(&class.stroke_of_voxel).filter(|(voxel, _)| keeps(voxel)).unzip();
                 if voxels.is_empty() && !class.voxels.is_empty() {
                     let shares = |other: &Vec<usize>| class.voxels.iter().any(|v| other.binary_search(v).is_ok());
                     overlapped_by[position] =
@@ -124,7 +144,7 @@ impl TrainingSet {
         for class in &mut classes {
             class.count_per_stroke();
         }
-        Ok((TrainingSet { classes, contested_voxels: contested.len() }, overlapped_by))
+        Ok((TrainingSet { classes, contested_voxels: contested_count }, overlapped_by))
     }
 
     /// `Err(EmptyClass)` naming the first class without voxels.
@@ -293,7 +313,7 @@ fn largest_remainder_quotas(counts: &[usize], target: usize) -> Vec<usize> {
 }
 
 /// Voxels that appear in more than one class, sorted.
-fn contested_voxels(classes: &[ClassSamples]) -> Vec<usize> {
+fn shared_voxels(classes: &[ClassSamples]) -> Vec<usize> {
     let mut all: Vec<usize> = classes.iter().flat_map(|c| c.voxels.iter().copied()).collect();
     all.sort_unstable();
     // Each class's voxels are unique, so a repeat means two classes.
@@ -303,183 +323,5 @@ fn contested_voxels(classes: &[ClassSamples]) -> Vec<usize> {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-    use crate::slices::Axis;
-    use crate::strokes::{ClassStrokes, Lasso};
-
-    const DIMS: [usize; 3] = [40, 30, 20];
-
-    /// An axis-aligned rectangle of centres x0..=x1, y0..=y1 on z slice `z`.
-    fn rectangle(z: usize, x0: usize, y0: usize, x1: usize, y1: usize) -> Lasso {
-        let (x0, y0, x1, y1) = (x0 as f64 - 0.5, y0 as f64 - 0.5, x1 as f64 + 0.5, y1 as f64 + 0.5);
-        Lasso { axis: Axis::Z, slice: z, points: vec![[x0, y0], [x1, y0], [x1, y1], [x0, y1]] }
-    }
-
-    fn class(name: &str, strokes: Vec<Lasso>) -> ClassStrokes {
-        ClassStrokes { name: name.into(), strokes }
-    }
-
-    #[test]
-    fn a_restricted_set_keeps_the_listed_voxels_and_never_empties_a_class() {
-        let set = TrainingSet {
-            classes: vec![
-                ClassSamples::one_stroke("a".into(), vec![1, 2, 3, 4]),
-                ClassSamples::one_stroke("b".into(), vec![10, 11]),
-                ClassSamples::one_stroke("c".into(), vec![20, 21]),
-            ],
-            contested_voxels: 0,
-        };
-        let restricted = set.restricted(&[Some(&[2, 3, 99]), None, Some(&[5])]);
-        let voxels: Vec<&[usize]> = restricted.classes.iter().map(|c| c.voxels.as_slice()).collect();
-        assert_eq!(voxels, [&[2, 3][..], &[10, 11], &[20, 21]]);
-        assert_eq!(restricted.classes[0].stroke_voxel_counts, vec![2]);
-    }
-
-    #[test]
-    fn voxels_claimed_by_two_classes_are_dropped_from_both() {
-        let file = StrokesFile {
-            classes: vec![
-                // 10 x 10 (x, y 0..=9) and 5 x 10 (x 5..=9, y 2..=11): 110 voxels in all.
-                class("bone", vec![rectangle(5, 0, 0, 9, 9), rectangle(5, 5, 2, 9, 11)]),
-                // x 8..=11, y 0..=9: its columns 8 and 9 overlap bone's first stroke.
-                class("soft tissue", vec![rectangle(5, 8, 0, 11, 9)]),
-            ],
-        };
-        let set = TrainingSet::from_strokes(&file, DIMS).unwrap();
-        assert_eq!(set.contested_voxels, 20);
-        let bone = &set.classes[0];
-        assert_eq!(bone.voxels.len(), 110 - 20);
-        // The second stroke keeps only rows 10 and 11; the rest went to the first stroke.
-        assert_eq!(bone.stroke_voxel_counts, vec![80, 10]);
-        assert!(bone.voxels.windows(2).all(|w| w[0] < w[1]));
-        let soft = &set.classes[1];
-        assert_eq!(soft.voxels.len(), 40 - 20);
-        for voxel in &soft.voxels {
-            assert!(bone.voxels.binary_search(voxel).is_err());
-            assert!([10, 11].contains(&(voxel % 40)));
-        }
-        // Within a class, an overlap counts once, for the first stroke.
-        let first_stroke_voxel = 6 + 40 * (3 + 30 * 5);
-        let position = bone.voxels.binary_search(&first_stroke_voxel).unwrap();
-        assert_eq!(bone.stroke_of_voxel[position], 0);
-        let (voxels, labels) = set.labelled_voxels();
-        assert_eq!(voxels.len(), 110);
-        assert_eq!(labels.iter().filter(|&&l| l == 2).count(), 20);
-        assert_eq!(labels[0], 1);
-    }
-
-    #[test]
-    fn a_class_whose_lassos_select_nothing_is_an_error_naming_it() {
-        let file = StrokesFile {
-            classes: vec![
-                class("bone", vec![rectangle(1, 0, 0, 3, 3)]),
-                class("joint", vec![Lasso { axis: Axis::Y, slice: 2, points: vec![[1.0, 1.0], [2.0, 2.0]] }]),
-            ],
-        };
-        let error = TrainingSet::from_strokes(&file, DIMS).unwrap_err();
-        assert!(matches!(&error, StrokesError::EmptyClass { class, class_id: 2 } if class == "joint"));
-        assert!(error.to_string().contains("'joint'"));
-        let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
-        assert!(kept.classes[1].voxels.is_empty());
-        assert_eq!(kept.classes[1].stroke_voxel_counts, vec![0]);
-    }
-
-    #[test]
-    fn a_class_inside_another_class_names_the_other_and_no_class_is_its_own_error() {
-        let file = StrokesFile {
-            classes: vec![
-                class("bone", vec![rectangle(1, 0, 0, 9, 9)]),
-                // Wholly inside bone's lasso: every voxel is contested.
-                class("marrow", vec![rectangle(1, 2, 2, 4, 4)]),
-            ],
-        };
-        let error = TrainingSet::from_strokes(&file, DIMS).unwrap_err();
-        assert!(
-            matches!(&error, StrokesError::Overlapped { class, class_id: 2, other, other_id: 1 } if class == "marrow" && other == "bone"),
-            "{error:?}"
-        );
-        let message = error.to_string();
-        assert!(message.contains("class 2 'marrow' select only voxels that class 1 'bone' also selects"), "{message}");
-        // Bone keeps voxels outside marrow: only marrow is refused.
-        let kept = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
-        assert_eq!((kept.classes[0].voxels.len(), kept.classes[1].voxels.len()), (100 - 9, 0));
-        let none = TrainingSet::from_strokes(&StrokesFile::default(), DIMS).unwrap_err();
-        assert!(matches!(none, StrokesError::NoClasses));
-        assert_eq!(none.to_string(), "the strokes file defines no class");
-    }
-
-    #[test]
-    fn slices_outside_the_volume_and_too_many_classes_are_refused() {
-        let file = StrokesFile { classes: vec![class("a", vec![rectangle(20, 0, 0, 3, 3)])] };
-        assert!(matches!(
-            TrainingSet::from_strokes(&file, DIMS),
-            Err(StrokesError::SliceOutOfRange { slice: 20, slice_count: 20, .. })
-        ));
-        let many = StrokesFile { classes: (0..256).map(|k| class(&k.to_string(), vec![])).collect() };
-        assert!(matches!(TrainingSet::from_strokes(&many, DIMS), Err(StrokesError::TooManyClasses { count: 256 })));
-    }
-
-    #[test]
-    fn a_cap_keeps_each_strokes_share_and_is_deterministic() {
-        let file = StrokesFile {
-            classes: vec![
-                // 300 and 100 voxels on different slices, and a small class under the cap.
-                class("bone", vec![rectangle(1, 0, 0, 29, 9), rectangle(2, 0, 0, 9, 9)]),
-                class("air", vec![rectangle(3, 0, 0, 4, 4)]),
-            ],
-        };
-        let set = TrainingSet::from_strokes(&file, DIMS).unwrap();
-        let capped = set.capped(101, 7);
-        let bone = &capped.classes[0];
-        assert_eq!(bone.voxels.len(), 101);
-        // 101 * 3/4 = 75.75, 101 / 4 = 25.25: the larger remainder gets the extra voxel.
-        assert_eq!(bone.stroke_voxel_counts, vec![76, 25]);
-        assert_eq!(bone.dropped_by_cap, 299);
-        assert!(bone.voxels.windows(2).all(|w| w[0] < w[1]));
-        assert!(bone.voxels.iter().all(|v| set.classes[0].voxels.binary_search(v).is_ok()));
-        for (voxel, &stroke) in bone.voxels.iter().zip(&bone.stroke_of_voxel) {
-            assert_eq!(voxel / (40 * 30), stroke as usize + 1);
-        }
-        assert_eq!(capped.classes[1], set.classes[1]);
-        assert_eq!(set.capped(101, 7), capped);
-        assert_ne!(set.capped(101, 8).classes[0].voxels, bone.voxels);
-        assert_eq!(set.capped(1000, 7), set);
-    }
-
-    #[test]
-    fn a_cap_keeps_the_classes_in_the_order_of_their_sizes() {
-        let file = StrokesFile {
-            classes: vec![
-                class("bone", vec![rectangle(1, 0, 0, 39, 24)]), // 1000 voxels
-                class("joint", vec![rectangle(2, 0, 0, 24, 4)]), // 125
-                class("marrow", vec![rectangle(3, 0, 0, 9, 0)]), // 10
-            ],
-        };
-        let set = TrainingSet::from_strokes(&file, DIMS).unwrap();
-        let counts: Vec<usize> = set.classes.iter().map(|c| c.voxels.len()).collect();
-        assert_eq!(counts, vec![1000, 125, 10]);
-        let capped = set.capped(100, 7);
-        let kept: Vec<usize> = capped.classes.iter().map(|c| c.voxels.len()).collect();
-        // An eighth of the largest class's voxels keeps 100 * (1/8)^(1/4), 59; 10 voxels are
-        // within 100 * (1/100)^(1/4), 32.
-        let expected = (100.0 * 0.125f64.powf(CAP_SIZE_EXPONENT)).round() as usize;
-        assert_eq!(kept, vec![100, expected, 10]);
-        assert!(expected < 100 && expected > 10);
-        assert_eq!(capped.classes[1].dropped_by_cap, 125 - expected);
-        assert_eq!(set.capped(1000, 7), set, "within the cap nothing changes");
-        let one = set.capped(1, 7);
-        assert!(one.classes.iter().all(|c| c.voxels.len() == 1), "every class keeps a voxel");
-    }
-
-    #[test]
-    fn largest_remainder_quotas_add_up_to_the_target() {
-        assert_eq!(largest_remainder_quotas(&[1, 1, 1], 2), vec![1, 1, 0]);
-        assert_eq!(largest_remainder_quotas(&[0, 10, 5], 6), vec![0, 4, 2]);
-        assert_eq!(largest_remainder_quotas(&[0, 0], 3), vec![0, 0]);
-        for target in 0..50 {
-            let quotas = largest_remainder_quotas(&[7, 13, 29, 1], target);
-            assert_eq!(quotas.iter().sum::<usize>(), target);
-        }
-    }
-}
+#[path = "training_tests.rs"]
+mod tests;
