@@ -1,5 +1,5 @@
-//! The controller without a window: lassos become classes and classification requests, undo
-//! takes them back, hiding a class restyles without sending the labels again, and a saved
+//! The controller without a window: lassos become classes and classification requests (also a
+//! loop drawn inside another class's loop), undo takes them back, hiding a class restyles without sending the labels again, and a saved
 //! session comes back on its volume.
 
 use super::*;
@@ -88,6 +88,30 @@ fn lassos_become_classes_and_two_classes_are_classified() {
     assert!(changed.status.as_deref().is_some_and(|status| status.starts_with("Classified in")));
     assert_eq!(controller.display_styles().map(|styles| styles.len()), Some(2));
     assert_eq!(controller.renderer.label_uploads(), 1);
+}
+
+#[test]
+fn a_loop_drawn_inside_another_class_s_loop_is_a_class_of_its_own() {
+    // A wide loop around a bone lasso, then that bone lasso inside it: the inner loop's voxels
+    // are the second class's, so two classes can be told apart.
+    let (loaded, _, bone) = demo();
+    let inner = bone[0].clone();
+    let count = inner.points.len() as f64;
+    let centre = inner.points.iter().fold([0.0, 0.0], |sum, p| [sum[0] + p[0] / count, sum[1] + p[1] / count]);
+    let around = |dx: f64, dy: f64| [centre[0] + dx, centre[1] + dy];
+    let outer = Lasso {
+        points: vec![around(-8.0, -8.0), around(8.0, -8.0), around(8.0, 8.0), around(-8.0, 8.0)],
+        ..inner.clone()
+    };
+    let mut controller = Controller::new(None);
+    controller.open(Work::new(loaded), None);
+    draw(&mut controller, &[outer]);
+    define(&mut controller);
+    draw(&mut controller, &[inner]);
+    assert!(controller.jobs.busy(), "the inner loop is a class: a classification is requested");
+    let changed = classified(&mut controller);
+    assert!(changed.status.as_deref().is_some_and(|status| status.starts_with("Classified in")), "{changed:?}");
+    assert_eq!(controller.display_styles().map(|styles| styles.len()), Some(2));
 }
 
 #[test]
