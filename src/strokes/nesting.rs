@@ -13,6 +13,7 @@
 //!
 //! Never: reads files, rasterises polygons, or looks at the volume's values.
 
+use super::StrokesFile;
 use crate::slices::Axis;
 
 /// A loop is nested in another when at least this share of its voxels lies in the other: a
@@ -23,19 +24,61 @@ pub const NESTED_SHARE: f64 = 0.8;
 /// inside an outer one is the smaller; two loops of about one size are neighbours that overlap.
 pub const NESTED_SIZE_RATIO: f64 = 0.5;
 
+/// Loops on one slice compared with each other at most: a hand draws a few; a file with more
+/// (a script's, or a hostile one) would cost their number squared, and their shared voxels stay
+/// contested.
+pub const MAX_LOOPS_ON_A_SLICE: usize = 64;
+
 /// One drawn loop: its class (position in the strokes file), slice and voxels.
-pub(super) struct DrawnLoop {
+struct DrawnLoop {
     /// The class's position in the strokes file.
-    pub class: usize,
+    class: usize,
     /// The slice it was drawn on.
-    pub plane: (Axis, usize),
+    plane: (Axis, usize),
     /// Its voxels, sorted and unique.
-    pub voxels: Vec<usize>,
+    voxels: Vec<usize>,
 }
 
 /// For each of `contested` (voxels several classes select, sorted), the class whose loops
-/// through it lie nested in every other class's loop through it, if there is one.
-pub(super) fn inner_classes(loops: &[DrawnLoop], contested: &[usize]) -> Vec<Option<usize>> {
+/// through it lie nested in every other class's loop through it, if there is one; `file`'s
+/// lassos are rasterised again here, only when some voxel is contested and only on slices with
+/// at most [`MAX_LOOPS_ON_A_SLICE`] loops.
+pub(super) fn inner_classes(file: &StrokesFile, dims: [usize; 3], contested: &[usize]) -> Vec<Option<usize>> {
+    if contested.is_empty() {
+        return Vec::new();
+    }
+    inner_classes_of(&drawn_loops(file, dims), contested)
+}
+
+/// The loops of `file` on slices with at most [`MAX_LOOPS_ON_A_SLICE`] loops, by slice.
+fn drawn_loops(file: &StrokesFile, dims: [usize; 3]) -> Vec<DrawnLoop> {
+    let mut drawn: Vec<(usize, &super::Lasso)> = file
+        .classes
+        .iter()
+        .enumerate()
+        .flat_map(|(class, strokes)| strokes.strokes.iter().map(move |lasso| (class, lasso)))
+        .collect();
+    drawn.sort_by_key(|(_, lasso)| (lasso.axis.position(), lasso.slice));
+    let mut loops = Vec::new();
+    for slice in drawn.chunk_by(|(_, a), (_, b)| (a.axis, a.slice) == (b.axis, b.slice)) {
+        if slice.len() > MAX_LOOPS_ON_A_SLICE {
+            log::warn!(
+                "{} loops on one slice: more than {MAX_LOOPS_ON_A_SLICE}, so none of them counts as drawn inside another",
+                slice.len()
+            );
+            continue;
+        }
+        loops.extend(slice.iter().map(|&(class, lasso)| DrawnLoop {
+            class,
+            plane: (lasso.axis, lasso.slice),
+            voxels: lasso.selected_voxels(dims),
+        }));
+    }
+    loops
+}
+
+/// [`inner_classes`] of loops already rasterised.
+fn inner_classes_of(loops: &[DrawnLoop], contested: &[usize]) -> Vec<Option<usize>> {
     let nested = nested_pairs(loops);
     if nested.is_empty() {
         return vec![None; contested.len()];
@@ -67,47 +110,52 @@ pub(super) fn inner_classes(loops: &[DrawnLoop], contested: &[usize]) -> Vec<Opt
         .collect()
 }
 
-/// For each loop, the loops of other classes on its slice that it lies nested in.
+/// For each loop, the loops of other classes on its slice that it lies nested in; empty when
+/// none is.
 fn nested_pairs(loops: &[DrawnLoop]) -> Vec<Vec<usize>> {
+    let mut by_slice: Vec<usize> = (0..loops.len()).collect();
+    by_slice.sort_by_key(|&k| (loops[k].plane.0.position(), loops[k].plane.1));
     let mut nested = vec![Vec::new(); loops.len()];
     let mut any = false;
-    for (inner, small) in loops.iter().enumerate() {
-        for (outer, large) in loops.iter().enumerate() {
-            let candidate = small.class != large.class
-                && small.plane == large.plane
-                && !small.voxels.is_empty()
-                && small.voxels.len() as f64 <= NESTED_SIZE_RATIO * large.voxels.len() as f64;
-            if candidate
-                && shared_count(&small.voxels, &large.voxels) as f64 >= NESTED_SHARE * small.voxels.len() as f64
-            {
-                nested[inner].push(outer);
-                any = true;
+    for slice in by_slice.chunk_by(|&a, &b| loops[a].plane == loops[b].plane) {
+        for &inner in slice {
+            for &outer in slice {
+                if lies_inside(&loops[inner], &loops[outer]) {
+                    nested[inner].push(outer);
+                    any = true;
+                }
             }
         }
     }
     if any { nested } else { Vec::new() }
 }
 
-/// How many values two sorted, unique lists share.
-fn shared_count(a: &[usize], b: &[usize]) -> usize {
-    let (mut i, mut j, mut count) = (0, 0, 0);
-    while i < a.len() && j < b.len() {
-        match a[i].cmp(&b[j]) {
-            std::cmp::Ordering::Less => i += 1,
-            std::cmp::Ordering::Greater => j += 1,
-            std::cmp::Ordering::Equal => {
-                count += 1;
-                i += 1;
-                j += 1;
+/// Whether loop `small` lies nested in loop `large` of another class (module doc); stops as
+/// soon as too many of its voxels lie outside.
+fn lies_inside(small: &DrawnLoop, large: &DrawnLoop) -> bool {
+    if small.class == large.class
+        || small.voxels.is_empty()
+        || small.voxels.len() as f64 > NESTED_SIZE_RATIO * large.voxels.len() as f64
+    {
+        return false;
+    }
+    let allowed_outside = ((1.0 - NESTED_SHARE) * small.voxels.len() as f64).floor() as usize;
+    let mut outside = 0;
+    for voxel in &small.voxels {
+        if large.voxels.binary_search(voxel).is_err() {
+            outside += 1;
+            if outside > allowed_outside {
+                return false;
             }
         }
     }
-    count
+    true
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::strokes::{ClassStrokes, Lasso};
 
     fn square(class: usize, slice: usize, from: usize, to: usize) -> DrawnLoop {
         let width = 100;
@@ -124,24 +172,24 @@ mod tests {
     fn a_loop_inside_another_class_s_loop_takes_the_voxels_it_shares() {
         let loops = [square(0, 3, 0, 19), square(1, 3, 5, 9)];
         let contested = [voxel(3, 5, 5), voxel(3, 9, 9)];
-        assert_eq!(inner_classes(&loops, &contested), vec![Some(1), Some(1)]);
+        assert_eq!(inner_classes_of(&loops, &contested), vec![Some(1), Some(1)]);
         // The order of the classes does not matter.
         let swapped = [square(1, 3, 0, 19), square(0, 3, 5, 9)];
-        assert_eq!(inner_classes(&swapped, &contested), vec![Some(0), Some(0)]);
+        assert_eq!(inner_classes_of(&swapped, &contested), vec![Some(0), Some(0)]);
     }
 
     #[test]
     fn loops_of_about_one_size_or_on_other_slices_are_not_nested() {
         // 10 x 10 and 8 x 8 overlapping: the smaller is not at most half the larger.
         let alike = [square(0, 3, 0, 9), square(1, 3, 2, 9)];
-        assert_eq!(inner_classes(&alike, &[voxel(3, 5, 5)]), vec![None]);
+        assert_eq!(inner_classes_of(&alike, &[voxel(3, 5, 5)]), vec![None]);
         // Half of the small loop outside the large one: neighbours that overlap.
         let neighbours = [square(0, 3, 0, 19), square(1, 3, 15, 24)];
-        assert_eq!(inner_classes(&neighbours, &[voxel(3, 16, 16)]), vec![None]);
+        assert_eq!(inner_classes_of(&neighbours, &[voxel(3, 16, 16)]), vec![None]);
         // Only loops on one slice are compared: the same voxels named on another slice are not.
         let mut other_slice = square(1, 3, 5, 9);
         other_slice.plane = (Axis::Z, 4);
-        assert_eq!(inner_classes(&[square(0, 3, 0, 19), other_slice], &[voxel(3, 5, 5)]), vec![None]);
+        assert_eq!(inner_classes_of(&[square(0, 3, 0, 19), other_slice], &[voxel(3, 5, 5)]), vec![None]);
     }
 
     #[test]
@@ -149,7 +197,7 @@ mod tests {
         // A cell, its nucleus, and a nucleolus in the nucleus.
         let loops = [square(0, 2, 0, 39), square(1, 2, 10, 29), square(2, 2, 15, 19)];
         let contested = [voxel(2, 12, 12), voxel(2, 16, 16)];
-        assert_eq!(inner_classes(&loops, &contested), vec![Some(1), Some(2)]);
+        assert_eq!(inner_classes_of(&loops, &contested), vec![Some(1), Some(2)]);
     }
 
     #[test]
@@ -157,12 +205,28 @@ mod tests {
         // Two inner loops that overlap each other inside one outer loop: neither is nested in
         // the other, so their shared voxels have no inner class.
         let loops = [square(0, 1, 0, 39), square(1, 1, 5, 14), square(2, 1, 10, 19)];
-        assert_eq!(inner_classes(&loops, &[voxel(1, 12, 12), voxel(1, 6, 6)]), vec![None, Some(1)]);
+        assert_eq!(inner_classes_of(&loops, &[voxel(1, 12, 12), voxel(1, 6, 6)]), vec![None, Some(1)]);
     }
 
     #[test]
-    fn shared_count_counts_common_values() {
-        assert_eq!(shared_count(&[1, 3, 5, 7], &[2, 3, 4, 5, 8]), 2);
-        assert_eq!(shared_count(&[], &[1]), 0);
+    fn a_slice_with_more_loops_than_a_hand_draws_is_not_compared() {
+        // One wide loop and, inside it, more small loops of another class than the limit.
+        let square = |x: f64| Lasso {
+            axis: Axis::Z,
+            slice: 5,
+            points: vec![[x, x], [x + 1.0, x], [x + 1.0, x + 1.0], [x, x + 1.0]],
+        };
+        let wide = Lasso { points: vec![[-0.5, -0.5], [99.5, -0.5], [99.5, 99.5], [-0.5, 99.5]], ..square(0.0) };
+        let small: Vec<Lasso> = (0..MAX_LOOPS_ON_A_SLICE).map(|k| square(k as f64)).collect();
+        let mut file = StrokesFile {
+            classes: vec![
+                ClassStrokes { name: "outer".into(), strokes: vec![wide] },
+                ClassStrokes { name: "inner".into(), strokes: small },
+            ],
+        };
+        let dims = [100, 100, 10];
+        assert_eq!(inner_classes(&file, dims, &[voxel(5, 1, 1)]), vec![None]);
+        file.classes[1].strokes.pop();
+        assert_eq!(inner_classes(&file, dims, &[voxel(5, 1, 1)]), vec![Some(1)]);
     }
 }

@@ -8,7 +8,7 @@
 //! teaches the classifier nothing and would make its classes overlap. Neither rule depends on
 //! the order of the classes.
 
-use super::nesting::{self, DrawnLoop};
+use super::nesting;
 use super::{StrokesError, StrokesFile};
 use crate::rng::{SplitMix64, hash64};
 
@@ -81,17 +81,13 @@ impl TrainingSet {
     /// first other class that selects one of them.
     fn build(file: &StrokesFile, dims: [usize; 3]) -> Result<(TrainingSet, Vec<Option<usize>>), StrokesError> {
         file.check_for_volume(dims)?;
-        let mut loops: Vec<DrawnLoop> = Vec::new();
         let mut classes: Vec<ClassSamples> = file
             .classes
             .iter()
-            .enumerate()
-            .map(|(position, class)| {
+            .map(|class| {
                 let mut tagged: Vec<(usize, u32)> = Vec::new();
                 for (stroke, lasso) in class.strokes.iter().enumerate() {
-                    let voxels = lasso.selected_voxels(dims);
-                    tagged.extend(voxels.iter().map(|&v| (v, stroke as u32)));
-                    loops.push(DrawnLoop { class: position, plane: (lasso.axis, lasso.slice), voxels });
+                    tagged.extend(lasso.selected_voxels(dims).into_iter().map(|v| (v, stroke as u32)));
                 }
                 // Sorting by (voxel, stroke) and keeping the first of each voxel gives it to
                 // its first stroke.
@@ -109,7 +105,7 @@ impl TrainingSet {
             .collect();
         let mut overlapped_by = vec![None; classes.len()];
         let shared = shared_voxels(&classes);
-        let inner = nesting::inner_classes(&loops, &shared);
+        let inner = nesting::inner_classes(file, dims, &shared);
         let contested_count = inner.iter().filter(|class| class.is_none()).count();
         if !shared.is_empty() {
             if contested_count > 0 {
