@@ -9,9 +9,12 @@
 //! same slice. A loop is nested in another when at least [`NESTED_SHARE`] of its voxels lie in
 //! the other and it has at most [`NESTED_SIZE_RATIO`] of the other's voxels, so two loops of
 //! about one size that overlap where a finger leaked over a shared border are not nested, and
-//! their common voxels stay contested (dropped from both, `super::training`).
+//! their common voxels stay contested (dropped from both, `super::training`). Only slices a hand
+//! draws on are compared: one with more than [`MAX_LOOPS_ON_A_SLICE`] loops keeps its shared
+//! voxels contested, so a crowded file cannot cost the square of its loops.
 //!
-//! Never: reads files, rasterises polygons, or looks at the volume's values.
+//! Never: reads files, or looks at the volume's values; loops become voxels through
+//! [`super::Lasso::selected_voxels`], as for the training set.
 
 use super::StrokesFile;
 use crate::slices::Axis;
