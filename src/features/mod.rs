@@ -20,7 +20,7 @@
 //! Both paths share one arithmetic, so they agree bit for bit. [`Standardiser`] maps features to
 //! zero mean and unit deviation, fitted on the training vectors.
 //!
-//! [`FeatureSet::Paper5Gap`] (the default) appends a sixth, the gap depth ([`gap`]): how far
+//! [`FeatureSet::Paper5Gap`] (the default) appends a sixth, the gap depth (`gap`, [`gap_depth_of_voxels`]): how far
 //! a voxel lies below the bright structures around it, which tells a thin dark layer between
 //! two of them (a joint space) from the blurred edge of one.
 //!
@@ -61,7 +61,7 @@ pub enum FeatureSet {
     Multiscale,
     /// The same at the two finest scales, 0.8 and 1.15 voxels (9-D; a third of the work).
     MultiscaleFine,
-    /// The paper's five and the gap depth ([`gap`]): 6-D.
+    /// The paper's five and the gap depth ([`gap_depth_of_voxels`]): 6-D.
     Paper5Gap,
 }
 

@@ -6,7 +6,7 @@
 //! command's finger jitter is seeded by its place in the run, not by the clock (which idle
 //! waits move by however long the work took), so a script draws the same paths on every run.
 //!
-//! Expectations (`expect KEY VALUE`): [`checks`].
+//! Expectations (`expect KEY VALUE`): `checks`.
 
 mod checks;
 

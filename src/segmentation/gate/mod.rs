@@ -43,7 +43,7 @@
 //! stayed.
 //!
 //! A clean loop can enclose another class's structure (a cell's loop its nucleus): those
-//! voxels of its core are set aside ([`enclosed`]); the class neither trains on them nor takes
+//! voxels of its core are set aside (`enclosed`); the class neither trains on them nor takes
 //! its band from them.
 //!
 //! Never: trains, or looks at a voxel's other features; with more than [`MAX_CLASSES`] classes
@@ -285,7 +285,7 @@ impl DrawnLassos {
     /// Per class, the voxels (sorted) it should train on: its core when its lasso's rim leaked
     /// and the core is large enough to stand for it (at least [`MIN_CORE_VOXELS`] and
     /// [`CORE_TRAINING_SHARE`] of its drawn voxels), its voxels less those its loops enclose of
-    /// another class ([`enclosed`]); `None` for a class that trains on all of them.
+    /// another class (`enclosed`); `None` for a class that trains on all of them.
     pub fn training_voxels(&self) -> Vec<Option<&[usize]>> {
         self.per_class(|class, leaked| match &class.unenclosed {
             _ if leaked => class.core_stands_for_it().then_some(class.core_voxels.as_slice()),
