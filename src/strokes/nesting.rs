@@ -9,9 +9,9 @@
 //! same slice. A loop is nested in another when at least [`NESTED_SHARE`] of its voxels lie in
 //! the other and it has at most [`NESTED_SIZE_RATIO`] of the other's voxels, so two loops of
 //! about one size that overlap where a finger leaked over a shared border are not nested, and
-//! their common voxels stay contested (dropped from both, `super::training`). Only slices a hand
-//! draws on are compared: one with more than [`MAX_LOOPS_ON_A_SLICE`] loops keeps its shared
-//! voxels contested, so a crowded file cannot cost the square of its loops.
+//! their common voxels stay contested (dropped from both, `super::training`). Only files a hand
+//! draws are compared: in one with more than [`MAX_LOOPS_ON_A_SLICE`] loops on a slice every
+//! shared voxel stays contested, so a crowded file cannot cost the square of its loops.
 //!
 //! Never: reads files, or looks at the volume's values; loops become voxels through
 //! [`super::Lasso::selected_voxels`], as for the training set.
@@ -28,8 +28,8 @@ pub const NESTED_SHARE: f64 = 0.8;
 pub const NESTED_SIZE_RATIO: f64 = 0.5;
 
 /// Loops on one slice compared with each other at most: a hand draws a few; a file with more
-/// (a script's, or a hostile one) would cost their number squared, and their shared voxels stay
-/// contested.
+/// on a slice (a script's, or a hostile one) would cost their number squared, and its shared
+/// voxels all stay contested.
 pub const MAX_LOOPS_ON_A_SLICE: usize = 64;
 
 /// One drawn loop: its class (position in the strokes file), slice and voxels.
@@ -44,40 +44,37 @@ struct DrawnLoop {
 
 /// For each of `contested` (voxels several classes select, sorted), the class whose loops
 /// through it lie nested in every other class's loop through it, if there is one; `file`'s
-/// lassos are rasterised again here, only when some voxel is contested and only on slices with
-/// at most [`MAX_LOOPS_ON_A_SLICE`] loops.
+/// lassos are rasterised again here, only when some voxel is contested, and not at all when a
+/// slice holds more than [`MAX_LOOPS_ON_A_SLICE`] loops (then no voxel has an inner class).
 pub(super) fn inner_classes(file: &StrokesFile, dims: [usize; 3], contested: &[usize]) -> Vec<Option<usize>> {
     if contested.is_empty() {
         return Vec::new();
     }
-    inner_classes_of(&drawn_loops(file, dims), contested)
-}
-
-/// The loops of `file` on slices with at most [`MAX_LOOPS_ON_A_SLICE`] loops, by slice.
-fn drawn_loops(file: &StrokesFile, dims: [usize; 3]) -> Vec<DrawnLoop> {
-    let mut drawn: Vec<(usize, &super::Lasso)> = file
+    let mut planes: Vec<(usize, usize)> = file
+        .classes
+        .iter()
+        .flat_map(|class| class.strokes.iter())
+        .map(|lasso| (lasso.axis.position(), lasso.slice))
+        .collect();
+    planes.sort_unstable();
+    if let Some(crowded) = planes.chunk_by(|a, b| a == b).map(<[_]>::len).find(|&count| count > MAX_LOOPS_ON_A_SLICE) {
+        log::warn!(
+            "{crowded} loops on one slice: more than {MAX_LOOPS_ON_A_SLICE}, so no loop counts as drawn inside another"
+        );
+        return vec![None; contested.len()];
+    }
+    let loops: Vec<DrawnLoop> = file
         .classes
         .iter()
         .enumerate()
         .flat_map(|(class, strokes)| strokes.strokes.iter().map(move |lasso| (class, lasso)))
-        .collect();
-    drawn.sort_by_key(|(_, lasso)| (lasso.axis.position(), lasso.slice));
-    let mut loops = Vec::new();
-    for slice in drawn.chunk_by(|(_, a), (_, b)| (a.axis, a.slice) == (b.axis, b.slice)) {
-        if slice.len() > MAX_LOOPS_ON_A_SLICE {
-            log::warn!(
-                "{} loops on one slice: more than {MAX_LOOPS_ON_A_SLICE}, so none of them counts as drawn inside another",
-                slice.len()
-            );
-            continue;
-        }
-        loops.extend(slice.iter().map(|&(class, lasso)| DrawnLoop {
+        .map(|(class, lasso)| DrawnLoop {
             class,
             plane: (lasso.axis, lasso.slice),
             voxels: lasso.selected_voxels(dims),
-        }));
-    }
-    loops
+        })
+        .collect();
+    inner_classes_of(&loops, contested)
 }
 
 /// [`inner_classes`] of loops already rasterised.
