@@ -132,7 +132,9 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             vec!["--data-dir".into(), data.display().to_string()]
         }
         "restore-set-aside.touch" => saved_session_on(work, "skip.nrrd").0.split_off(2),
-        "clip.touch" | "unsure.touch" | "finger-loops.touch" | "shaky-finger.touch" => volume_demo(),
+        "clip.touch" | "unsure.touch" | "finger-loops.touch" | "shaky-finger.touch" | "nested-loops.touch" => {
+            volume_demo()
+        }
         "opacity.touch" => {
             let sessions = work.join("sessions");
             [volume_demo(), vec!["--session-dir".into(), sessions.display().to_string()]].concat()
