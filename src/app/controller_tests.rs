@@ -1,6 +1,6 @@
 //! The controller without a window: lassos become classes and classification requests (also a
-//! loop drawn inside another class's loop), undo takes them back, hiding a class restyles without sending the labels again, and a saved
-//! session comes back on its volume.
+//! loop drawn inside another class's loop), undo takes them back, hiding a class restyles
+//! without sending the labels again, and a saved session comes back on its volume.
 
 use super::*;
 use crate::app::library::{LoadedVolume, VolumeSource};

@@ -20,9 +20,9 @@
 //! Both paths share one arithmetic, so they agree bit for bit. [`Standardiser`] maps features to
 //! zero mean and unit deviation, fitted on the training vectors.
 //!
-//! [`FeatureSet::Paper5Gap`] (the default) appends a sixth, the gap depth (`gap`, [`gap_depth_of_voxels`]): how far
-//! a voxel lies below the bright structures around it, which tells a thin dark layer between
-//! two of them (a joint space) from the blurred edge of one.
+//! [`FeatureSet::Paper5Gap`] (the default) appends a sixth, the gap depth (`gap`,
+//! [`gap_depth_of_voxels`]): how far a voxel lies below the bright structures around it, which
+//! tells a thin dark layer between two of them (a joint space) from the blurred edge of one.
 //!
 //! [`FeatureSet::Multiscale`] adds smoothed intensity, gradients, Hessian eigenvalues
 //! and differences of Gaussians at four scales, computed blockwise (see [`multiscale`]).
