@@ -32,7 +32,15 @@
 //! alone. A rim that differs from the core but is nobody else's (a bone's bright cortex around
 //! its marrow, drawn cleanly) stays in the band, and a lasso too small to have a core of
 //! [`MIN_CORE_VOXELS`] keeps every voxel. On the check cases this moved the mean macro Dice
-//! with leaky lassos from 0.811 to 0.838, and left the clean ones at 0.848.
+//! with leaky lassos from 0.811 to 0.838, and left the clean ones at 0.848. A rim voxel counts
+//! as another class's only when its value is also nearer that class's core median than its
+//! own core's: a thin layer's clean loop has a rim the scan blurred toward its neighbours, and
+//! a class drawn over a wide range (a thin bone with its partial-volume edge) has a band that
+//! holds it, but a finger's leak has the neighbour's own values. Without that test a head
+//! MRI's CSF, drawn cleanly, lost its band's lower half to the skull and its Dice fell to 0.03
+//! (`scripts/heldout.py`, benches/README.md). Where the class's own core median lies between
+//! the other class's core quartiles, its core is over that class (a joint's loop whose middle
+//! holds the bone's marrow) and cannot speak for it: there the band test alone decides.
 //!
 //! The same test tells which classes train on their core alone
 //! ([`DrawnLassos::training_voxels`]): a leaked rim's voxels are as much the neighbours' as
@@ -256,6 +264,10 @@ impl DrawnLassos {
     pub fn read(volume: &Volume, training: &TrainingSet) -> DrawnLassos {
         let mut classes = drawn_classes(volume, training);
         let leaked = classes.as_deref().map(rims_leaked).unwrap_or_default();
+        if let Some(classes) = classes.as_deref() {
+            let quartiles: Vec<_> = classes.iter().map(|class| class.core_quartiles).collect();
+            log::debug!("lasso cores' quartiles: {quartiles:?}; rims leaked: {leaked:?}");
+        }
         if let Some(classes) = classes.as_deref_mut() {
             enclosed::set_aside(volume, training, classes, &leaked);
         }
@@ -316,13 +328,14 @@ impl DrawnLassos {
     }
 }
 
-/// One class's drawn intensities: the band of all its voxels, the band of its lassos' core
-/// (the same band when the core is too small), the rim's intensities (empty then), the core's
-/// voxels (empty then too), the number of voxels drawn, and its voxels less those its loops
-/// enclose of another class with their band (`None` when it encloses none).
+/// One class's drawn intensities: the band of all its voxels, the band and quartiles of its
+/// lassos' core (the whole's when the core is too small), the rim's intensities (empty then),
+/// the core's voxels (empty then too), the number of voxels drawn, and its voxels less those
+/// its loops enclose of another class with their band (`None` when it encloses none).
 struct DrawnClass {
     whole: Band,
     core: Band,
+    core_quartiles: [f64; 3],
     rim: Vec<f64>,
     core_voxels: Vec<usize>,
     drawn_voxels: usize,
@@ -333,9 +346,12 @@ struct DrawnClass {
 fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnClass>> {
     let mut drawn = Vec::with_capacity(training.classes.len());
     for class in &training.classes {
-        let whole = band_of(&mut finite_values(volume, &class.voxels))?;
+        let mut values = finite_values(volume, &class.voxels);
+        let whole = band_of(&mut values)?;
+        let whole_quartiles = quartiles(&values);
         let core = lasso_core(&class.voxels, volume.dims);
-        let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut finite_values(volume, &core))).flatten();
+        let mut core_values = finite_values(volume, &core);
+        let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut core_values)).flatten();
         drawn.push(match core_band {
             Some(band) => {
                 let rim: Vec<usize> =
@@ -343,6 +359,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
                 DrawnClass {
                     whole,
                     core: band,
+                    core_quartiles: quartiles(&core_values),
                     rim: finite_values(volume, &rim),
                     core_voxels: core,
                     drawn_voxels: class.voxels.len(),
@@ -352,6 +369,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
             None => DrawnClass {
                 whole,
                 core: whole,
+                core_quartiles: whole_quartiles,
                 rim: Vec::new(),
                 core_voxels: Vec::new(),
                 drawn_voxels: class.voxels.len(),
@@ -369,7 +387,7 @@ fn finite_values(volume: &Volume, voxels: &[usize]) -> Vec<f64> {
 
 /// For each drawn class, whether its rim leaked ([`DrawnClass::rim_leaked`]).
 fn rims_leaked(drawn: &[DrawnClass]) -> Vec<bool> {
-    let cores: Vec<Band> = drawn.iter().map(|class| class.core).collect();
+    let cores: Vec<(Band, [f64; 3])> = drawn.iter().map(|class| (class.core, class.core_quartiles)).collect();
     drawn.iter().enumerate().map(|(position, class)| class.rim_leaked(position, &cores)).collect()
 }
 
@@ -381,17 +399,20 @@ impl DrawnClass {
     }
 
     /// Whether more than [`LEAKED_RIM_SHARE`] of the rim lies outside this class's core band
-    /// and inside the core band of another class (`cores`, this one at `position`).
-    fn rim_leaked(&self, position: usize, cores: &[Band]) -> bool {
-        let leaked = self
-            .rim
-            .iter()
-            .map(|&value| value as f32)
-            .filter(|&value| {
-                !self.core.holds(value)
-                    && cores.iter().enumerate().any(|(other, band)| other != position && band.holds(value))
+    /// and inside the core band of another class, nearer that class's core median than this
+    /// one's unless this one's lies between that class's core quartiles (`cores`: each class's
+    /// core band and quartiles, this one at `position`).
+    fn rim_leaked(&self, position: usize, cores: &[(Band, [f64; 3])]) -> bool {
+        let own_median = self.core_quartiles[1];
+        let another_class_s = |value: f64| {
+            cores.iter().enumerate().any(|(other, &(band, [low, median, high]))| {
+                let own_core_over_it = low <= own_median && own_median <= high;
+                other != position
+                    && band.holds(value as f32)
+                    && ((value - median).abs() < (value - own_median).abs() || own_core_over_it)
             })
-            .count();
+        };
+        let leaked = self.rim.iter().filter(|&&value| !self.core.holds(value as f32) && another_class_s(value)).count();
         !self.rim.is_empty() && leaked as f64 > LEAKED_RIM_SHARE * self.rim.len() as f64
     }
 }
@@ -423,6 +444,11 @@ fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
             .collect();
     }
     core
+}
+
+/// The 25, 50 and 75 % quantiles of `sorted` values (at least one).
+fn quartiles(sorted: &[f64]) -> [f64; 3] {
+    [0.25, 0.5, 0.75].map(|q| sorted[((sorted.len() - 1) as f64 * q).round() as usize])
 }
 
 /// The band of one class's values (sorted here); `None` without values.

@@ -140,6 +140,61 @@ fn a_rim_that_differs_from_the_core_but_is_nobody_elses_stays_in_the_band() {
 }
 
 #[test]
+fn a_rim_nearer_its_own_core_than_the_other_class_s_is_not_a_leak() {
+    // A thin layer's loop drawn cleanly (x, y 10..20): its core 300, its edge 260 where the
+    // scan blurs it into its darker surroundings. Another class drawn over a wide range of
+    // values (a ramp from 100 up to 290 at x 25..36, its core band about 130 to 275, its
+    // middle about 200) holds 260 too. 260 is nearer the layer's own core than the other
+    // class's middle: the rim is the layer's own, not a finger's leak, and the band keeps it.
+    let mut values = vec![40.0f32; DIMS.iter().product()];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+        if (10..20).contains(&x) && (10..20).contains(&y) {
+            let edge = x == 10 || x == 19 || y == 10 || y == 19;
+            *value = if edge { 260.0 } else { 300.0 };
+        } else if (25..36).contains(&x) && (25..36).contains(&y) {
+            *value = (100.0 + 20.0 * (x - 25) as f32).min(290.0);
+        }
+        *value += (index % 7) as f32;
+    }
+    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap();
+    let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
+    let drawn = DrawnLassos::read(&volume, &set);
+    let gate = drawn.gate();
+    let [wide, layer] = gate.bands() else { panic!("{gate:?}") };
+    assert!(wide.holds(263.0) && layer.holds(263.0) && layer.holds(303.0), "{gate:?}");
+    assert_eq!(drawn.training_voxels(), vec![None, None]);
+}
+
+#[test]
+fn a_loop_whose_core_lies_over_another_class_is_judged_by_the_bands_alone() {
+    // Another class drawn over a ramp of 300 to 1100 (x 25..36; core quartiles about 540, 700
+    // and 860). A loop (x, y 10..20) whose core, 620, lies between those quartiles: its core is
+    // over that class, as a joint's off-centre loop over the bone's marrow. Its rim (560) is
+    // nearer its own core than the other's middle, yet the core cannot speak for the class:
+    // the rim inside the other's core band is a leak, and the loop takes its core's band.
+    let mut values = vec![40.0f32; DIMS.iter().product()];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+        if (10..20).contains(&x) && (10..20).contains(&y) {
+            let edge = x <= 11 || x >= 18 || y <= 11 || y >= 18;
+            *value = if edge { 560.0 } else { 620.0 };
+        } else if (25..36).contains(&x) && (25..36).contains(&y) {
+            *value = 300.0 + 80.0 * (x - 25) as f32;
+        }
+        *value += (index % 7) as f32;
+    }
+    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap();
+    let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
+    let drawn = DrawnLassos::read(&volume, &set);
+    let gate = drawn.gate();
+    let [ramp, lasso] = gate.bands() else { panic!("{gate:?}") };
+    assert!(ramp.holds(563.0) && !lasso.holds(563.0), "{gate:?}");
+    let core = square(12..18, 12..18).voxels;
+    assert_eq!(drawn.training_voxels(), vec![None, Some(core.as_slice())]);
+}
+
+#[test]
 fn stray_voxels_do_not_widen_a_band_and_the_margin_follows_the_spread() {
     // 100 values 0..99 and one stray voxel at -1000: the 2 % quantile ignores it.
     let mut values: Vec<f64> = (0..100).map(f64::from).chain([-1000.0]).collect();
