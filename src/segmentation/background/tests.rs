@@ -193,3 +193,66 @@ fn a_loop_in_air_without_a_second_dark_population_is_still_air_drawn_as_a_class(
     let (_, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(plan.air_is_a_class && plan.threshold.is_none());
 }
+
+#[test]
+fn a_class_whose_dim_edge_joins_the_air_keeps_it_and_the_air_stays_background() {
+    // A skull-stripped brain: air (20) all around a body whose outer layer, the CSF (x 8..12,
+    // 750), dims to 300 toward the air over part of it (y 14..26: 300, 450, 600, 750), the
+    // rest 1000. Otsu's level lies in the CSF, so its dim half joins the air at the faces: a
+    // sliver of the air, under FACE_AIR_OPENED_SHARE of it. A clean loop over the CSF layer:
+    // its dim voxels continue its own values, so the face air's level drops to them (not
+    // below the air at the faces) and they are classified; the air stays background.
+    let mut values = vec![0f32; DIMS[0] * DIMS[1] * DIMS[2]];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y, z) = (index % DIMS[0], index / DIMS[0] % DIMS[1], index / (DIMS[0] * DIMS[1]));
+        let base = match ((8..32).contains(&x) && (8..32).contains(&y) && (2..18).contains(&z), x) {
+            (false, _) => 20.0,
+            (true, 8..=11) if (14..26).contains(&y) => 300.0 + 150.0 * (x - 8) as f32,
+            (true, 8..=11) => 750.0,
+            (true, _) => 1000.0,
+        };
+        *value = base + 5.0 * gaussian_from_bits(hash64(11, index as u64));
+    }
+    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("brain")).unwrap();
+    let otsu = volume.otsu_threshold();
+    assert!(otsu > 460.0 && otsu < 590.0, "{otsu}");
+    let set = training(vec![class("csf", 8..12, 12..28, 10), class("brain", 16..26, 14..26, 10)]);
+    let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert_eq!(plan.dropped_per_class, vec![0, 0]);
+    assert_eq!(cleaned.classes[0].voxels.len(), 4 * 16);
+    let threshold = plan.threshold.unwrap();
+    assert!(threshold > 40.0 && threshold < 300.0, "{threshold}");
+    let background =
+        |voxel: usize| volume.value(voxel) < threshold || plan.face_air.as_ref().is_some_and(|air| air.contains(voxel));
+    assert!((0..DIMS[0]).all(|x| background(index(x, 2, 10))));
+    assert!((12..28).all(|y| !background(index(8, y, 10))));
+    let dark_level = volume.otsu_threshold();
+    assert!(lowered_face_level(&volume, dark_level, 295.0) < 300.0);
+    assert!(!plan.air_is_a_class);
+}
+
+#[test]
+fn lowering_the_face_air_to_where_it_would_open_the_air_leaves_it_at_the_dark_level() {
+    // An 8-bit scan: zero padding two voxels deep on every face, air (10) inside it, a body
+    // (200). The top of the air on the faces is the padding's 0, so a class's kept voxel at 5
+    // (the air's own, kept by a class with a wide spread) would open nearly all the air.
+    let mut values = vec![0f32; DIMS[0] * DIMS[1] * DIMS[2]];
+    for (index, value) in values.iter_mut().enumerate() {
+        let (x, y, z) = (index % DIMS[0], index / DIMS[0] % DIMS[1], index / (DIMS[0] * DIMS[1]));
+        let inside = |c: usize, n: usize| (2..n - 2).contains(&c);
+        *value = match (
+            inside(x, DIMS[0]) && inside(y, DIMS[1]) && inside(z, DIMS[2]),
+            (8..32).contains(&x) && (8..32).contains(&y),
+        ) {
+            (false, _) => 0.0,
+            (true, false) => 10.0 + 2.0 * gaussian_from_bits(hash64(13, index as u64)),
+            (true, true) => 200.0,
+        };
+    }
+    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("padded")).unwrap();
+    let level = volume.otsu_threshold();
+    assert!(level > 20.0 && level < 190.0, "{level}");
+    assert_eq!(lowered_face_level(&volume, level, 5.0), level);
+    // Kept voxels at the dark level or above it leave it as it is.
+    assert_eq!(lowered_face_level(&volume, level, level), level);
+}
