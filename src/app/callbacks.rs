@@ -11,6 +11,7 @@ use crate::transfer::{HueTemplate, TemplateType};
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::Rc;
+use std::time::Duration;
 
 /// Degrees the volume turns per pixel of one-finger drag.
 const ORBIT_DEGREES_PER_PIXEL: f32 = 0.4;
@@ -131,14 +132,30 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
 }
 
 /// Starts the idle timeout again; when it fires, the session is forgotten and the start
-/// screen comes back.
+/// screen comes back. The timeout counts from the later of the last touch and the end of the
+/// last work the user waits for (a volume opening, a classification, the 3-D view being
+/// drawn): a slow panel must not throw away the result the user is waiting for.
 pub(super) fn restart_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
     let Some(timeout) = state.borrow().config.idle_timeout else { return };
+    start_idle_timer(window, state, idle, timeout, timeout);
+}
+
+/// Starts the idle timer to fire after `wait`, for a timeout of `timeout`.
+fn start_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>, wait: Duration, timeout: Duration) {
     let weak = window.as_weak();
+    let timer = Rc::downgrade(idle);
     let state = state.clone();
-    idle.start(slint::TimerMode::SingleShot, timeout, move || {
-        if let Some(window) = weak.upgrade() {
-            reset_to_start(&window, &state);
+    idle.start(slint::TimerMode::SingleShot, wait, move || {
+        let Some(window) = weak.upgrade() else { return };
+        let without_work = {
+            let state = state.borrow();
+            if state.works_for_user() { Duration::ZERO } else { super::POLL_INTERVAL * state.polls_without_work }
+        };
+        match timer.upgrade() {
+            Some(timer) if without_work < timeout => {
+                start_idle_timer(&window, &state, &timer, timeout - without_work, timeout)
+            }
+            _ => reset_to_start(&window, &state),
         }
     });
 }

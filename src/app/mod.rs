@@ -110,7 +110,7 @@ impl Default for AppConfig {
 pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// How often finished work is collected.
-const POLL_INTERVAL: Duration = Duration::from_millis(16);
+pub(super) const POLL_INTERVAL: Duration = Duration::from_millis(16);
 
 /// The data folder is listed again every this many polls (2 s), so that volumes copied there
 /// while the app runs (a USB import on the appliance) appear in the chooser.
@@ -246,6 +246,9 @@ struct State {
     results: results::Results,
     /// The start screen's turntable after the idle timeout.
     attract: attract::Attract,
+    /// Polls in a row without work for the user ([`State::works_for_user`]): the idle
+    /// timeout counts from the later of the last touch and the end of that work.
+    polls_without_work: u32,
 }
 
 impl State {
@@ -258,6 +261,25 @@ impl State {
     /// The template in use for the current number of classes.
     fn template(&self) -> HueTemplate {
         self.ctl.template()
+    }
+
+    /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
+    fn is_idle(&self) -> bool {
+        !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy()
+    }
+
+    /// Work the user waits for: a volume or a kept result opening, a classification, the
+    /// slices or the 3-D view being drawn, a snapshot being written. The idle timeout does
+    /// not clear a session while it lasts.
+    fn works_for_user(&self) -> bool {
+        self.opening.is_some()
+            || self.ctl.jobs.busy()
+            || self.ctl.renderer.busy()
+            || !self.ctl.renderer.settled()
+            || self.painter.busy()
+            || self.tools.snapshots.busy()
+            || self.view_dirty
+            || self.results.busy()
     }
 }
 
@@ -321,6 +343,7 @@ impl App {
             tools: view_tools::Tools::default(),
             results: results::Results::default(),
             attract: attract::Attract::default(),
+            polls_without_work: 0,
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -344,6 +367,9 @@ impl App {
         app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
             if let Some(window) = weak.upgrade() {
                 refresh::poll(&window, &polled);
+                let mut state = polled.borrow_mut();
+                state.polls_without_work =
+                    if state.works_for_user() { 0 } else { state.polls_without_work.saturating_add(1) };
             }
         });
         app.start_up();
@@ -396,17 +422,7 @@ impl App {
 
     /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
     pub fn is_idle(&self) -> bool {
-        let state = self.state.borrow();
-        state.opening.is_none()
-            && state.thumbnails_pending == 0
-            && !state.ctl.jobs.busy()
-            && !state.ctl.renderer.busy()
-            && state.ctl.renderer.settled()
-            && !state.painter.busy()
-            && !state.tools.snapshots.busy()
-            && !state.view_dirty
-            && !state.results.busy()
-            && !state.attract.busy()
+        self.state.borrow().is_idle()
     }
 
     /// The open volume, the label volume shown and the lassos it was trained on (replay
