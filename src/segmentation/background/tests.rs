@@ -9,27 +9,27 @@ const DIMS: [usize; 3] = [40, 40, 20];
 /// (1000 HU) inside it, and a lung (-850 HU) enclosed by the body or, when `lung_cut`, cut by
 /// the z = 0 face. Noise of 10 HU.
 fn ct_body(lung_cut: bool) -> Volume {
-    let mut values = vec![0f32; DIMS[0] * DIMS[1] * DIMS[2]];
-    for z in 0..DIMS[2] {
-        for y in 0..DIMS[1] {
-            for x in 0..DIMS[0] {
-                let body = (8..32).contains(&x) && (8..32).contains(&y);
-                let bone = (22..28).contains(&x) && (14..26).contains(&y);
-                let lung = (13..18).contains(&x)
-                    && (12..28).contains(&y)
-                    && (if lung_cut { 0..15 } else { 5..15 }).contains(&z);
-                let base = match (body, bone, lung) {
-                    (false, _, _) => -1000.0,
-                    (true, true, _) => 1000.0,
-                    (true, false, true) => -850.0,
-                    (true, false, false) => 40.0,
-                };
-                let index = x + DIMS[0] * (y + DIMS[1] * z);
-                values[index] = base + 10.0 * gaussian_from_bits(hash64(7, index as u64));
-            }
-        }
-    }
-    Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("ct body")).unwrap()
+    volume_of("ct body", |[x, y, z], index| {
+        let body = (8..32).contains(&x) && (8..32).contains(&y);
+        let bone = (22..28).contains(&x) && (14..26).contains(&y);
+        let lung =
+            (13..18).contains(&x) && (12..28).contains(&y) && (if lung_cut { 0..15 } else { 5..15 }).contains(&z);
+        let base = match (body, bone, lung) {
+            (false, _, _) => -1000.0,
+            (true, true, _) => 1000.0,
+            (true, false, true) => -850.0,
+            (true, false, false) => 40.0,
+        };
+        base + 10.0 * gaussian_from_bits(hash64(7, index as u64))
+    })
+}
+
+/// A volume of `DIMS` named `name` whose voxel at `[x, y, z]` (its `index`) has `value`.
+fn volume_of(name: &str, value: impl Fn([usize; 3], usize) -> f32) -> Volume {
+    let values: Vec<f32> = (0..DIMS[0] * DIMS[1] * DIMS[2])
+        .map(|i| value([i % DIMS[0], i / DIMS[0] % DIMS[1], i / (DIMS[0] * DIMS[1])], i))
+        .collect();
+    Volume::from_f32(DIMS, [1.0; 3], &values, Path::new(name)).unwrap()
 }
 
 fn index(x: usize, y: usize, z: usize) -> usize {
@@ -113,19 +113,15 @@ fn a_lung_cut_by_a_face_is_a_class_and_the_air_stays_background() {
 fn in_a_scan_without_air_a_dark_tissue_at_the_faces_is_a_class_when_drawn() {
     // An abdomen cropped inside the body: fat (-100 HU) touches every face, muscle (40 HU)
     // fills a box, bone (1000 HU) inside it. Otsu puts the fat in the dark.
-    let values: Vec<f32> = (0..DIMS[0] * DIMS[1] * DIMS[2])
-        .map(|i| {
-            let (x, y) = (i % DIMS[0], i / DIMS[0] % DIMS[1]);
-            let base =
-                match ((6..34).contains(&x) && (6..34).contains(&y), (21..23).contains(&x) && (10..13).contains(&y)) {
-                    (false, _) => -100.0,
-                    (true, false) => 40.0,
-                    (true, true) => 1000.0,
-                };
-            base + 10.0 * gaussian_from_bits(hash64(3, i as u64))
-        })
-        .collect();
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("cropped")).unwrap();
+    let volume = volume_of("cropped", |[x, y, _], i| {
+        let base = match ((6..34).contains(&x) && (6..34).contains(&y), (21..23).contains(&x) && (10..13).contains(&y))
+        {
+            (false, _) => -100.0,
+            (true, false) => 40.0,
+            (true, true) => 1000.0,
+        };
+        base + 10.0 * gaussian_from_bits(hash64(3, i as u64))
+    });
     assert!(volume.otsu_threshold() > -60.0 && volume.otsu_threshold() < 30.0, "{}", volume.otsu_threshold());
     // Fat drawn as a class: every voxel is classified; the muscle's lasso took in fat at its
     // edge (x 3..6), which is the fat class's, not the muscle's.
@@ -174,21 +170,17 @@ fn labelling_leaves_the_face_air_background_when_a_class_lives_in_the_dark() {
 fn a_loop_in_air_without_a_second_dark_population_is_still_air_drawn_as_a_class() {
     // Air, body and bone only: the values below Otsu's level are the air's noise alone, whose
     // split separates nothing, so the level stays and the loop in the air is the air's class.
-    let values: Vec<f32> = (0..DIMS[0] * DIMS[1] * DIMS[2])
-        .map(|i| {
-            let (x, y) = (i % DIMS[0], i / DIMS[0] % DIMS[1]);
-            let body = (8..32).contains(&x) && (8..32).contains(&y);
-            let base = if !body {
-                -1000.0
-            } else if (22..28).contains(&x) {
-                1000.0
-            } else {
-                40.0
-            };
-            base + 10.0 * gaussian_from_bits(hash64(9, i as u64))
-        })
-        .collect();
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("air body bone")).unwrap();
+    let volume = volume_of("air body bone", |[x, y, _], i| {
+        let body = (8..32).contains(&x) && (8..32).contains(&y);
+        let base = if !body {
+            -1000.0
+        } else if (22..28).contains(&x) {
+            1000.0
+        } else {
+            40.0
+        };
+        base + 10.0 * gaussian_from_bits(hash64(9, i as u64))
+    });
     let set = training(vec![class("air", 10..20, 1..7, 10), class("bone", 23..27, 16..24, 10)]);
     let (_, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(plan.air_is_a_class && plan.threshold.is_none());
@@ -202,18 +194,15 @@ fn a_class_whose_dim_edge_joins_the_air_keeps_it_and_the_air_stays_background() 
     // sliver of the air, under FACE_AIR_OPENED_SHARE of it. A clean loop over the CSF layer:
     // its dim voxels continue its own values, so the face air's level drops to them (not
     // below the air at the faces) and they are classified; the air stays background.
-    let mut values = vec![0f32; DIMS[0] * DIMS[1] * DIMS[2]];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y, z) = (index % DIMS[0], index / DIMS[0] % DIMS[1], index / (DIMS[0] * DIMS[1]));
+    let volume = volume_of("brain", |[x, y, z], index| {
         let base = match ((8..32).contains(&x) && (8..32).contains(&y) && (2..18).contains(&z), x) {
             (false, _) => 20.0,
             (true, 8..=11) if (14..26).contains(&y) => 300.0 + 150.0 * (x - 8) as f32,
             (true, 8..=11) => 750.0,
             (true, _) => 1000.0,
         };
-        *value = base + 5.0 * gaussian_from_bits(hash64(11, index as u64));
-    }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("brain")).unwrap();
+        base + 5.0 * gaussian_from_bits(hash64(11, index as u64))
+    });
     let otsu = volume.otsu_threshold();
     assert!(otsu > 460.0 && otsu < 590.0, "{otsu}");
     let set = training(vec![class("csf", 8..12, 12..28, 10), class("brain", 16..26, 14..26, 10)]);
@@ -236,20 +225,17 @@ fn lowering_the_face_air_to_where_it_would_open_the_air_leaves_it_at_the_dark_le
     // An 8-bit scan: zero padding two voxels deep on every face, air (10) inside it, a body
     // (200). The top of the air on the faces is the padding's 0, so a class's kept voxel at 5
     // (the air's own, kept by a class with a wide spread) would open nearly all the air.
-    let mut values = vec![0f32; DIMS[0] * DIMS[1] * DIMS[2]];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y, z) = (index % DIMS[0], index / DIMS[0] % DIMS[1], index / (DIMS[0] * DIMS[1]));
+    let volume = volume_of("padded", |[x, y, z], index| {
         let inside = |c: usize, n: usize| (2..n - 2).contains(&c);
-        *value = match (
+        match (
             inside(x, DIMS[0]) && inside(y, DIMS[1]) && inside(z, DIMS[2]),
             (8..32).contains(&x) && (8..32).contains(&y),
         ) {
             (false, _) => 0.0,
             (true, false) => 10.0 + 2.0 * gaussian_from_bits(hash64(13, index as u64)),
             (true, true) => 200.0,
-        };
-    }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("padded")).unwrap();
+        }
+    });
     let level = volume.otsu_threshold();
     assert!(level > 20.0 && level < 190.0, "{level}");
     assert_eq!(lowered_face_level(&volume, level, 5.0), level);

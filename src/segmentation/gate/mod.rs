@@ -348,7 +348,6 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
     for class in &training.classes {
         let mut values = finite_values(volume, &class.voxels);
         let whole = band_of(&mut values)?;
-        let whole_quartiles = quartiles(&values);
         let core = lasso_core(&class.voxels, volume.dims);
         let mut core_values = finite_values(volume, &core);
         let core_band = (core.len() >= MIN_CORE_VOXELS).then(|| band_of(&mut core_values)).flatten();
@@ -369,7 +368,7 @@ fn drawn_classes(volume: &Volume, training: &TrainingSet) -> Option<Vec<DrawnCla
             None => DrawnClass {
                 whole,
                 core: whole,
-                core_quartiles: whole_quartiles,
+                core_quartiles: quartiles(&values),
                 rim: Vec::new(),
                 core_voxels: Vec::new(),
                 drawn_voxels: class.voxels.len(),

@@ -85,19 +85,22 @@ fn square(x: std::ops::Range<usize>, y: std::ops::Range<usize>) -> crate::stroke
     crate::strokes::ClassSamples::one_stroke("class".into(), voxels)
 }
 
+/// Muscle (40) wherever `tissue` gives no value at (x, y), its value elsewhere, the same
+/// through every plane, and a little noise (0 to 6).
+fn muscle_with(tissue: impl Fn(usize, usize) -> Option<f32>) -> Volume {
+    let values: Vec<f32> = (0..DIMS.iter().product())
+        .map(|index: usize| tissue(index % DIMS[0], index / DIMS[0] % DIMS[1]).unwrap_or(40.0) + (index % 7) as f32)
+        .collect();
+    Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap()
+}
+
 /// Muscle (40) everywhere, a bone of `marrow` inside x, y 10..20 with a cortex of `cortex`
 /// one voxel thick around it, and a little noise.
 fn bone_in_muscle(marrow: f32, cortex: f32) -> Volume {
-    let mut values = vec![40.0f32; DIMS.iter().product()];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
-        if (10..20).contains(&x) && (10..20).contains(&y) {
-            let edge = x == 10 || x == 19 || y == 10 || y == 19;
-            *value = if edge { cortex } else { marrow };
-        }
-        *value += (index % 7) as f32;
-    }
-    Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap()
+    muscle_with(|x, y| {
+        let edge = x == 10 || x == 19 || y == 10 || y == 19;
+        ((10..20).contains(&x) && (10..20).contains(&y)).then_some(if edge { cortex } else { marrow })
+    })
 }
 
 #[test]
@@ -146,18 +149,14 @@ fn a_rim_nearer_its_own_core_than_the_other_class_s_is_not_a_leak() {
     // values (a ramp from 100 up to 290 at x 25..36, its core band about 130 to 275, its
     // middle about 200) holds 260 too. 260 is nearer the layer's own core than the other
     // class's middle: the rim is the layer's own, not a finger's leak, and the band keeps it.
-    let mut values = vec![40.0f32; DIMS.iter().product()];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+    let volume = muscle_with(|x, y| {
         if (10..20).contains(&x) && (10..20).contains(&y) {
             let edge = x == 10 || x == 19 || y == 10 || y == 19;
-            *value = if edge { 260.0 } else { 300.0 };
-        } else if (25..36).contains(&x) && (25..36).contains(&y) {
-            *value = (100.0 + 20.0 * (x - 25) as f32).min(290.0);
+            Some(if edge { 260.0 } else { 300.0 })
+        } else {
+            ((25..36).contains(&x) && (25..36).contains(&y)).then(|| (100.0 + 20.0 * (x - 25) as f32).min(290.0))
         }
-        *value += (index % 7) as f32;
-    }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap();
+    });
     let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
     let drawn = DrawnLassos::read(&volume, &set);
     let gate = drawn.gate();
@@ -173,18 +172,14 @@ fn a_loop_whose_core_lies_over_another_class_is_judged_by_the_bands_alone() {
     // over that class, as a joint's off-centre loop over the bone's marrow. Its rim (560) is
     // nearer its own core than the other's middle, yet the core cannot speak for the class:
     // the rim inside the other's core band is a leak, and the loop takes its core's band.
-    let mut values = vec![40.0f32; DIMS.iter().product()];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+    let volume = muscle_with(|x, y| {
         if (10..20).contains(&x) && (10..20).contains(&y) {
             let edge = x <= 11 || x >= 18 || y <= 11 || y >= 18;
-            *value = if edge { 560.0 } else { 620.0 };
-        } else if (25..36).contains(&x) && (25..36).contains(&y) {
-            *value = 300.0 + 80.0 * (x - 25) as f32;
+            Some(if edge { 560.0 } else { 620.0 })
+        } else {
+            ((25..36).contains(&x) && (25..36).contains(&y)).then(|| 300.0 + 80.0 * (x - 25) as f32)
         }
-        *value += (index % 7) as f32;
-    }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap();
+    });
     let set = TrainingSet { classes: vec![square(25..36, 25..36), square(10..20, 10..20)], contested_voxels: 0 };
     let drawn = DrawnLassos::read(&volume, &set);
     let gate = drawn.gate();
@@ -235,18 +230,10 @@ fn a_leaked_loop_trains_on_its_core_where_the_core_stands_for_it() {
 /// Medium (40) everywhere; a cell (100) at x, y 5..25 with a nucleus (200) at x, y 10..20
 /// inside it; a second nucleus at x, y 29..39; through every plane, with a little noise.
 fn cell_with_nucleus() -> Volume {
-    let mut values = vec![40.0f32; DIMS.iter().product()];
-    for (index, value) in values.iter_mut().enumerate() {
-        let (x, y) = (index % DIMS[0], index / DIMS[0] % DIMS[1]);
+    muscle_with(|x, y| {
         let within = |range: std::ops::Range<usize>| range.contains(&x) && range.contains(&y);
-        if within(10..20) || within(29..39) {
-            *value = 200.0;
-        } else if within(5..25) {
-            *value = 100.0;
-        }
-        *value += (index % 7) as f32;
-    }
-    Volume::from_f32(DIMS, [1.0; 3], &values, std::path::Path::new("t")).unwrap()
+        if within(10..20) || within(29..39) { Some(200.0) } else { within(5..25).then_some(100.0) }
+    })
 }
 
 #[test]
