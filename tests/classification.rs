@@ -151,3 +151,22 @@ fn a_loop_in_an_edges_blurred_rim_leaves_the_air_background() {
         assert!(!line["background_threshold"].is_null(), "{scan}: no background: {line}");
     }
 }
+
+/// A clean loop in an 8-bit scan's dim rim between the air and the body (the Visible Male's:
+/// its core at about 33, below Otsu's level of 40, the air's noise up to about 18), with loops
+/// in the tissue and the densest parts (`scripts/real_scans.py`'s finger, seed 1): the rim
+/// lying below Otsu's level does not split the air's own noise as if the rim were a second dark
+/// population; that split (at 11) gave a class to 6 % of the air joined to the faces.
+#[test]
+fn a_dim_rim_below_otsu_s_level_does_not_split_the_air_s_noise() {
+    let folder = tempfile::tempdir().unwrap();
+    let out = folder.path().join("labels.nrrd");
+    let strokes = format!("{}/tests/strokes/vismale-dim-rim.strokes.json", env!("CARGO_MANIFEST_DIR"));
+    let volume = data("vismale_128x256x256_uint8.raw");
+    let args = ["classify", volume.to_str().unwrap(), "--strokes", &strokes, "--out", out.to_str().unwrap()];
+    let output = volasso(&args, folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let line: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let threshold = line["background_threshold"].as_f64().unwrap_or(f64::NEG_INFINITY);
+    assert!(threshold >= 18.0, "the background level {threshold} lies in the air's noise: {line}");
+}

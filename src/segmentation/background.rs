@@ -5,7 +5,9 @@
 //! Automatic rule ([`plan`]). The volume's dark level is its Otsu threshold
 //! ([`Volume::otsu_threshold`], which splits air from everything else in CT and MRI alike),
 //! or a second split below it where that one cuts through a lassoed tissue (a scan of air
-//! with one small, very bright structure; see `dark_level`); the *face air* is the dark region joined to the volume's faces ([`super::face_air`]).
+//! with one small, very bright structure; an MRI's thin dark skull that the faces cut, drawn
+//! with a finger's leak; see `dark_level`); the *face air* is the dark region joined to the
+//! volume's faces ([`super::face_air`]).
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air was drawn in the
 //!    air: the user means air as a class. Other classes' face-air voxels are that class's.
 //! 2. Otherwise each class is cleaned: its voxels outside the face air are its reference, and
@@ -189,14 +191,23 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 /// The volume's dark level: its Otsu threshold, unless that cuts through a lassoed tissue.
 /// On a scan that is nearly all air with one small, very bright structure, Otsu splits the
 /// bright structure off instead of the air: a tissue lies below the level, joins the faces
-/// through the air, and would be taken for air drawn as a class. So when a class has at least
-/// [`AIR_CLASS_SHARE`] of its voxels in the face air, the values below Otsu's threshold are
-/// split again ([`level::split_below`]), and that split is the level when all of these hold:
+/// through the air, and would be taken for air drawn as a class. On an MRI whose faces cut the
+/// head, a thin dark skull lies below Otsu's level and joins the faces where they cut it. So
+/// when a class has at least [`AIR_CLASS_SHARE`] of its voxels in the face air, or its
+/// lassos' core (the voxels past a finger's leak, `gate::lasso_core`) has its median below
+/// Otsu's level (a finger's loop around a skull three voxels thick is half scalp and CSF, and
+/// only its core tells what it was drawn around), the values below Otsu's threshold are split
+/// again ([`level::split_below`]), and that split is the level when all of these hold:
 /// * it separates two populations: Otsu's separability says so ([`SEPARATE_POPULATIONS`]), or
-///   the class that lies in the face air is unlike the air at the faces (its median above the
-///   dark face voxels' [`upper_reach`]: a dark tissue joined to the air, such as a phantom's
-///   foam, whose few voxels hardly move the histogram of a scan that is mostly air), not the
-///   air's own noise;
+///   a class in the face air is unlike the air at the faces (its median above the dark face
+///   voxels' [`upper_reach`]: a dark tissue joined to the air, such as a phantom's foam, whose
+///   few voxels hardly move the histogram of a scan that is mostly air), not the air's own
+///   noise. A core below the level alone needs the separability: an 8-bit scan's dim rim
+///   between the air and the body (the Visible Male's, its core at 33 against Otsu's 40) split
+///   the air's own noise at 11 (separability 0.65), and a class took 6 % of the face air. And
+///   that core must lie above the split: a finger's loop around a CT's skull that is more
+///   than half air has the air for its core (the cranium's, at -924 HU against a split at
+///   -845), and a class took 10 % of the air around the head;
 /// * the air at the faces stays below it (at least half of the dark face voxels);
 /// * no class is air by the same share at the new level (the class lies above it).
 ///
@@ -205,15 +216,36 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f64 {
     let otsu = volume.otsu_threshold();
     let shares = air_shares(volume, training, values, otsu);
-    if !shares.iter().any(|&share| share >= AIR_CLASS_SHARE) {
+    // The classes drawn in the face air, by their medians; else the medians of the lassos'
+    // cores below the level (without a voxel below it, a core cannot lie there).
+    let in_face_air: Vec<f64> = shares
+        .iter()
+        .zip(values)
+        .filter(|(share, _)| **share >= AIR_CLASS_SHARE)
+        .map(|(_, values)| median_in_place(&mut values.clone()))
+        .collect();
+    let cores_below: Vec<f64> = match in_face_air.is_empty() {
+        true => training
+            .classes
+            .iter()
+            .zip(values)
+            .filter(|(_, values)| values.iter().any(|&value| value < otsu))
+            .filter_map(|(class, _)| core_median(volume, &class.voxels).filter(|&core| core < otsu))
+            .collect(),
+        false => Vec::new(),
+    };
+    if in_face_air.is_empty() && cores_below.is_empty() {
         return otsu;
     }
     let Some(split) = level::split_below(volume, otsu) else { return otsu };
+    // A core below the level must lie above the split: a loop more than half in the air has
+    // the air for its core.
+    if in_face_air.is_empty() && !cores_below.iter().any(|&core| core > split.level) {
+        return otsu;
+    }
     let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
     let face_air_top = upper_reach(face_dark.clone());
-    let unlike_the_face_air = shares.iter().zip(values).any(|(&share, values)| {
-        share >= AIR_CLASS_SHARE && face_air_top.is_some_and(|top| median_in_place(&mut values.clone()) > top)
-    });
+    let unlike_the_face_air = in_face_air.iter().any(|&median| face_air_top.is_some_and(|top| median > top));
     if split.separability < SEPARATE_POPULATIONS && !unlike_the_face_air {
         return otsu;
     }
@@ -225,6 +257,14 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
         return otsu;
     }
     split.level
+}
+
+/// The median of the finite values of a lasso's core (its voxels past a finger's leak,
+/// [`super::gate::lasso_core`]); `None` when the core is too small to stand for the class.
+fn core_median(volume: &Volume, voxels: &[usize]) -> Option<f64> {
+    let core = super::gate::lasso_core(voxels, volume.dims);
+    let mut values: Vec<f64> = core.iter().map(|&v| volume.value(v)).filter(|v| v.is_finite()).collect();
+    (values.len() >= super::gate::MIN_CORE_VOXELS).then(|| median_in_place(&mut values))
 }
 
 /// For each class, the share of its voxels (`values` are theirs) in the face air below `level`.

@@ -218,3 +218,45 @@ fn a_loop_drawn_in_an_mri_s_air_where_the_bias_field_brightens_it_is_still_the_a
     let (_, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(plan.air_is_a_class && plan.threshold.is_none(), "{:?}", plan.threshold);
 }
+
+/// 16-bit MRI of the side of a head, as a T1 scan whose faces cut the head: Rayleigh-like air
+/// (about 20, x < 12), bright scalp (800, x 12..15), a dark skull three voxels thick (150,
+/// x 15..18; below Otsu's level and joined to the faces that cut it) and brain (600) beyond.
+fn mri_head_side() -> Volume {
+    stored(VoxelType::U16, ValueScale::IDENTITY, |x, y, z| {
+        let i = index(x, y, z) as u64;
+        let tissue = |value: f64| value + 30.0 * f64::from(gaussian_from_bits(hash64(1, i)));
+        match x {
+            0..12 => {
+                let (a, b) = (f64::from(gaussian_from_bits(hash64(2, i))), f64::from(gaussian_from_bits(hash64(3, i))));
+                16.0 * (a * a + b * b).sqrt()
+            }
+            12..15 => tissue(800.0),
+            15..18 => tissue(150.0),
+            _ => tissue(600.0),
+        }
+    })
+}
+
+#[test]
+fn a_dark_skull_drawn_with_a_finger_s_leak_is_a_class_and_the_air_stays_background() {
+    let volume = mri_head_side();
+    // The case: the skull lies below Otsu's level, in the face air.
+    assert!(volume.otsu_threshold() > 200.0, "{}", volume.otsu_threshold());
+    // The skull's loop (x 13..20) reaches two voxels into the scalp and the brain on each side
+    // of the skull: less than half of it lies in the face air, its core is the skull.
+    let set = training(vec![class(13..20, 12..36), class(26..36, 16..32)]);
+    let (_, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(!plan.air_is_a_class);
+    let threshold = plan.threshold.expect("a level");
+    assert!((40.0..110.0).contains(&threshold), "between the air and the skull: {threshold}");
+
+    let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
+    let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
+    let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| index_x(i) < 10).collect();
+    let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
+    assert!(air_labelled * 20 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
+    let skull: Vec<usize> = (0..DIMS[2]).flat_map(|z| (0..DIMS[1]).map(move |y| index(16, y, z))).collect();
+    let labelled_skull = skull.iter().filter(|&&i| labels.labels[i] == 1).count();
+    assert!(labelled_skull * 10 >= skull.len() * 9, "{labelled_skull} of {} skull voxels", skull.len());
+}

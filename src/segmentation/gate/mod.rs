@@ -419,7 +419,7 @@ impl DrawnClass {
 /// The voxels of a lasso (sorted volume indices) more than [`CORE_DEPTH`] voxels from its edge:
 /// [`CORE_DEPTH`] times, the voxels with at least four of their six face neighbours in the set
 /// (the four in a lasso's own slice; where lassos on two axes cross, any four).
-fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
+pub(super) fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
     let [size_x, size_y, size_z] = dims;
     let plane = size_x * size_y;
     let mut core = voxels.to_vec();
