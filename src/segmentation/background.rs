@@ -224,15 +224,11 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
         .filter(|(share, _)| **share >= AIR_CLASS_SHARE)
         .map(|(_, values)| median_in_place(&mut values.clone()))
         .collect();
-    let cores_below: Vec<f64> = match in_face_air.is_empty() {
-        true => training
-            .classes
-            .iter()
-            .zip(values)
-            .filter(|(_, values)| values.iter().any(|&value| value < otsu))
-            .filter_map(|(class, _)| core_median(volume, &class.voxels).filter(|&core| core < otsu))
-            .collect(),
-        false => Vec::new(),
+    let cores_below: Vec<f64> = if in_face_air.is_empty() {
+        let reaching_below = training.classes.iter().zip(values).filter(|(_, values)| values.iter().any(|&v| v < otsu));
+        reaching_below.filter_map(|(class, _)| core_median(volume, &class.voxels).filter(|&core| core < otsu)).collect()
+    } else {
+        Vec::new()
     };
     if in_face_air.is_empty() && cores_below.is_empty() {
         return otsu;

@@ -99,6 +99,12 @@ fn a_loop_drawn_in_the_air_beside_a_bright_structure_is_still_the_air() {
     assert!(plan.air_is_a_class && plan.threshold.is_none());
 }
 
+/// An MRI's air at voxel `i`: the magnitude of complex Gaussian noise (Rayleigh, about 20).
+fn rayleigh_air(i: u64) -> f64 {
+    let (a, b) = (f64::from(gaussian_from_bits(hash64(2, i))), f64::from(gaussian_from_bits(hash64(3, i))));
+    16.0 * (a * a + b * b).sqrt()
+}
+
 /// 16-bit MRI: air is Rayleigh-like noise (about 20) under a bias field that doubles from x = 0
 /// to the far face, a head (an ellipse through every z plane, cut by the z faces) of tissue at
 /// 600 with a brighter core at 900.
@@ -113,8 +119,7 @@ fn mri_head() -> Volume {
         } else if radius < 1.0 {
             600.0 + 30.0 * f64::from(gaussian_from_bits(hash64(1, i)))
         } else {
-            let (a, b) = (f64::from(gaussian_from_bits(hash64(2, i))), f64::from(gaussian_from_bits(hash64(3, i))));
-            16.0 * (a * a + b * b).sqrt()
+            rayleigh_air(i)
         };
         base * bias
     })
@@ -227,10 +232,7 @@ fn mri_head_side() -> Volume {
         let i = index(x, y, z) as u64;
         let tissue = |value: f64| value + 30.0 * f64::from(gaussian_from_bits(hash64(1, i)));
         match x {
-            0..12 => {
-                let (a, b) = (f64::from(gaussian_from_bits(hash64(2, i))), f64::from(gaussian_from_bits(hash64(3, i))));
-                16.0 * (a * a + b * b).sqrt()
-            }
+            0..12 => rayleigh_air(i),
             12..15 => tissue(800.0),
             15..18 => tissue(150.0),
             _ => tissue(600.0),
