@@ -4,21 +4,29 @@
 `volasso accuracy` draws its phantoms (src/phantom) and its user (src/accuracy/user.rs) with
 the same code base that chooses the defaults. This script makes everything again without that
 code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias field and Rician
-noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI; and a real
-brain, the ICBM 152 T1 template that nilearn ships, with its tissue maps as truth), its own
+noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI, a CT
+angiogram of vessels 1-3 voxels across with small calcifications, a chest CT in a mediastinal
+window whose lungs are as black as the air and leave through the top face; and a real brain,
+the ICBM 152 T1 template that nilearn ships, with its tissue maps as truth), its own
 finger (loops on the three slices `volasso info` ranks first, drawn inside each structure or
 leaking 2 voxels over its border, into air too; `--hands` adds a finger that lands off-centre and
 a broad one 4 voxels over), and its own scoring. It runs the volasso binary
 as a user would (`volasso info`, `volasso classify` on an NRRD file) and scikit-learn's random
 forest (100 trees) on the paper's 5 features computed here, on the same lassoed voxels.
 
-It prints, per case and hand, the macro Dice of both, the share of the air connected to the
-volume's faces that got a class when the air was not lassoed, and the share of lassoed voxels
+One more case scores what a class holds rather than Dice: on the T1 head, a loop around a
+lateral ventricle (the leaky finger takes the white matter beside it), one in white matter and
+one on the scalp; it prints the share of the ventricle's class that is CSF and that is grey
+matter, and the share of the ventricles it found.
+
+It prints, per case and hand, the macro Dice of both, the share of the air around the body
+(in each axial slice, the air joined to the slice's edge) that got a class when the air was not
+lassoed, and the share of lassoed voxels
 that kept their class; then the means per hand and the worst difference to the forest.
 `--thick N` cuts every scan in slices N times as thick (the mean of N, truth their majority).
 
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
-                                  [--only NAME] [--keep DIR] [--classify-args="--coherence none"]
+                                  [--only NAME[,NAME]] [--forest-cache DIR] [--keep DIR] [--classify-args="--coherence none"]
                                   [--hands clean,leaky,offset,wide] [--thick N]
 Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn);
 the real brain (mni-t1) also nilearn's data files: pip install nilearn, or unpack its wheel
@@ -107,6 +115,21 @@ def head_t1_16(rng):
     return image, truth, ["background", "scalp", "skull", "csf", "grey", "white"], (1.0, 1.0, 1.2)
 
 
+def head_ventricles_t1_16(rng):
+    """The T1 head with its lateral ventricles as a class of their own ("ventricle", CSF to the
+    scanner); drawn: a loop around a ventricle, one in white matter and one on the scalp
+    (`DRAWN`); scored by what the ventricle's class holds (`ventricle_purity`)."""
+    image, truth, names, spacing = head_t1_16(rng)
+    z, y, x = grid(truth.shape)
+    ventricles = ((np.abs(x - 38) - 6) / 4) ** 2 + ((y - 46) / 12) ** 2 + ((z - 42) / 8) ** 2 < 1
+    truth = truth.copy()
+    truth[ventricles & (truth == 3)] = 6
+    # The white matter's loop is drawn in white matter, not around the ventricles.
+    draw = truth.copy()
+    draw[(draw == 5) & ndi.binary_dilation(truth == 6, iterations=6)] = 0
+    return image, truth, names + ["ventricle"], spacing, draw
+
+
 def vessels_ct8(rng):
     shape = (64, 96, 96)
     z, y, x = grid(shape)
@@ -187,6 +210,95 @@ def cells_mri8(rng):
     return image, truth, ["medium", "cell", "nucleus", "granules"], (0.5, 0.5, 1.0)
 
 
+def vessel_tree(shape, start, radius, rng, min_radius=0.5, max_steps=400):
+    """A branching tree of tubes from `start` (z, y, x) along +z, radius `radius` voxels down to
+    `min_radius`, each branch a random walk that forks in two, thinner, where it ends."""
+    tubes = np.zeros(shape, bool)
+    walkers = [(np.asarray(start, float), np.array([1.0, 0.0, 0.0]), radius)]
+    steps = 0
+    while walkers and steps < max_steps:
+        steps += 1
+        pos, direction, radius = walkers.pop(0)
+        for _ in range(int(rng.integers(12, 28))):
+            direction = direction + 0.25 * rng.standard_normal(3)
+            direction /= np.linalg.norm(direction)
+            pos = pos + direction
+            if not all(2 <= pos[i] < shape[i] - 2 for i in range(3)):
+                break
+            lo = np.maximum(np.floor(pos - radius - 1).astype(int), 0)
+            hi = np.minimum(np.ceil(pos + radius + 2).astype(int), shape)
+            sub = tuple(slice(lo[i], hi[i]) for i in range(3))
+            zz, yy, xx = np.meshgrid(*[np.arange(lo[i], hi[i]) for i in range(3)], indexing="ij")
+            tubes[sub] |= (zz - pos[0]) ** 2 + (yy - pos[1]) ** 2 + (xx - pos[2]) ** 2 <= max(radius, 0.5) ** 2
+        else:
+            if radius > min_radius + 0.1:
+                for turn in (-1, 1):
+                    side = direction + 0.8 * turn * np.cross(direction, rng.standard_normal(3))
+                    walkers.append((pos.copy(), side / np.linalg.norm(side), max(min_radius, radius * 0.72)))
+    return tubes
+
+
+def thin_vessels_ct16(rng):
+    """A CT angiogram of thin vessels: a tree of contrast-filled tubes 1 to 3 voxels across in
+    soft tissue and fat, with small calcifications (2-3 voxels) beside them and in the tissue."""
+    shape = (56, 96, 96)
+    z, y, x = grid(shape)
+    truth = np.zeros(shape, np.uint8)
+    body = ((x - 48) / 44) ** 2 + ((y - 48) / 42) ** 2 < 1 + 0.05 * smooth_field(shape, 10, rng)
+    truth[body] = 1  # fat
+    tissue = ((x - 48) / 38) ** 2 + ((y - 48) / 36) ** 2 < 1 + 0.08 * smooth_field(shape, 8, rng)
+    truth[tissue & body] = 2  # soft tissue
+    tubes = np.zeros(shape, bool)
+    for start in ((3, 40, 36), (3, 56, 60), (28, 30, 60)):
+        tubes |= vessel_tree(shape, start, 1.5, rng, min_radius=0.5, max_steps=60)
+    truth[tubes & tissue] = 3
+    calcified = np.zeros(shape, bool)
+    for _ in range(24):
+        c = rng.uniform([6, 20, 20], [50, 76, 76])
+        r = rng.uniform(0.9, 1.5)
+        calcified |= (z - c[0]) ** 2 + (y - c[1]) ** 2 + (x - c[2]) ** 2 <= r ** 2
+    truth[calcified & tissue] = 4
+    values = np.array([-1000, -90, 45, 330, 900], np.float64)
+    image = finish(values[truth], 18, 0.6, rng, np.int16)
+    return image, truth, ["air", "fat", "soft tissue", "vessels", "calcification"], (0.6, 0.6, 0.8)
+
+
+def chest_ct8(rng):
+    """A chest CT in a mediastinal window, stored as 8 bits: the lungs are as black as the air
+    outside, and they reach the volume's top face through the trachea and their apices."""
+    shape = (64, 100, 128)
+    z, y, x = grid(shape)
+    truth = np.zeros(shape, np.uint8)
+    wobble = 0.05 * smooth_field(shape, 12, rng)
+    body = ((x - 64) / 58) ** 2 + ((y - 50) / 40) ** 2 < 1 + wobble
+    truth[body] = 1  # fat under the skin
+    wall = ((x - 64) / 54) ** 2 + ((y - 50) / 36) ** 2 < 1 + wobble
+    truth[wall] = 2  # muscle and mediastinum
+    cage = ((x - 64) / 49) ** 2 + ((y - 50) / 31) ** 2 < 1 + wobble  # inside the ribs and intercostal muscle
+    lungs = np.zeros(shape, bool)
+    for side in (-1, 1):
+        cx = 64 + side * 25
+        lungs |= (((x - cx) / 20) ** 2 + ((y - 47) / 27) ** 2 + ((z - 58) / 52) ** 2
+                  < 1 + 0.1 * smooth_field(shape, 8, rng))
+    lungs &= cage & (z > 6)
+    trachea = ((x - 64) ** 2 + (y - 36) ** 2 < 5.0 ** 2) & (z > 40)
+    truth[(lungs | trachea) & wall] = 3
+    ribs = np.zeros(shape, bool)
+    rib_shell = (((x - 64) / 51) ** 2 + ((y - 50) / 34) ** 2)
+    for k in range(7):
+        ribs |= (np.abs(np.sqrt(rib_shell) - 0.965) < 0.035) & (np.abs(z - (6 + 8.5 * k + 2 * np.sin(x / 30))) < 1.6)
+    spine = ((x - 64) / 9) ** 2 + ((y - 80) / 8) ** 2 < 1
+    truth[(ribs | spine) & wall & ~lungs] = 4
+    hu = np.array([-1000, -100, 40, -850, 700], np.float64)
+    mean = hu[truth]
+    vessels = lungs & (smooth_field(shape, 1.5, rng) > 2.2)
+    mean[vessels] = 20  # vessels in the lung: lung all the same to the truth, bright on the picture
+    image = ndi.gaussian_filter(mean, 0.8) + 30 * rng.standard_normal(shape)
+    windowed = (image - (40 - 200)) / 400 * 255  # level 40, width 400
+    image = np.clip(np.rint(windowed), 0, 255).astype(np.uint8)
+    return image, truth, ["air", "fat", "soft tissue", "lung", "bone"], (0.8, 0.8, 2.0)
+
+
 MNI_FILES = "mni_icbm152_{}_tal_nlin_sym_09a_converted.nii.gz"
 
 
@@ -244,9 +356,14 @@ def mni_t1(rng):
 
 
 PHANTOMS = {"abdomen-ct16": abdomen_ct16, "head-t1-16": head_t1_16, "vessels-ct8": vessels_ct8,
-            "knee-ct16": knee_ct16, "cells-mri8": cells_mri8, "mni-t1": mni_t1}
+            "knee-ct16": knee_ct16, "cells-mri8": cells_mri8, "mni-t1": mni_t1,
+            "thin-vessels-ct16": thin_vessels_ct16, "chest-ct8": chest_ct8,
+            "head-ventricle-t1": head_ventricles_t1_16}
+# Cases where only some classes are drawn (truth ids, in drawing order); the rest draw every class.
+DRAWN = {"head-ventricle-t1": [6, 5, 1]}
 # Phantoms whose class 0 is air around a body: the user may leave it unlassoed.
-WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16", "mni-t1"}
+WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16", "mni-t1", "thin-vessels-ct16", "chest-ct8",
+            "head-ventricle-t1"}
 
 
 def thick_slices(image, truth, spacing, count):
@@ -333,9 +450,11 @@ def largest_component(mask):
     return parts == 1 + int(np.argmax(sizes))
 
 
-def draw_strokes(truth, names, lasso_air, top_slices, hand, rng):
+def draw_strokes(truth, names, lasso_air, top_slices, hand, rng, drawn=None):
     classes, class_truth = [], []
-    for cls, name in enumerate(names):
+    order = drawn if drawn is not None else range(len(names))
+    for cls in order:
+        name = names[cls]
         if cls == AIR and not lasso_air:
             continue
         strokes = []
@@ -405,6 +524,25 @@ def forest_labels(image, masks, lasso_air):
     return labels.reshape(image.shape)
 
 
+def cached_forest_labels(folder, image, strokes, masks, lasso_air):
+    """`forest_labels`, kept in `folder` (when given) under a hash of the image and the strokes:
+    the forest is the slowest part of a run and does not change with volasso."""
+    if not folder:
+        return forest_labels(image, masks, lasso_air)
+    import hashlib
+
+    key = hashlib.sha256(image.tobytes() + json.dumps(strokes, sort_keys=True).encode()
+                         + bytes([lasso_air])).hexdigest()[:32]
+    path = os.path.join(folder, key + ".npy")
+    if os.path.exists(path):
+        return np.load(path)
+    labels = forest_labels(image, masks, lasso_air)
+    os.makedirs(folder, exist_ok=True)
+    np.save(path + ".tmp.npy", labels)
+    os.replace(path + ".tmp.npy", path)
+    return labels
+
+
 def dice(truth, predicted, cls):
     t, p = truth == cls, predicted == cls
     total = t.sum() + p.sum()
@@ -417,15 +555,36 @@ def score(truth, labels, class_truth, names, masks, lasso_air):
         lookup[k + 1] = cls
     predicted = lookup[labels]
     per_class = [dice(truth, predicted, c) for c in range(len(names))]
-    outside = ndi.label(truth == AIR)[0]
-    face_ids = np.unique(np.concatenate([outside[0].ravel(), outside[-1].ravel(), outside[:, 0].ravel(),
-                                         outside[:, -1].ravel(), outside[:, :, 0].ravel(), outside[:, :, -1].ravel()]))
-    face_air = np.isin(outside, face_ids[face_ids > 0])
+    face_air = air_around_the_body(truth == AIR)
     air_classed = float((labels[face_air] > 0).mean()) if (not lasso_air and face_air.any()) else None
     # A lassoed air's voxels kept as background (label 0: not drawn in 3-D) keep their class.
     kept = min(float(((labels[m] == k + 1) | ((labels[m] == 0) & (class_truth[k] == AIR))).mean())
                for k, m in enumerate(masks))
     return float(np.mean(per_class)), per_class, air_classed, kept
+
+
+def air_around_the_body(air):
+    """The air a radiologist calls outside: in each axial (z) slice, the air that a path of air
+    joins to the slice's edge. Lungs and airways, ringed by the chest wall in every axial slice,
+    are not in it, even where they leave the volume through a face; nor are an MRI's ventricles
+    where a crop makes its darkest level reach a face."""
+    outside = np.zeros(air.shape, bool)
+    four = ndi.generate_binary_structure(2, 1)
+    for z in range(air.shape[0]):
+        parts, _ = ndi.label(air[z], structure=four)
+        edge = np.unique(np.concatenate([parts[0], parts[-1], parts[:, 0], parts[:, -1]]))
+        outside[z] = np.isin(parts, edge[edge > 0])
+    return outside
+
+
+def ventricle_purity(truth, labels, class_truth):
+    """What the ventricle's class holds: its share of CSF (the ventricles and the CSF around the
+    brain) and of grey matter, and the share of the ventricles it found."""
+    label = class_truth.index(6) + 1
+    mine = labels == label
+    count = max(int(mine.sum()), 1)
+    return (float(np.isin(truth[mine], (3, 6)).sum() / count), float((truth[mine] == 4).sum() / count),
+            float(mine[truth == 6].mean()))
 
 
 def main():
@@ -435,6 +594,8 @@ def main():
     parser.add_argument("--only", default=None)
     parser.add_argument("--thick", type=int, default=1, help="slices N times as thick (the mean of N along z)")
     parser.add_argument("--classify-args", default="", help="extra arguments for volasso classify")
+    parser.add_argument("--forest-cache", default=None,
+                        help="keep the forest's labels in this folder and reuse them (keyed by image and strokes)")
     parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
     parser.add_argument("--hands", default="clean,leaky",
                         help="the fingers, of clean, leaky, offset (off-centre: over one side, short of the other) "
@@ -446,11 +607,11 @@ def main():
         parser.error(f"--hands: each of {', '.join(HANDS)}")
     folder = args.keep or tempfile.mkdtemp(prefix="volasso-heldout-")
     os.makedirs(folder, exist_ok=True)
-    rows = []
+    rows, purity = [], []
     print(f"{'case':<14}{'seed':>5} {'hand':<6}{'air':<5}{'volasso':>8}{'forest':>8}{'diff':>8}"
           f"{'air classed':>12}{'lasso kept':>11}   per class (volasso)")
     for name, make in PHANTOMS.items():
-        if args.only and args.only != name:
+        if args.only and name not in args.only.split(","):
             continue
         if name == "mni-t1" and mni_folder() is None:
             print("mni-t1: skipped (pip install nilearn, or set VOLASSO_MNI_DIR to a folder with the "
@@ -458,18 +619,23 @@ def main():
             continue
         for seed in [int(s) for s in args.seeds.split(",")]:
             rng = np.random.default_rng(seed * 7919 + len(name))
-            image, truth, names, spacing = make(rng)
+            made = make(rng)
+            image, truth, names, spacing = made[:4]
+            drawing = made[4] if len(made) > 4 else truth  # where the finger draws each class
             image, truth, spacing = thick_slices(image, truth, spacing, args.thick)
-            lasso_air = name not in WITH_AIR or seed % 2 == 0
+            if drawing is not truth:
+                drawing = thick_slices(made[0], drawing, made[3], args.thick)[1]
+            lasso_air = (name not in WITH_AIR or seed % 2 == 0) and name not in DRAWN
+            drawn = DRAWN.get(name)
             volume = os.path.join(folder, f"{name}-{seed}.nrrd")
             write_nrrd(volume, image, spacing)
             info = json.loads(subprocess.run([args.volasso, "info", volume, "--json"], check=True,
                                              capture_output=True, text=True).stdout)
             for hand in HANDS[:1 + max(HANDS.index(hand) for hand in hands)]:
                 if hand not in hands:
-                    draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)  # the same draws for the rest
+                    draw_strokes(drawing, names, lasso_air, info["top_slices"], hand, rng, drawn)  # the same draws for the rest
                     continue
-                strokes, class_truth = draw_strokes(truth, names, lasso_air, info["top_slices"], hand, rng)
+                strokes, class_truth = draw_strokes(drawing, names, lasso_air, info["top_slices"], hand, rng, drawn)
                 stroke_path = os.path.join(folder, f"{name}-{seed}-{hand}.strokes.json")
                 with open(stroke_path, "w") as f:
                     json.dump(strokes, f)
@@ -477,8 +643,17 @@ def main():
                 subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out] + args.classify_args.split(),
                                check=True, capture_output=True, text=True)
                 masks = lassoed_voxels(strokes, truth.shape)
-                ours = score(truth, read_nrrd_labels(out, truth.shape), class_truth, names, masks, lasso_air)
-                theirs = score(truth, forest_labels(image, masks, lasso_air), class_truth, names, masks, lasso_air)
+                our_labels = read_nrrd_labels(out, truth.shape)
+                forest = cached_forest_labels(args.forest_cache, image, strokes, masks, lasso_air)
+                if drawn is not None:
+                    ours, theirs = (ventricle_purity(truth, labels, class_truth) for labels in (our_labels, forest))
+                    print(f"{name:<14}{seed:>5} {hand:<6}ventricle class: CSF {ours[0]:.3f} grey {ours[1]:.3f} "
+                          f"ventricles found {ours[2]:.3f}   (forest: CSF {theirs[0]:.3f} grey {theirs[1]:.3f} "
+                          f"found {theirs[2]:.3f})", flush=True)
+                    purity.append((name, seed, hand) + tuple(ours))
+                    continue
+                ours = score(truth, our_labels, class_truth, names, masks, lasso_air)
+                theirs = score(truth, forest, class_truth, names, masks, lasso_air)
                 air = "-" if ours[2] is None else f"{ours[2]:.3f}"
                 print(f"{name:<14}{seed:>5} {hand:<6}{'yes' if lasso_air else 'no':<5}{ours[0]:>8.3f}{theirs[0]:>8.3f}"
                       f"{ours[0] - theirs[0]:>+8.3f}{air:>12}{ours[3]:>11.3f}   "
@@ -494,8 +669,19 @@ def main():
                   f"  worst {worst[3] - worst[4]:+.3f} ({worst[0]} seed {worst[1]})")
     air = [r[5] for r in rows if r[5] is not None]
     if air:
-        print(f"air connected to the faces that got a class: worst {max(air):.3f} over {len(air)} runs")
-    print(f"lassoed voxels that kept their class: worst {min(r[6] for r in rows):.3f}")
+        print(f"air around the body that got a class: worst {max(air):.3f} over {len(air)} runs")
+    if rows:
+        print(f"lassoed voxels that kept their class: worst {min(r[6] for r in rows):.3f}")
+        for hand in hands:
+            gaps = [(r[0], r[1], r[3]) for r in rows if r[2] == hand]
+            if hand != "clean" and gaps:
+                clean = {(r[0], r[1]): r[3] for r in rows if r[2] == "clean"}
+                worst = min(gaps, key=lambda g: clean.get(g[:2], 1) - g[2])
+                if worst[:2] in clean:
+                    print(f"clean minus {hand}: worst {clean[worst[:2]] - worst[2]:+.3f} ({worst[0]} seed {worst[1]})")
+    if purity:
+        print(f"ventricle class: CSF share worst {min(p[3] for p in purity):.3f}, grey share worst "
+              f"{max(p[4] for p in purity):.3f}")
     return 0
 
 

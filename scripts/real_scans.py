@@ -14,8 +14,9 @@ On the lobster the darkest level is the zero padding beside the resin the lobste
 and the second level's loop is drawn in the resin: it becomes a class, and the padding, far
 darker than the resin, stays background.
 
-Per run it prints the share of the dark level joined to the volume's faces that got a class
-when the air was not lassoed (a box is 1.000; the issue's check wants at most 0.05), the least
+Per run it prints the share of the dark level around the body (in each axial slice, the part
+joined to the slice's edge: heldout.py's air around the body) that got a class when the air was
+not lassoed (a box is 1.000; the issue's check wants at most 0.05), the least
 share of a class's lassoed voxels that kept that class, the Dice of each class against its
 Otsu level (a rough guide only: the levels are not anatomy), the share of the volume each label
 took, and the wall time of `volasso classify` (load and write included). A non-zero exit is
@@ -134,7 +135,7 @@ def main():
                 print(f"{scan:<20}{seed:>2} {hand:<6} air {'lassoed' if lasso_air else '-' if air is None else f'{air:.3f}':>7}"
                       f"  kept {kept:.3f}  dice [{' '.join(f'{d:.2f}' for d in per_class)}]"
                       f"  labels [{' '.join(f'{s:.2f}' for s in shares)}]  {seconds:.2f} s", flush=True)
-    print(f"air joined to the faces that got a class: worst {worst_air:.3f}")
+    print(f"air around the body that got a class: worst {worst_air:.3f}")
     return 0
 
 

@@ -110,6 +110,8 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `cranium-skull-lasso.touch`, `vismale-scalp-lasso.touch`: loops that take in air leave the
 ///   air background, on a 16-bit clinical CT and on the 8-bit Visible Male head;
 /// * `cranium-finger-loops.touch`: loops run on past their start or started inside, on the CT;
+/// * `chest-lung-lasso.touch`: a loop in a lung as black as the air, on a windowed chest CT
+///   phantom whose lungs leave through its top face (written into `work`);
 /// * `orientation.touch`: the patient's directions at the panels' edges (the GE head CT);
 /// * `panels.touch`: every screen's controls whole, apart and 9 mm wide;
 /// * `series-picker.touch`: a folder of two DICOM series gives each a card that opens it;
@@ -129,6 +131,13 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             volume("cranium_ct_256x256x108_int16.raw")
         }
         "vismale-scalp-lasso.touch" => volume("vismale_128x256x256_uint8.raw"),
+        "chest-lung-lasso.touch" => {
+            std::fs::create_dir_all(work).unwrap();
+            let chest = work.join("chest.nrrd");
+            let phantom = volasso::phantom::bodies::chest_ct_windowed([128, 100, 64], 1).unwrap();
+            support::write_u8_nrrd(&chest, &phantom.volume);
+            vec!["--volume".to_string(), chest.display().to_string()]
+        }
         "engine-workflow.touch" => volume("engine_256x256x256_uint8.raw"),
         "hostile-files.touch" => {
             let data = work.join("data");

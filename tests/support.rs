@@ -60,3 +60,12 @@ pub fn nifti_header(datatype: i16, bitpix: i16, dims: [i16; 3], vox_offset: f32)
     h[344..348].copy_from_slice(b"n+1\0");
     h
 }
+
+/// Writes `volume` (8-bit, little-endian as stored) as a raw NRRD with its spacing.
+pub fn write_u8_nrrd(path: &Path, volume: &volasso::volume::Volume) {
+    let [x, y, z] = volume.dims;
+    let [sx, sy, sz] = volume.spacing_mm;
+    let header =
+        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {x} {y} {z}\nspacings: {sx} {sy} {sz}\nencoding: raw\n\n");
+    std::fs::write(path, [header.as_bytes(), volume.raw_bytes()].concat()).unwrap();
+}

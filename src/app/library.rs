@@ -155,8 +155,9 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
         return Err(OpenError::NoVoxels { name: source.name() });
     }
     let entropies = foreground_slice_entropies(&volume);
-    // Here, off the interactive path: every training on the volume needs it.
+    // Here, off the interactive path: every training on the volume needs them.
     volume.otsu_threshold();
+    volume.body();
     let windows = WindowChoices::for_volume(&volume);
     Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, windows })
 }

@@ -45,9 +45,10 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     if training.contested_voxels > 0 {
         log::warn!("{} voxels were lassoed for two classes and are not used", training.contested_voxels);
     }
-    // A property of the volume, computed once when it is opened (as the app does), not on
-    // every training: it belongs to the load time.
+    // Properties of the volume, computed once when it is opened (as the app does), not on
+    // every training: they belong to the load time.
     volume.otsu_threshold();
+    volume.body();
     let load_seconds = total.elapsed().as_secs_f64();
 
     let options = segmentation_options(args);

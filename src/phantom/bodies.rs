@@ -10,6 +10,10 @@
 //! * [`head_mri`]: 8-bit T1-like head on a neck that the bottom face cuts. Background, scalp
 //!   (bright fat), skull (dark), CSF, brain and neck muscle; the sinuses are air inside the
 //!   head (background by truth). A strong bias field.
+//! * [`chest_ct_windowed`]: 8-bit chest CT as a mediastinal window stores it (level 40, width
+//!   400 HU): the lungs are as black as the air around the body, and they leave the volume
+//!   through its top face (their apices and the trachea). Air, fat under the skin, soft tissue
+//!   (muscle, heart and mediastinum), lungs with their vessels, bone (spine and ribs).
 //!
 //! Built with [`super::procedural`]'s recipe (texture, bias, blur, noise). Never: reads files.
 
@@ -50,6 +54,7 @@ pub fn torso_ct(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         bias: drawn(seed, 7, 0.0, 0.06) as f32,
         noise: drawn(seed, 8, 10.0, 25.0) as f32,
         blur_passes: 1,
+        windowed: false,
     };
     generate(&recipe, dims, seed, |p| {
         let [x, y, z] = p;
@@ -127,6 +132,7 @@ pub fn head_mri(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         bias: drawn(seed, 6, 0.15, 0.4) as f32,
         noise: drawn(seed, 7, 4.0, 9.0) as f32,
         blur_passes: 1,
+        windowed: false,
     };
     generate(&recipe, dims, seed, |p| {
         let [x, y, z] = p;
@@ -163,5 +169,72 @@ pub fn head_mri(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
             return 3;
         }
         4
+    })
+}
+
+/// Class ids of [`chest_ct_windowed`].
+pub const CHEST_CLASSES: [&str; 5] = ["air", "fat", "soft tissue", "lung", "bone"];
+
+/// The windowed 8-bit chest CT (see the module doc) on `dims` voxels over 320 x 250 x 160 mm,
+/// the body along z.
+pub fn chest_ct_windowed(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
+    let shift = [drawn(seed, 1, -6.0, 6.0), drawn(seed, 2, -5.0, 5.0)];
+    let lung_radii = [drawn(seed, 3, 46.0, 54.0), drawn(seed, 4, 62.0, 72.0)];
+    let recipe = Recipe {
+        name: "<windowed chest CT phantom>",
+        class_names: &CHEST_CLASSES,
+        field_of_view_mm: [320.0, 250.0, 160.0],
+        voxel_type: VoxelType::U8,
+        // Air and lung far below the window (-1000 and -850 HU: clipped to 0), fat (-100 HU)
+        // 38, soft tissue (40 HU) 128, bone above the window; the last is a lung vessel, lung
+        // by truth, as bright as soft tissue.
+        tissues: &[
+            (0, -400.0, 0.0),
+            (1, 38.0, 6.0),
+            (2, 128.0, 8.0),
+            (3, -300.0, 0.0),
+            (4, 400.0, 0.0),
+            (3, 120.0, 8.0),
+        ],
+        bias: 0.0,
+        noise: drawn(seed, 5, 4.0, 8.0) as f32,
+        blur_passes: 1,
+        windowed: true,
+    };
+    let centre = [160.0 + shift[0], 125.0 + shift[1]];
+    generate(&recipe, dims, seed, |p| {
+        let [x, y, z] = p;
+        let ring = |a: f64, b: f64| ((x - centre[0]) / a).hypot((y - centre[1]) / b);
+        if ring(145.0, 100.0) >= 1.0 {
+            return 0;
+        }
+        if ring(133.0, 88.0) >= 1.0 {
+            return 1;
+        }
+        // Spine behind the heart, ribs on the cage at a few heights.
+        if (x - centre[0]).hypot(y - centre[1] - 68.0) < 20.0 {
+            return 4;
+        }
+        let cage = ring(122.0, 78.0);
+        if (cage - 0.97).abs() < 0.03 && ((z / 22.0).fract() - 0.5).abs() < 0.2 {
+            return 4;
+        }
+        // The trachea from the top face down to the lungs' roots.
+        if z > 100.0 && (x - centre[0]).hypot(y - centre[1] + 30.0) < 9.0 {
+            return 3;
+        }
+        if cage < 0.94 {
+            for side in [-1.0, 1.0] {
+                let lung = ((x - centre[0] - side * 62.0) / lung_radii[0]).powi(2)
+                    + ((y - centre[1] + 6.0) / lung_radii[1]).powi(2)
+                    + ((z - 170.0) / 200.0).powi(2);
+                if lung < 1.0 && z > 8.0 {
+                    let vessel =
+                        distance_to_curve(p, 0, |t| [centre[1] - 6.0 + 20.0 * (t / 31.0).sin(), 60.0 + side * 25.0]);
+                    return if vessel < 3.0 { 5 } else { 3 };
+                }
+            }
+        }
+        2
     })
 }

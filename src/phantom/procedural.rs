@@ -39,6 +39,9 @@ pub(super) struct Recipe<'a> {
     pub noise: f32,
     /// Passes of the 1/8 [1 6 1] blur per axis.
     pub blur_passes: usize,
+    /// An 8-bit CT stored through a display window: values below the window are clipped to
+    /// 0 (the air and the lungs are all 0), not folded as a magnitude image's noise is.
+    pub windowed: bool,
 }
 
 pub(super) fn generate(
@@ -91,7 +94,8 @@ pub(super) fn generate(
                     let stored = noisy.round().clamp(low, high) as i16;
                     out[2 * k..2 * k + 2].copy_from_slice(&stored.to_le_bytes());
                 }
-                // Magnitude images (MRI) and clipped 8-bit CT keep noise non-negative at the floor.
+                // A window clips below its floor; magnitude images (MRI) fold the noise there.
+                VoxelType::U8 if recipe.windowed => out[k] = noisy.round().clamp(low, high) as u8,
                 VoxelType::U8 => out[k] = noisy.abs().round().clamp(low, high) as u8,
                 _ => {
                     out[2 * k..2 * k + 2].copy_from_slice(&(noisy.abs().round().clamp(low, high) as u16).to_le_bytes())
@@ -169,6 +173,7 @@ pub fn vessels_ct(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         bias: 0.04,
         noise: 6.0,
         blur_passes: 1,
+        windowed: false,
     };
     generate(&recipe, dims, seed, |p| {
         let [x, y, z] = p;
@@ -235,6 +240,7 @@ pub fn brain_mri(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         bias: 0.15,
         noise: 70.0,
         blur_passes: 1,
+        windowed: false,
     };
     generate(&recipe, dims, seed, |p| {
         let q = [(p[0] - 66.0) / 58.0, (p[1] - 78.0) / 70.0, (p[2] - 60.0) / 52.0];
@@ -284,6 +290,7 @@ pub fn shells_mri(dims: [usize; 3], seed: u64) -> Result<Phantom, VolumeError> {
         bias: 0.12,
         noise: 7.0,
         blur_passes: 1,
+        windowed: false,
     };
     generate(&recipe, dims, seed, |p| {
         let q = [(p[0] - 56.0) / 50.0, (p[1] - 56.0) / 46.0, (p[2] - 48.0) / 42.0];

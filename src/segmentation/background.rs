@@ -7,7 +7,9 @@
 //! or a second split below it where that one cuts through a lassoed tissue (a scan of air
 //! with one small, very bright structure; an MRI's thin dark skull that the faces cut, drawn
 //! with a finger's leak; see `dark_level`); the *face air* is the dark region joined to the
-//! volume's faces ([`super::face_air`]).
+//! volume's faces outside the scanned body ([`super::face_air`]: a dark region the body rings
+//! in its axial slices, such as the lungs that leave a chest CT through its top face, is not
+//! face air, however dark a windowed scan makes it).
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air was drawn in the
 //!    air: the user means air as a class. Other classes' face-air voxels are that class's.
 //! 2. Otherwise each class is cleaned: its voxels outside the face air are its reference, and

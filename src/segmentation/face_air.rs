@@ -1,9 +1,13 @@
 //! The dark region connected to the volume's faces: the air around a body in CT and MRI alike.
 //!
-//! A voxel is *dark* when its value lies below a level (the volume's Otsu threshold, see
-//! `super::background`); the face region is every dark voxel that a path of dark voxels
-//! (6-neighbours) joins to a voxel on one of the volume's six faces. Dark voxels inside a body
-//! (lungs, sinuses, bowel gas) that no such path reaches are not in it.
+//! A voxel is *dark* when it lies outside the scanned body at a level (the volume's Otsu
+//! threshold, see `super::background`; [`Volume::body_at`]): below the level, and not ringed
+//! by the body in its own slice along any axis. The face region is every dark voxel that a path
+//! of dark voxels (6-neighbours) joins to a voxel on one of the volume's six faces. Dark voxels
+//! inside a body (lungs, sinuses, bowel gas) are not in it, also where they reach a face: a
+//! chest CT's lungs leave the volume through its top face by the trachea and their apices, and
+//! a windowed scan makes them as dark as the air, but the chest wall rings them in every axial
+//! slice.
 //!
 //! Both searches fill whole runs along x at a time (a scanline flood fill), so their stacks hold
 //! row segments, not voxels:
@@ -16,7 +20,6 @@
 //! Never: decides what is background (that is `super::background`'s rule), or reads files.
 
 use crate::volume::Volume;
-use rayon::prelude::*;
 use std::cmp::Reverse;
 use std::collections::BinaryHeap;
 
@@ -79,8 +82,8 @@ impl FaceRegion {
     /// Fills the face region of `volume` below `level`.
     pub fn find(volume: &Volume, level: f64) -> FaceRegion {
         let dims = volume.dims;
-        let dark = dark_voxels(volume, level);
-        let mut fill = Fill::new(dims, |index| dark.contains(index));
+        let body = volume.body_at(level);
+        let mut fill = Fill::new(dims, |index| !body.contains(index));
         let [size_x, size_y, size_z] = dims;
         // Seeds: every voxel of the six faces (a filled run is skipped when met again).
         for z in 0..size_z {
@@ -108,7 +111,8 @@ impl FaceRegion {
 /// dark voxels. Fills from the dark ones only, each fill stopping at the first face it touches.
 pub fn reaches_face(volume: &Volume, level: f64, voxels: &[usize]) -> Vec<bool> {
     let dims = volume.dims;
-    let dark = |index: usize| volume.value(index) < level;
+    let body = volume.body_at(level);
+    let dark = |index: usize| !body.contains(index);
     let mut fill = Fill::new(dims, dark);
     // Voxels whose fill touched a face, and voxels whose fill was exhausted without one.
     let mut face = VoxelBits::new(volume.voxel_count());
@@ -140,30 +144,6 @@ pub fn reaches_face(volume: &Volume, level: f64, voxels: &[usize]) -> Vec<bool> 
 
 fn coordinates(index: usize, dims: [usize; 3]) -> [usize; 3] {
     [index % dims[0], index / dims[0] % dims[1], index / (dims[0] * dims[1])]
-}
-
-/// The dark voxels of `volume`, read plane by plane in parallel.
-fn dark_voxels(volume: &Volume, level: f64) -> VoxelBits {
-    let plane = volume.dims[0] * volume.dims[1];
-    let level = level as f32;
-    // Planes of whole words, so that planes fill disjoint words in parallel.
-    let planes_per_chunk = 64 / gcd(plane, 64);
-    let words_per_chunk = plane * planes_per_chunk / 64;
-    let mut bits = VoxelBits::new(volume.voxel_count());
-    let voxel_count = volume.voxel_count();
-    bits.words.par_chunks_mut(words_per_chunk).enumerate().for_each(|(chunk, words)| {
-        let start = chunk * words_per_chunk * 64;
-        let mut values = vec![0f32; (words.len() * 64).min(voxel_count - start)];
-        volume.read_f32(start, &mut values);
-        for (word, values) in words.iter_mut().zip(values.chunks(64)) {
-            *word = values.iter().enumerate().fold(0u64, |w, (bit, &v)| w | (u64::from(v < level) << bit));
-        }
-    });
-    bits
-}
-
-fn gcd(a: usize, b: usize) -> usize {
-    if b == 0 { a } else { gcd(b, a % b) }
 }
 
 /// A scanline flood fill over the voxels where `dark` holds.
@@ -300,10 +280,12 @@ mod tests {
         assert!(!region.contains(volume.index(5, 4, 3)), "the enclosed cavity is not face air");
         assert!(region.contains(volume.index(0, 0, 0)) && region.contains(volume.index(11, 9, 7)));
         assert!(!region.contains(volume.index(2, 2, 2)), "tissue is not dark");
-        // A channel joins the cavity to the outside: now it is face air.
+        // A channel joins the cavity to the outside in its axial plane: that plane of the cavity
+        // is face air; the planes above and below it, ringed by the tissue, stay inside.
         let open = FaceRegion::find(&body(true), 50.0);
         assert!(open.contains(volume.index(5, 4, 3)));
-        assert_eq!(open.voxels.count(), region.voxels.count() + cavity + 3);
+        assert!(!open.contains(volume.index(5, 4, 2)) && !open.contains(volume.index(5, 4, 4)));
+        assert_eq!(open.voxels.count(), region.voxels.count() + 4 * 4 + 3);
     }
 
     #[test]

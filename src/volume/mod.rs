@@ -14,6 +14,7 @@
 //! folder and the paths it is given.
 
 pub mod array;
+pub mod body;
 pub mod cache;
 pub mod dicom;
 pub mod error;
@@ -173,6 +174,11 @@ pub struct Volume {
     range: ValueRange,
     /// [`Volume::otsu_threshold`], once asked for.
     otsu: std::sync::OnceLock<f64>,
+    /// [`Volume::body`], once asked for.
+    body: std::sync::OnceLock<std::sync::Arc<body::Body>>,
+    /// The last body [`Volume::body_at`] found at another level (the background rule asks for
+    /// the same one several times in a training).
+    body_elsewhere: std::sync::Mutex<Option<std::sync::Arc<body::Body>>>,
 }
 
 impl Volume {
@@ -219,6 +225,8 @@ impl Volume {
             bytes,
             range: ValueRange { min: 0.0, max: 0.0, non_finite_voxels: 0 },
             otsu: std::sync::OnceLock::new(),
+            body: std::sync::OnceLock::new(),
+            body_elsewhere: std::sync::Mutex::new(None),
         };
         volume.range = volume.compute_range();
         Ok(volume)
@@ -264,6 +272,32 @@ impl Volume {
     /// of an interactive path (training on every lasso) asks once when it opens the volume.
     pub fn otsu_threshold(&self) -> f64 {
         *self.otsu.get_or_init(|| histogram::otsu_threshold(self))
+    }
+
+    /// The scanned body ([`body::Body::find`]): found on the first call (a few parallel passes
+    /// over the volume), then kept. The kiosk asks when it opens a volume, so that no lasso
+    /// waits for it.
+    pub fn body(&self) -> std::sync::Arc<body::Body> {
+        self.body.get_or_init(|| std::sync::Arc::new(body::Body::find(self, self.otsu_threshold()))).clone()
+    }
+
+    /// The scanned body above `level` ([`body::Body::find`]): [`body`](Self::body) when `level`
+    /// is Otsu's threshold, else found anew.
+    pub fn body_at(&self, level: f64) -> std::sync::Arc<body::Body> {
+        if level == self.otsu_threshold() {
+            return self.body();
+        }
+        // A poisoned lock only means another thread panicked while finding a body; the cache
+        // itself is always whole.
+        let mut last = self.body_elsewhere.lock().unwrap_or_else(std::sync::PoisonError::into_inner);
+        match last.as_ref() {
+            Some(body) if body.level == level => body.clone(),
+            _ => {
+                let body = std::sync::Arc::new(body::Body::find(self, level));
+                *last = Some(body.clone());
+                body
+            }
+        }
     }
 
     /// True when the bytes are a memory map of a file (not a copy in RAM).

@@ -98,15 +98,48 @@ fn a_lasso_in_an_enclosed_lung_classifies_the_lung_and_not_the_air_outside() {
 
 #[test]
 fn a_lung_cut_by_a_face_is_a_class_and_the_air_stays_background() {
-    // The lung joins the faces, so at Otsu's level it is face air; the split below that level
-    // (air against lung) is clear, so it becomes the level: the lung is a class, the air is not.
+    // The lung leaves the volume through its z = 0 face, but the body rings it in every axial
+    // slice: it is inside, a class like any tissue, and the air around the body stays
+    // background.
     let volume = ct_body(true);
     let set = training(vec![class("lung", 14..17, 14..26, 10), class("bone", 23..27, 16..24, 10)]);
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
     assert_eq!(cleaned, set);
     assert!(!plan.air_is_a_class);
-    let threshold = plan.threshold.expect("a level");
-    assert!((-960.0..-880.0).contains(&threshold), "between the air and the lung: {threshold}");
+    assert!(plan.threshold.expect("a level") < -850.0, "the lung is classified: {plan:?}");
+    let face_air = plan.face_air.expect("the air outside stays background");
+    assert!(face_air.contains(index(0, 0, 0)));
+    assert!(!face_air.contains(index(15, 20, 0)), "the lung on the face is not face air");
+}
+
+#[test]
+fn a_lung_as_dark_as_the_air_leaving_through_the_top_face_is_a_class() {
+    // A windowed chest CT stores the lungs as black as the air (0) and they leave the volume
+    // through its top face; a loop in the lung, one in the wall and one on the bone: the lung
+    // is a class, the air around the chest is not (it was all one class when the lung, joined
+    // to the faces, looked like air drawn as a class).
+    let volume = volume_of("windowed chest", |[x, y, z], index| {
+        let body = (8..32).contains(&x) && (8..32).contains(&y);
+        let bone = (22..28).contains(&x) && (14..26).contains(&y);
+        let lung = (12..19).contains(&x) && (12..28).contains(&y) && z >= 3;
+        let base = match (body, bone, lung) {
+            (false, _, _) | (true, false, true) => 0.0,
+            (true, true, _) => 255.0,
+            (true, false, false) => 128.0,
+        };
+        (base + 4.0 * gaussian_from_bits(hash64(9, index as u64))).clamp(0.0, 255.0)
+    });
+    let set = training(vec![
+        class("lung", 13..18, 14..26, 10),
+        class("wall", 9..11, 14..26, 10),
+        class("bone", 23..27, 16..24, 10),
+    ]);
+    let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert!(!plan.air_is_a_class, "{plan:?}");
+    assert_eq!(cleaned.classes[0], set.classes[0], "every lung voxel trains");
+    let face_air = plan.face_air.expect("the air outside stays background");
+    assert!(face_air.contains(index(0, 0, DIMS[2] - 1)));
+    assert!(!face_air.contains(index(15, 20, DIMS[2] - 1)), "the lung on the top face is not face air");
 }
 
 #[test]

@@ -23,7 +23,7 @@
 //! then on, [`FingerStyle`]: a value left out goes back to its default);
 //! and `wait DURATION` (`500ms`, `2s`), `wait-idle`, `screenshot NAME`, `expect KEY VALUE`
 //! (generic: the runner knows the keys; [`expectations`] measures the label volume for
-//! `face-air-classified-below` and `lasso-voxels-kept`), `# comments`.
+//! `air-classified-below` and `lasso-voxels-kept`), `# comments`.
 //!
 //! `parse` only checks syntax; elements are resolved at run time through the UI's
 //! [`ElementLocator`], and [`touch_events`] turns one [`TouchCommand`] into the raw evdev events
