@@ -463,11 +463,14 @@ pub const LARGEST_SPACING_MM: f64 = 1e4;
 
 /// Refuses a spacing that is not a finite number within
 /// [`SMALLEST_SPACING_MM`]..=[`LARGEST_SPACING_MM`] along some axis (zero, negative, NaN and
-/// infinite included). Every reader's spacing and `--spacing` pass through here: such a scan
-/// is refused, never shown squashed to a plane or blown up to nothing.
+/// infinite included), the bounds taken within `f32`'s rounding (NIfTI stores its spacing as
+/// `f32`, in which 0.0001 is a little less). Every reader's spacing and `--spacing` pass through
+/// here: such a scan is refused, never shown squashed to a plane or blown up to nothing.
 pub fn check_spacing(spacing_mm: [f64; 3], path: &Path) -> Result<(), VolumeError> {
+    let rounding = f64::from(f32::EPSILON);
+    let usable = SMALLEST_SPACING_MM * (1.0 - rounding)..=LARGEST_SPACING_MM * (1.0 + rounding);
     for (axis, &value) in spacing_mm.iter().enumerate() {
-        if !(SMALLEST_SPACING_MM..=LARGEST_SPACING_MM).contains(&value) {
+        if !usable.contains(&value) {
             return Err(VolumeError::BadSpacing { axis, value, path: path.to_path_buf() });
         }
     }

@@ -110,6 +110,8 @@ fn spacing_is_refused_outside_what_any_scan_has() {
         }
     }
     assert!(check_spacing([SMALLEST_SPACING_MM, 1.0, LARGEST_SPACING_MM], Path::new("t")).is_ok());
+    let as_f32 = |value: f64| value as f32 as f64;
+    assert!(check_spacing([as_f32(SMALLEST_SPACING_MM), 1.0, as_f32(LARGEST_SPACING_MM)], Path::new("t")).is_ok());
     let error = check_spacing([1e30, 1.0, 1.0], Path::new("t")).unwrap_err().to_string();
     assert!(error.starts_with("voxel spacing 1e30 mm along x is outside 0.0001..10000 mm"), "{error}");
 }
