@@ -7,6 +7,9 @@
 //!   in a process of its own so that its allocations can be counted.
 //! * `hostile`: files built to exhaust memory or reach outside their folder (bombs, wrapping
 //!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
+//! * `hostile_values`: header values generated per format and field (absurd spacings, fields
+//!   given twice, byte-order flags, ASCII values out of range, NIfTI series and scalings,
+//!   trailing bytes, non-finite volumes) give one clear error or the sensible volume and warning.
 //! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, loops in a
@@ -37,6 +40,7 @@ mod dicom_jpeg2000;
 mod dicom_receive;
 mod formats;
 mod hostile;
+mod hostile_values;
 mod library;
 mod malformed;
 mod mutations;

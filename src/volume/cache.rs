@@ -106,13 +106,12 @@ pub fn open_or_import(
         log::warn!("{} changed while it was imported; using the import without caching it", source.display());
         return Ok(imported);
     }
-    let stored = std::fs::create_dir_all(folder)
-        .map_err(|e| VolumeError::io(e, folder))
+    let stored = create_folder(folder)
         .and_then(|()| {
             crate::atomic_file::write_atomically(&warnings_file, |file| {
                 warnings.iter().try_for_each(|warning| writeln!(file, "{}", warning.replace('\n', " ")))
             })
-            .map_err(|e| VolumeError::io(e, &warnings_file))
+            .map_err(|source| VolumeError::Write { source, path: warnings_file.clone() })
         })
         .and_then(|()| nrrd::write_volume(&entry, &imported, &format!("volasso import cache of {}", source.display())));
     if let Err(error) = stored {
@@ -125,6 +124,25 @@ pub fn open_or_import(
     volume.source = source.to_path_buf();
     volume.warnings = warnings;
     Ok(volume)
+}
+
+/// Creates the cache folder (and its parents) unless it exists; a file or anything else in
+/// its place is [`VolumeError::CacheFolder`], not the operating system's "File exists".
+fn create_folder(folder: &Path) -> Result<(), VolumeError> {
+    match std::fs::metadata(folder) {
+        Ok(metadata) if metadata.is_dir() => return Ok(()),
+        Ok(_) => {
+            return Err(VolumeError::CacheFolder {
+                problem: "it is a file, not a folder".into(),
+                path: folder.to_path_buf(),
+            });
+        }
+        Err(_) => {}
+    }
+    std::fs::create_dir_all(folder).map_err(|error| VolumeError::CacheFolder {
+        problem: format!("it cannot be created ({error})"),
+        path: folder.to_path_buf(),
+    })
 }
 
 #[cfg(test)]
@@ -178,6 +196,43 @@ mod tests {
         link_series("philips_phantom_5mm", &deep);
         assert_philips(&open(&folder.path().join("deep"), &options(&cache)).unwrap());
         assert_philips(&open(&folder.path().join("deep"), &options(&folder.path().join("cache2"))).unwrap());
+    }
+
+    /// A gzip NRRD whose `spacings` leave z unknown (a warning), 2 x 2 x 1 voxels.
+    fn gzip_nrrd_with_a_warning(folder: &Path) -> std::path::PathBuf {
+        let path = folder.join("v.nrrd");
+        let header = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 1\nspacings: 0.5 0.5 NaN\nencoding: gzip\n\n";
+        let mut encoder = flate2::write::GzEncoder::new(header.as_bytes().to_vec(), flate2::Compression::fast());
+        std::io::Write::write_all(&mut encoder, &[1, 2, 3, 4]).unwrap();
+        std::fs::write(&path, encoder.finish().unwrap()).unwrap();
+        path
+    }
+
+    #[test]
+    fn a_reader_warning_survives_the_import_and_every_reuse_of_it() {
+        let folder = tempfile::tempdir().unwrap();
+        let path = gzip_nrrd_with_a_warning(folder.path());
+        for _ in 0..2 {
+            let volume = open(&path, &options(&folder.path().join("cache"))).unwrap();
+            assert!(volume.is_memory_mapped(), "from the cache");
+            assert_eq!(volume.warnings.len(), 1, "{:?}", volume.warnings);
+            assert!(volume.warnings[0].contains("no spacing for axis z"), "{:?}", volume.warnings);
+        }
+    }
+
+    #[test]
+    fn a_cache_folder_that_is_a_file_is_named_as_such_and_the_volume_opens_from_memory() {
+        let folder = tempfile::tempdir().unwrap();
+        let path = gzip_nrrd_with_a_warning(folder.path());
+        let file = folder.path().join("cache");
+        std::fs::write(&file, b"not a folder").unwrap();
+        let volume = open(&path, &options(&file)).unwrap();
+        assert!(!volume.is_memory_mapped() && volume.warnings.len() == 1);
+        let error = super::create_folder(&file).unwrap_err().to_string();
+        assert!(error.contains("cache folder is unusable: it is a file, not a folder"), "{error}");
+        let below = super::create_folder(&file.join("below")).unwrap_err().to_string();
+        assert!(below.contains("cannot be created"), "{below}");
+        assert_eq!(std::fs::read(&file).unwrap(), b"not a folder", "the file is left alone");
     }
 
     #[test]

@@ -16,7 +16,9 @@
 //!   `try_reserve_exact` and filled as the data arrives ([`decode_exactly`]), so memory follows
 //!   what the stream really holds, a short stream is an error naming expected and found bytes,
 //!   and a longer one is an error too (its header lies about the sizes or the type, the rule
-//!   `raw` applies to raw files).
+//!   `raw` applies to raw files and [`super::VoxelBytes::map_final_region`] to mapped data).
+//!   Data a header declares compressed must start with a gzip or zlib header
+//!   ([`check_compressed`]), so raw data under such a header is named as such.
 //!
 //! Never: guesses a size, or reads past what a header promises plus one byte.
 
@@ -180,24 +182,63 @@ pub fn check_deflate_can_hold(skip: u64, expected: u64, compressed: u64, path: &
     Ok(())
 }
 
-/// What to do with data beyond the promised bytes.
+/// The wrappers a deflate stream comes in.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum Beyond {
-    /// More data is an error: the header lies about the sizes or the type.
-    Refuse,
-    /// More data may follow (a NIfTI 4-D series beyond its first volume) and is not decoded.
-    Ignore,
+pub enum Deflate {
+    /// gzip (RFC 1952): magic bytes 1f 8b.
+    Gzip,
+    /// zlib (RFC 1950): a method byte of 8 (deflate) whose two header bytes are a multiple of 31.
+    Zlib,
+}
+
+/// Which wrapper `start` (the first bytes of the compressed data, at least two) begins with;
+/// `None` for neither (the data are not compressed, whatever the header says).
+pub fn deflate_wrapper(start: &[u8]) -> Option<Deflate> {
+    match start {
+        [0x1f, 0x8b, ..] => Some(Deflate::Gzip),
+        [method, flags, ..]
+            if method & 0x0f == 8 && method >> 4 <= 7 && (u16::from(*method) * 256 + u16::from(*flags)) % 31 == 0 =>
+        {
+            Some(Deflate::Zlib)
+        }
+        _ => None,
+    }
+}
+
+/// Refuses compressed data whose first bytes (`reader`'s buffer, looked at, not consumed) are
+/// not one of `accepted` wrappers, naming the header's `declaration` and the bytes found, so
+/// that raw data under a header that says "compressed" is not blamed as corrupt gzip. Returns
+/// the wrapper found, or `None` when fewer than two bytes are there (left to the decoder, which
+/// reports them short).
+pub fn check_compressed(
+    reader: &mut impl std::io::BufRead,
+    accepted: &[Deflate],
+    declaration: &'static str,
+    path: &Path,
+) -> Result<Option<Deflate>, VolumeError> {
+    let start = reader.fill_buf().map_err(|e| VolumeError::io(e, path))?;
+    if start.len() < 2 {
+        return Ok(None);
+    }
+    match deflate_wrapper(start) {
+        Some(wrapper) if accepted.contains(&wrapper) => Ok(Some(wrapper)),
+        _ => Err(VolumeError::NotCompressed {
+            declaration,
+            start: start.iter().take(8).map(|b| format!("{b:02x}")).collect::<Vec<_>>().join(" "),
+            path: path.to_path_buf(),
+        }),
+    }
 }
 
 /// Decodes `skip` bytes (discarded) and then exactly `expected` bytes from `decoder`, checked
 /// against the ceiling first; a short stream is [`VolumeError::DataSize`], a corrupt one
-/// [`VolumeError::Decompress`], and with [`Beyond::Refuse`] one more byte is
-/// [`VolumeError::ExtraData`]. Memory grows as the data arrives, never past `expected`.
+/// [`VolumeError::Decompress`], and one more byte is [`VolumeError::ExtraData`] (as bytes after
+/// mapped data are, [`super::VoxelBytes::map_final_region`]). Memory grows as the data
+/// arrives, never past `expected`.
 pub fn decode_exactly(
     mut decoder: impl Read,
     skip: u64,
     expected: usize,
-    beyond: Beyond,
     limits: &ReadLimits,
     path: &Path,
 ) -> Result<Vec<u8>, VolumeError> {
@@ -212,18 +253,15 @@ pub fn decode_exactly(
     if data.len() < expected {
         return Err(VolumeError::DataSize { expected, found: data.len(), path: path.to_path_buf() });
     }
-    if beyond == Beyond::Refuse {
-        let mut probe = [0u8; 1];
-        loop {
-            match decoder.read(&mut probe) {
-                Ok(0) => break,
-                Ok(_) => return Err(VolumeError::ExtraData { expected: expected as u64, path: path.to_path_buf() }),
-                Err(error) if error.kind() == std::io::ErrorKind::Interrupted => continue,
-                Err(error) => return Err(decompress(error)),
-            }
+    let mut probe = [0u8; 1];
+    loop {
+        match decoder.read(&mut probe) {
+            Ok(0) => return Ok(data),
+            Ok(_) => return Err(VolumeError::ExtraData { expected: expected as u64, path: path.to_path_buf() }),
+            Err(error) if error.kind() == std::io::ErrorKind::Interrupted => continue,
+            Err(error) => return Err(decompress(error)),
         }
     }
-    Ok(data)
 }
 
 #[cfg(test)]
@@ -236,32 +274,43 @@ mod tests {
         encoder.finish().unwrap()
     }
 
-    fn decode(compressed: &[u8], skip: u64, expected: usize, beyond: Beyond) -> Result<Vec<u8>, VolumeError> {
+    fn decode(compressed: &[u8], skip: u64, expected: usize) -> Result<Vec<u8>, VolumeError> {
         let limits = ReadLimits { max_decoded_bytes: 1 << 20, allow_external_data: false };
-        decode_exactly(flate2::read::MultiGzDecoder::new(compressed), skip, expected, beyond, &limits, Path::new("t"))
+        decode_exactly(flate2::read::MultiGzDecoder::new(compressed), skip, expected, &limits, Path::new("t"))
     }
 
     #[test]
     fn decoding_stops_at_the_promise_and_names_short_and_long_streams() {
         let data: Vec<u8> = (0..=255u8).cycle().take(1000).collect();
         let compressed = gzip(&data);
-        assert_eq!(decode(&compressed, 0, 1000, Beyond::Refuse).unwrap(), data);
-        assert_eq!(decode(&compressed, 10, 990, Beyond::Refuse).unwrap(), data[10..]);
-        assert_eq!(decode(&compressed, 0, 600, Beyond::Ignore).unwrap(), data[..600]);
-        assert!(matches!(
-            decode(&compressed, 0, 600, Beyond::Refuse),
-            Err(VolumeError::ExtraData { expected: 600, .. })
-        ));
-        assert!(matches!(
-            decode(&compressed, 0, 1001, Beyond::Refuse),
-            Err(VolumeError::DataSize { expected: 1001, found: 1000, .. })
-        ));
-        assert!(matches!(decode(&compressed, 2000, 10, Beyond::Refuse), Err(VolumeError::DataSize { found: 0, .. })));
-        assert!(matches!(
-            decode(&compressed, 0, (1 << 20) + 1, Beyond::Refuse),
-            Err(VolumeError::TooLarge { ceiling: 1048576, .. })
-        ));
-        assert!(matches!(decode(&compressed[..40], 0, 1000, Beyond::Refuse), Err(VolumeError::Decompress { .. })));
+        assert_eq!(decode(&compressed, 0, 1000).unwrap(), data);
+        assert_eq!(decode(&compressed, 10, 990).unwrap(), data[10..]);
+        assert!(matches!(decode(&compressed, 0, 600), Err(VolumeError::ExtraData { expected: 600, .. })));
+        assert!(matches!(decode(&compressed, 0, 1001), Err(VolumeError::DataSize { expected: 1001, found: 1000, .. })));
+        assert!(matches!(decode(&compressed, 2000, 10), Err(VolumeError::DataSize { found: 0, .. })));
+        assert!(matches!(decode(&compressed, 0, (1 << 20) + 1), Err(VolumeError::TooLarge { ceiling: 1048576, .. })));
+        assert!(matches!(decode(&compressed[..40], 0, 1000), Err(VolumeError::Decompress { .. })));
+    }
+
+    #[test]
+    fn wrappers_are_told_from_their_first_bytes() {
+        let zlib = {
+            let mut encoder = flate2::write::ZlibEncoder::new(Vec::new(), flate2::Compression::best());
+            std::io::Write::write_all(&mut encoder, b"voxels").unwrap();
+            encoder.finish().unwrap()
+        };
+        assert_eq!(deflate_wrapper(&gzip(b"voxels")), Some(Deflate::Gzip));
+        assert_eq!(deflate_wrapper(&zlib), Some(Deflate::Zlib));
+        for raw in [&[7u8, 7, 7, 7][..], &[0, 0], &[0x78, 0x00], b"NRRD", &[0x1f, 0x8c]] {
+            assert_eq!(deflate_wrapper(raw), None, "{raw:?}");
+            let error =
+                check_compressed(&mut &raw[..], &[Deflate::Gzip, Deflate::Zlib], "encoding: gzip", Path::new("t"))
+                    .unwrap_err();
+            assert!(error.to_string().contains("not compressed as 'encoding: gzip' declares"), "{error}");
+        }
+        let only_gzip = check_compressed(&mut &zlib[..], &[Deflate::Gzip], "encoding: gzip", Path::new("t"));
+        assert!(matches!(only_gzip, Err(VolumeError::NotCompressed { .. })));
+        assert_eq!(check_compressed(&mut &[0x1f][..], &[Deflate::Gzip], "x", Path::new("t")).unwrap(), None);
     }
 
     #[test]

@@ -1,8 +1,13 @@
 //! MetaImage (ITK): `.mha` (header and data in one file) and `.mhd` (header, data in a file it
 //! names).
 //!
-//! The header is `Key = Value` lines ending with `ElementDataFile`. Raw data is
-//! memory-mapped; `CompressedData = True` (zlib) is decompressed for the caller to cache.
+//! The header is `Key = Value` lines ending with `ElementDataFile`; keys are compared without
+//! regard to case, and a key given twice with different values is refused ([`super::fields`]).
+//! Booleans (`BinaryDataByteOrderMSB`, its synonym `ElementByteOrderMSB`, `CompressedData`)
+//! are `True`/`False` or `1`/`0` in any case; anything else is refused. Raw data is
+//! memory-mapped; `CompressedData = True` (zlib, or gzip as ITK also reads) is decompressed for
+//! the caller to cache, and data that start with neither header are named as not compressed.
+//! The data must end the file (bytes after it, or after the compressed stream, are refused).
 //! `TransformMatrix` (or `AnatomicalOrientation`) and `Offset` become the volume's patient
 //! orientation ([`super::orientation`]).
 //!
@@ -11,7 +16,8 @@
 //!
 //! Never: reads multi-channel images (`ElementNumberOfChannels` > 1) or lists of slice files.
 
-use super::limits::{self, Beyond, ReadLimits};
+use super::fields::HeaderFields;
+use super::limits::{self, Deflate, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
 use std::path::{Path, PathBuf};
 
@@ -40,7 +46,7 @@ pub struct MetaImageHeader {
 
 /// Parses the MetaImage header at the start of `bytes`.
 pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, VolumeError> {
-    let mut fields: Vec<(String, String)> = Vec::new();
+    let mut fields = HeaderFields::default();
     let mut position = 0usize;
     let mut header_length = None;
     while position < bytes.len() {
@@ -64,9 +70,9 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
                 path,
             ));
         };
-        let key = key.trim().to_string();
-        let is_last = key == "ElementDataFile";
-        fields.push((key, value.trim().to_string()));
+        let compared = key.trim().to_ascii_lowercase();
+        let is_last = compared == "elementdatafile";
+        fields.insert(compared, key, value, path)?;
         if is_last {
             header_length = Some(position);
             break;
@@ -75,7 +81,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
     let Some(header_length) = header_length else {
         return Err(VolumeError::MissingField { field: "ElementDataFile", path: path.to_path_buf() });
     };
-    let get = |name: &str| fields.iter().find(|(k, _)| k.eq_ignore_ascii_case(name)).map(|(_, v)| v.as_str());
+    let get = |name: &str| fields.get(&name.to_ascii_lowercase());
     let numbers = |name: &'static str| -> Result<Option<Vec<f64>>, VolumeError> {
         get(name)
             .map(|v| {
@@ -146,9 +152,19 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
         }
         spacing_mm[..rank].copy_from_slice(&spacing);
     }
-    let msb = get("BinaryDataByteOrderMSB").or(get("ElementByteOrderMSB")).unwrap_or("False");
-    let byte_order = if msb.eq_ignore_ascii_case("true") { ByteOrder::Big } else { ByteOrder::Little };
-    let compressed = get("CompressedData").is_some_and(|v| v.eq_ignore_ascii_case("true"));
+    let flag = |name: &'static str| get(name).map(|value| boolean(name, value, path)).transpose();
+    let msb = match (flag("BinaryDataByteOrderMSB")?, flag("ElementByteOrderMSB")?) {
+        (Some(binary), Some(element)) if binary != element => {
+            return Err(VolumeError::header(
+                "ElementByteOrderMSB",
+                format!("says {element} where BinaryDataByteOrderMSB says {binary}: the byte order cannot be told"),
+                path,
+            ));
+        }
+        (binary, element) => binary.or(element).unwrap_or(false),
+    };
+    let byte_order = if msb { ByteOrder::Big } else { ByteOrder::Little };
+    let compressed = flag("CompressedData")?.unwrap_or(false);
     let data_file = match get("ElementDataFile").unwrap_or("LOCAL") {
         "LOCAL" | "Local" | "local" => None,
         value if value.starts_with("LIST") || value.contains('%') || value.split_whitespace().count() > 1 => {
@@ -188,6 +204,23 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<MetaImageHeader, Volume
     })
 }
 
+/// A MetaImage boolean: `True`, `1`, `False` or `0` (ITK writes `True`/`False`; any case).
+/// Anything else is refused rather than read as false, which would silently read big-endian
+/// data as little-endian or compressed data as raw.
+fn boolean(name: &str, value: &str, path: &Path) -> Result<bool, VolumeError> {
+    if value.eq_ignore_ascii_case("true") || value == "1" {
+        Ok(true)
+    } else if value.eq_ignore_ascii_case("false") || value == "0" {
+        Ok(false)
+    } else {
+        Err(VolumeError::header(
+            name,
+            format!("'{}' is not True, False, 1 or 0", value.chars().take(60).collect::<String>()),
+            path,
+        ))
+    }
+}
+
 /// What reading a MetaImage produced; `decoded` marks compressed data the caller should cache.
 pub struct MetaImageRead {
     /// The volume read.
@@ -219,8 +252,26 @@ pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<MetaImageRead, Volu
         let (mut file, file_len) = limits::open_regular(&data_path)?;
         limits::check_deflate_can_hold(0, length as u64, file_len.saturating_sub(start), &data_path)?;
         std::io::Seek::seek(&mut file, std::io::SeekFrom::Start(start)).map_err(|e| VolumeError::io(e, &data_path))?;
-        let decoder = flate2::read::ZlibDecoder::new(std::io::BufReader::with_capacity(1 << 16, file));
-        let data = limits::decode_exactly(decoder, 0, length, Beyond::Refuse, limits, &data_path)?;
+        let mut reader = std::io::BufReader::with_capacity(1 << 16, file);
+        // ITK reads gzip as well as zlib here (its inflate detects the header).
+        let wrapper = limits::check_compressed(
+            &mut reader,
+            &[Deflate::Zlib, Deflate::Gzip],
+            "CompressedData = True",
+            &data_path,
+        )?;
+        let data = if wrapper == Some(Deflate::Gzip) {
+            limits::decode_exactly(flate2::bufread::MultiGzDecoder::new(reader), 0, length, limits, &data_path)?
+        } else {
+            let mut decoder = flate2::bufread::ZlibDecoder::new(reader);
+            let data = limits::decode_exactly(&mut decoder, 0, length, limits, &data_path)?;
+            // A zlib stream ends by itself; bytes after it are refused as trailing data.
+            let after = std::io::BufRead::fill_buf(decoder.get_mut()).map_err(|e| VolumeError::io(e, &data_path))?;
+            if !after.is_empty() {
+                return Err(VolumeError::ExtraData { expected: length as u64, path: data_path });
+            }
+            data
+        };
         let mut volume = Volume::new(
             header.dims,
             header.spacing_mm,
@@ -244,7 +295,7 @@ pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<MetaImageRead, Volu
             })?
         }
     };
-    let bytes = VoxelBytes::map_region(&data_path, offset, length)?;
+    let bytes = VoxelBytes::map_final_region(&data_path, offset, length)?;
     let mut volume = Volume::new(
         header.dims,
         header.spacing_mm,
@@ -273,6 +324,66 @@ mod tests {
         assert_eq!(header.byte_order, ByteOrder::Big);
         assert_eq!(header.data_file, None);
         assert_eq!(header.header_length, HEADER.len());
+    }
+
+    #[test]
+    fn byte_order_and_compression_flags_take_every_spelling_or_are_refused() {
+        for (value, expected) in [
+            ("True", Some(true)),
+            ("true", Some(true)),
+            ("TRUE", Some(true)),
+            ("1", Some(true)),
+            ("False", Some(false)),
+            ("false", Some(false)),
+            ("0", Some(false)),
+            ("yes", None),
+            ("2", None),
+            ("", None),
+            ("T", None),
+        ] {
+            for field in ["BinaryDataByteOrderMSB", "ElementByteOrderMSB"] {
+                let text = HEADER.replace("BinaryDataByteOrderMSB = True", &format!("{field} = {value}"));
+                let parsed = parse_header(text.as_bytes(), Path::new("t.mha"));
+                match expected {
+                    Some(big) => assert_eq!(
+                        parsed.unwrap().byte_order,
+                        if big { ByteOrder::Big } else { ByteOrder::Little },
+                        "{field} = {value}"
+                    ),
+                    None => assert!(
+                        matches!(&parsed, Err(VolumeError::Header { field: f, .. }) if f == field),
+                        "{field} = {value}: {:?}",
+                        parsed.map(|h| h.byte_order)
+                    ),
+                }
+            }
+            let text = HEADER.replace("ElementDataFile", &format!("CompressedData = {value}\nElementDataFile"));
+            let parsed = parse_header(text.as_bytes(), Path::new("t.mha")).map(|h| h.compressed);
+            assert_eq!(parsed.ok(), expected, "CompressedData = {value}");
+        }
+        let both = HEADER.replace("ElementDataFile", "ElementByteOrderMSB = True\nElementDataFile");
+        assert_eq!(parse_header(both.as_bytes(), Path::new("t.mha")).unwrap().byte_order, ByteOrder::Big);
+        let conflict = HEADER.replace("ElementDataFile", "ElementByteOrderMSB = 0\nElementDataFile");
+        assert!(parse_header(conflict.as_bytes(), Path::new("t.mha")).is_err());
+    }
+
+    #[test]
+    fn a_key_given_twice_is_refused_unless_it_repeats_the_same_value() {
+        for extra in [
+            "DimSize = 4 3 4",
+            "dimsize = 8 3 2",
+            "ElementType = MET_UCHAR",
+            "NDims = 2",
+            "ElementSpacing = 1 1 1",
+            "BinaryDataByteOrderMSB = False",
+            "HeaderSize = 0\nHeaderSize = 8",
+        ] {
+            let text = HEADER.replace("ElementDataFile", &format!("{extra}\nElementDataFile"));
+            let error = parse_header(text.as_bytes(), Path::new("t.mha")).unwrap_err();
+            assert!(matches!(error, VolumeError::RepeatedField { .. }), "{extra}: {error}");
+        }
+        let same = HEADER.replace("ElementDataFile", "DIMSIZE = 4 3  2\nElementDataFile");
+        assert_eq!(parse_header(same.as_bytes(), Path::new("t.mha")).unwrap().dims, [4, 3, 2]);
     }
 
     #[test]

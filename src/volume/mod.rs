@@ -18,6 +18,7 @@ pub mod body;
 pub mod cache;
 pub mod dicom;
 pub mod error;
+mod fields;
 mod foreground;
 pub mod histogram;
 pub mod limits;
@@ -183,7 +184,9 @@ pub struct Volume {
 
 impl Volume {
     /// Builds a volume over `bytes`, checking that they hold exactly `dims` voxels of
-    /// `voxel_type`, and computes the value range (one parallel pass).
+    /// `voxel_type` and that the spacing is one a scan can have ([`check_spacing`]), and
+    /// computes the value range (one parallel pass), refusing a volume without a finite value
+    /// or with values beyond `f32` after the scale.
     pub fn new(
         dims: [usize; 3],
         spacing_mm: [f64; 3],
@@ -198,11 +201,7 @@ impl Volume {
         if bytes.len() != expected {
             return Err(VolumeError::DataSize { expected, found: bytes.len(), path: source.to_path_buf() });
         }
-        for (axis, s) in spacing_mm.iter().enumerate() {
-            if !(s.is_finite() && *s > 0.0) {
-                return Err(VolumeError::BadSpacing { axis, value: *s, path: source.to_path_buf() });
-            }
-        }
+        check_spacing(spacing_mm, source)?;
         if !(scale.slope.is_finite() && scale.intercept.is_finite() && scale.slope != 0.0) {
             return Err(VolumeError::Header {
                 field: "value scale".into(),
@@ -228,7 +227,7 @@ impl Volume {
             body: std::sync::OnceLock::new(),
             body_elsewhere: std::sync::Mutex::new(None),
         };
-        volume.range = volume.compute_range();
+        volume.range = volume.compute_range()?;
         Ok(volume)
     }
 
@@ -383,8 +382,10 @@ impl Volume {
 
     /// The exact range of stored values (one parallel pass over z planes, each a tight loop
     /// per type), then mapped through the scale, which is linear and so maps extremes to
-    /// extremes.
-    fn compute_range(&self) -> ValueRange {
+    /// extremes. Refuses a volume without one finite value (nothing to show, no range to
+    /// report) and one whose values pass `f32`'s range, in which every later stage computes
+    /// (they would turn infinite there while the range said otherwise).
+    fn compute_range(&self) -> Result<ValueRange, VolumeError> {
         let plane_bytes = self.dims[0] * self.dims[1] * self.voxel_type.size_bytes();
         let (voxel_type, order) = (self.voxel_type, self.byte_order);
         let (min, max, non_finite) = self
@@ -394,12 +395,20 @@ impl Volume {
             .map(|bytes| stored_range(bytes, voxel_type, order))
             .reduce(|| (f64::INFINITY, f64::NEG_INFINITY, 0u64), |a, b| (a.0.min(b.0), a.1.max(b.1), a.2 + b.2));
         if min > max {
-            // Every voxel was NaN or infinite.
-            return ValueRange { min: 0.0, max: 0.0, non_finite_voxels: non_finite };
+            return Err(VolumeError::NoFiniteValue { voxels: non_finite, path: self.source.clone() });
         }
         let (low, high) =
             (min * self.scale.slope + self.scale.intercept, max * self.scale.slope + self.scale.intercept);
-        ValueRange { min: low.min(high), max: low.max(high), non_finite_voxels: non_finite }
+        let (low, high) = (low.min(high), low.max(high));
+        let largest = f64::from(f32::MAX);
+        if let Some(value) = [low, high].into_iter().find(|value| !(-largest..=largest).contains(value)) {
+            return Err(VolumeError::ValueOverflow {
+                value,
+                scaled: !self.scale.is_identity(),
+                path: self.source.clone(),
+            });
+        }
+        Ok(ValueRange { min: low, max: high, non_finite_voxels: non_finite })
     }
 }
 
@@ -475,6 +484,31 @@ fn convert_bytes(bytes: &[u8], scale: ValueScale, out: &mut [f32]) {
     } else {
         pairs.for_each(|(o, &b)| *o = (f64::from(b) * scale.slope + scale.intercept) as f32);
     }
+}
+
+/// The finest voxel spacing a volume may have: 0.1 µm, in millimetres. Finer than any CT or MRI
+/// (micro-CT reaches about 0.5 µm); a smaller figure is a header in the wrong unit or garbage,
+/// and would make the features' gradients overflow.
+pub const SMALLEST_SPACING_MM: f64 = 1e-4;
+
+/// The coarsest voxel spacing a volume may have: 10 m, in millimetres. No scan has voxels this
+/// large; a larger figure is a corrupt header, and the 3-D view of it would be empty.
+pub const LARGEST_SPACING_MM: f64 = 1e4;
+
+/// Refuses a spacing that is not a finite number within
+/// [`SMALLEST_SPACING_MM`]..=[`LARGEST_SPACING_MM`] along some axis (zero, negative, NaN and
+/// infinite included), the bounds taken within `f32`'s rounding (NIfTI stores its spacing as
+/// `f32`, in which 0.0001 is a little less). Every reader's spacing and `--spacing` pass through
+/// here: such a scan is refused, never shown squashed to a plane or blown up to nothing.
+pub fn check_spacing(spacing_mm: [f64; 3], path: &Path) -> Result<(), VolumeError> {
+    let rounding = f64::from(f32::EPSILON);
+    let usable = SMALLEST_SPACING_MM * (1.0 - rounding)..=LARGEST_SPACING_MM * (1.0 + rounding);
+    for (axis, &value) in spacing_mm.iter().enumerate() {
+        if !usable.contains(&value) {
+            return Err(VolumeError::BadSpacing { axis, value, path: path.to_path_buf() });
+        }
+    }
+    Ok(())
 }
 
 /// The number of voxels, refusing zero and overflowing dimensions.

@@ -1,17 +1,23 @@
 //! NIfTI-1: `.nii` (single file, magic `n+1`), `.hdr`/`.img` pairs (magic `ni1`), and `.nii.gz`.
 //!
 //! Follows the NIfTI-1 header layout (348 bytes). The byte order is detected from
-//! `sizeof_hdr`; `pixdim[1..3]` gives the spacing; `scl_slope`/`scl_inter` become the volume's
-//! [`ValueScale`] (slope 0 means "no scaling", as the standard says). Uncompressed data is
-//! memory-mapped at `vox_offset`; gzip files are decompressed for the caller to cache.
+//! `sizeof_hdr`; `pixdim[1..3]` gives the spacing (0 becomes 1 mm with a warning; NaN,
+//! infinite and absurd values are refused); `scl_slope`/`scl_inter` become the volume's
+//! [`ValueScale`] (slope 0 or NaN means "no scaling", as the standard and nibabel say; a
+//! scale that makes every value non-finite is refused). Uncompressed data is memory-mapped at
+//! `vox_offset`; gzip files are decompressed for the caller to cache. The data must end the
+//! file (the `.img` of a pair, the decompressed stream): bytes after it are refused, as in
+//! every reader.
 //!
 //! The sform or qform becomes the volume's patient orientation ([`super::orientation`]); the
 //! grid itself stays as stored. Sizes and offsets are checked before use and gzip data is
 //! decoded within [`super::limits`]; the `.img` of a pair must lie beside its `.hdr`.
 //!
-//! Never: resamples the grid to the qform/sform, or reads a 4-D series beyond its first volume.
+//! Never: resamples the grid to the qform/sform, or reads a series of volumes (`dim[4]` > 1),
+//! vector or colour data (`dim[5]` > 1, RGB datatypes): those are refused, as NRRD and
+//! MetaImage files with more than one value per voxel are.
 
-use super::limits::{self, Beyond, ReadLimits};
+use super::limits::{self, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
 use std::io::Read;
 use std::path::{Path, PathBuf};
@@ -38,8 +44,9 @@ pub struct NiftiHeader {
     pub separate_image_file: bool,
     /// From the sform or qform (see [`super::orientation::from_nifti`]).
     pub orientation: Option<super::PatientOrientation>,
-    /// True when dims 4..7 hold more than the one volume read (its data may follow).
-    pub more_volumes: bool,
+    /// What the reader assumed where the header is silent or unusual (a zero `pixdim`), one
+    /// sentence each, for [`Volume::warnings`].
+    pub warnings: Vec<String>,
 }
 
 /// Parses a NIfTI-1 header from the first 348 bytes of `bytes`.
@@ -83,12 +90,20 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         }
         *dim = size as usize;
     }
-    let mut more_volumes = false;
+    // dim[4] counts volumes in time, dim[5] components per voxel (a vector or RGB field),
+    // dim[6..=7] further axes: a scalar 3-D volume has 1 in each, as NRRD and MetaImage need.
     for higher in 3..rank as usize {
         let size = reader.i16(42 + 2 * higher);
         if size > 1 {
-            more_volumes = true;
-            log::warn!("{} has {} volumes along dim[{}]; only the first is used", path.display(), size, higher + 1);
+            return Err(VolumeError::Unsupported {
+                what: if higher == 4 {
+                    "NIfTI vector or multi-component data (only one scalar per voxel is read)"
+                } else {
+                    "NIfTI series of volumes (only one 3-D volume is read)"
+                },
+                value: format!("dim[{}] = {size}", higher + 1),
+                path: path.to_path_buf(),
+            });
         }
     }
     let datatype = reader.i16(70);
@@ -101,6 +116,13 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         256 => VoxelType::I8,
         512 => VoxelType::U16,
         768 => VoxelType::U32,
+        128 | 2304 => {
+            return Err(VolumeError::Unsupported {
+                what: "NIfTI colour datatype (only one scalar per voxel is read)",
+                value: format!("{datatype} ({})", if datatype == 128 { "RGB24" } else { "RGBA32" }),
+                path: path.to_path_buf(),
+            });
+        }
         other => {
             return Err(VolumeError::Unsupported {
                 what: "NIfTI datatype code",
@@ -114,24 +136,12 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         return Err(VolumeError::header("bitpix", format!("{bitpix} does not match datatype {datatype}"), path));
     }
     checked_voxel_count(dims, voxel_type, path)?;
-    let mut spacing_mm = [1.0f64; 3];
-    for (axis, spacing) in spacing_mm.iter_mut().enumerate() {
-        let value = reader.f32(76 + 4 * (axis + 1)) as f64;
-        // pixdim of 0 along a singleton axis is common; a spacing is still needed for rendering.
-        *spacing = if value.is_finite() && value != 0.0 { value.abs() } else { 1.0 };
-    }
+    let (spacing_mm, spacing_warning) = spacing(&reader, dims, path)?;
     let vox_offset = reader.f32(108);
     if !(vox_offset.is_finite() && vox_offset >= 0.0) || (!separate_image_file && vox_offset < HEADER_BYTES as f32) {
         return Err(VolumeError::header("vox_offset", format!("{vox_offset} is not a valid data offset"), path));
     }
-    let slope = reader.f32(112) as f64;
-    let intercept = reader.f32(116) as f64;
-    // The standard: scl_slope 0 (or not finite) means the values are used as stored.
-    let scale = if slope != 0.0 && slope.is_finite() && intercept.is_finite() {
-        ValueScale { slope, intercept }
-    } else {
-        ValueScale::IDENTITY
-    };
+    let (scale, scale_warning) = scale(reader.f32(112) as f64, reader.f32(116) as f64, path)?;
     let orientation = super::orientation::from_nifti(&reader.transform(), path);
     Ok(NiftiHeader {
         dims,
@@ -142,8 +152,69 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NiftiHeader, VolumeErro
         data_offset: vox_offset as u64,
         separate_image_file,
         orientation,
-        more_volumes,
+        warnings: spacing_warning.into_iter().chain(scale_warning).collect(),
     })
+}
+
+/// `pixdim[1..=3]` as the spacing. Negative values count by their size (the direction is the
+/// qform's). Zero means the writer did not say: 1 mm is used, with a warning along an axis of
+/// more than one voxel (the scan may look stretched or squashed; along a single slice nothing
+/// changes). NaN, infinite and absurd values are refused ([`super::check_spacing`]).
+fn spacing(reader: &FieldReader, dims: [usize; 3], path: &Path) -> Result<([f64; 3], Option<String>), VolumeError> {
+    let mut spacing_mm = [1.0f64; 3];
+    let mut unknown = Vec::new();
+    for (axis, spacing) in spacing_mm.iter_mut().enumerate() {
+        let value = reader.f32(76 + 4 * (axis + 1)) as f64;
+        if value == 0.0 {
+            if dims[axis] > 1 {
+                unknown.push(axis);
+            }
+        } else {
+            *spacing = value.abs();
+        }
+    }
+    super::check_spacing(spacing_mm, path)?;
+    let warning = (!unknown.is_empty()).then(|| {
+        let fields: Vec<String> = unknown.iter().map(|&axis| format!("pixdim[{}]", axis + 1)).collect();
+        let names: Vec<&str> = unknown.iter().map(|&axis| ["x", "y", "z"][axis]).collect();
+        let known: Vec<String> =
+            (0..3).filter(|axis| !unknown.contains(axis)).map(|axis| format!("{} mm", spacing_mm[axis])).collect();
+        let beside = if known.is_empty() { String::new() } else { format!(" beside {}", known.join(" and ")) };
+        format!(
+            "{} is 0 (the file gives no spacing along {}); shown at 1 mm{beside}, so the scan may look stretched or squashed",
+            fields.join(" and "),
+            names.join(" and ")
+        )
+    });
+    Ok((spacing_mm, warning))
+}
+
+/// `scl_slope` and `scl_inter` as the value scale. A slope of 0 means "not scaled" (the
+/// standard), and so does NaN (nibabel writes NaN, NaN for unscaled data and reads a NaN slope
+/// as unscaled): the values are used as stored, with a warning when a finite non-zero intercept
+/// is then left unused. An infinite slope, or a valid slope with a NaN or infinite intercept,
+/// would make every value non-finite, and is refused (nibabel refuses the latter too).
+fn scale(slope: f64, intercept: f64, path: &Path) -> Result<(ValueScale, Option<String>), VolumeError> {
+    if slope.is_infinite() {
+        return Err(VolumeError::header("scl_slope", format!("{slope} would make every value infinite"), path));
+    }
+    if slope == 0.0 || slope.is_nan() {
+        let unused = intercept.is_finite() && intercept != 0.0;
+        let warning = unused.then(|| {
+            format!(
+                "scl_slope is {slope} (not scaled), so scl_inter {intercept} is not applied; values are shown as stored"
+            )
+        });
+        return Ok((ValueScale::IDENTITY, warning));
+    }
+    if !intercept.is_finite() {
+        return Err(VolumeError::header(
+            "scl_inter",
+            format!("{intercept} beside scl_slope {slope} would make every value {intercept}"),
+            path,
+        ));
+    }
+    Ok((ValueScale { slope, intercept }, None))
 }
 
 struct FieldReader<'a> {
@@ -204,10 +275,11 @@ pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<NiftiRead, VolumeEr
     let header = parse_header(&head, path)?;
     let data_path = data_path(path, &header, limits)?;
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
-    let bytes = VoxelBytes::map_region(&data_path, header.data_offset, length)?;
+    let bytes = VoxelBytes::map_final_region(&data_path, header.data_offset, length)?;
     let mut volume =
         Volume::new(header.dims, header.spacing_mm, header.voxel_type, header.byte_order, header.scale, bytes, path)?;
     volume.orientation = header.orientation;
+    volume.warnings = header.warnings;
     Ok(NiftiRead { volume, decoded: false })
 }
 
@@ -236,8 +308,7 @@ fn read_gzip(path: &Path, limits: &ReadLimits) -> Result<NiftiRead, VolumeError>
     let length = checked_voxel_count(header.dims, header.voxel_type, path)? * header.voxel_type.size_bytes();
     let skip = header.data_offset.saturating_sub(HEADER_BYTES as u64);
     limits::check_deflate_can_hold(header.data_offset, length as u64, file_len, path)?;
-    let beyond = if header.more_volumes { Beyond::Ignore } else { Beyond::Refuse };
-    let data = limits::decode_exactly(decoder, skip, length, beyond, limits, path)?;
+    let data = limits::decode_exactly(decoder, skip, length, limits, path)?;
     let mut volume = Volume::new(
         header.dims,
         header.spacing_mm,
@@ -248,6 +319,7 @@ fn read_gzip(path: &Path, limits: &ReadLimits) -> Result<NiftiRead, VolumeError>
         path,
     )?;
     volume.orientation = header.orientation;
+    volume.warnings = header.warnings;
     Ok(NiftiRead { volume, decoded: true })
 }
 
@@ -266,87 +338,4 @@ fn image_file_for(header_path: &Path) -> PathBuf {
 }
 
 #[cfg(test)]
-mod tests {
-    use super::*;
-
-    /// A minimal little-endian single-file header for `dims` of `datatype`.
-    pub(crate) fn header_bytes(
-        dims: [i16; 3],
-        datatype: i16,
-        bitpix: i16,
-        pixdim: [f32; 3],
-        slope: f32,
-        intercept: f32,
-    ) -> Vec<u8> {
-        let mut h = vec![0u8; 352];
-        h[0..4].copy_from_slice(&348i32.to_le_bytes());
-        h[40..42].copy_from_slice(&3i16.to_le_bytes());
-        for (i, d) in dims.iter().enumerate() {
-            h[42 + 2 * i..44 + 2 * i].copy_from_slice(&d.to_le_bytes());
-        }
-        h[70..72].copy_from_slice(&datatype.to_le_bytes());
-        h[72..74].copy_from_slice(&bitpix.to_le_bytes());
-        for (i, p) in pixdim.iter().enumerate() {
-            h[80 + 4 * i..84 + 4 * i].copy_from_slice(&p.to_le_bytes());
-        }
-        h[108..112].copy_from_slice(&352f32.to_le_bytes());
-        h[112..116].copy_from_slice(&slope.to_le_bytes());
-        h[116..120].copy_from_slice(&intercept.to_le_bytes());
-        h[344..348].copy_from_slice(b"n+1\0");
-        h
-    }
-
-    #[test]
-    fn parses_a_little_endian_header_with_scaling() {
-        let bytes = header_bytes([4, 3, 2], 4, 16, [0.5, 0.75, 2.0], 2.0, -1024.0);
-        let header = parse_header(&bytes, Path::new("t.nii")).unwrap();
-        assert_eq!(header.dims, [4, 3, 2]);
-        assert_eq!(header.voxel_type, VoxelType::I16);
-        assert_eq!(header.spacing_mm, [0.5, 0.75, 2.0]);
-        assert_eq!(header.scale, ValueScale { slope: 2.0, intercept: -1024.0 });
-        assert_eq!(header.data_offset, 352);
-    }
-
-    #[test]
-    fn slope_zero_means_no_scaling() {
-        let bytes = header_bytes([4, 3, 2], 2, 8, [1.0; 3], 0.0, 5.0);
-        assert_eq!(parse_header(&bytes, Path::new("t.nii")).unwrap().scale, ValueScale::IDENTITY);
-    }
-
-    #[test]
-    fn refuses_bad_headers() {
-        let good = header_bytes([4, 3, 2], 4, 16, [1.0; 3], 1.0, 0.0);
-        type Corruption = Box<dyn Fn(&mut Vec<u8>)>;
-        let cases: Vec<(&str, Corruption)> = vec![
-            ("short", Box::new(|h| h.truncate(100))),
-            ("sizeof_hdr", Box::new(|h| h[0] = 7)),
-            ("magic", Box::new(|h| h[344] = b'x')),
-            ("datatype", Box::new(|h| h[70..72].copy_from_slice(&1024i16.to_le_bytes()))),
-            ("bitpix", Box::new(|h| h[72..74].copy_from_slice(&8i16.to_le_bytes()))),
-            ("negative dim", Box::new(|h| h[42..44].copy_from_slice(&(-4i16).to_le_bytes()))),
-            ("rank", Box::new(|h| h[40..42].copy_from_slice(&9i16.to_le_bytes()))),
-            ("vox_offset", Box::new(|h| h[108..112].copy_from_slice(&f32::NAN.to_le_bytes()))),
-        ];
-        for (name, corrupt) in cases {
-            let mut bytes = good.clone();
-            corrupt(&mut bytes);
-            assert!(parse_header(&bytes, Path::new("t.nii")).is_err(), "{name} accepted");
-        }
-    }
-
-    proptest::proptest! {
-        /// Any header bytes parse or fail cleanly; an accepted header never promises an
-        /// overflowing voxel count or a data offset inside the header of a single file.
-        #[test]
-        fn parse_never_panics(mut bytes in proptest::collection::vec(proptest::prelude::any::<u8>(), 348..400), little in proptest::prelude::any::<bool>()) {
-            if little {
-                bytes[0..4].copy_from_slice(&348i32.to_le_bytes());
-                bytes[344..348].copy_from_slice(b"n+1\0");
-            }
-            if let Ok(header) = parse_header(&bytes, Path::new("t.nii")) {
-                proptest::prop_assert!(checked_voxel_count(header.dims, header.voxel_type, Path::new("t")).is_ok());
-                proptest::prop_assert!(header.separate_image_file || header.data_offset >= HEADER_BYTES as u64);
-            }
-        }
-    }
-}
+mod tests;

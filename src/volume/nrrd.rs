@@ -3,8 +3,11 @@
 //!
 //! Follows the teem NRRD format specification (NRRD0001..NRRD0005). Raw-encoded data is
 //! memory-mapped in place; gzip data is decompressed (the caller caches it as a raw NRRD);
-//! ASCII data is parsed into memory. Header parsing ([`parse_header`]) is a pure function over
-//! bytes, so it is property-tested and fuzzed without touching files.
+//! ASCII data is parsed into memory, each value stored exactly or refused ([`ascii`]). Header
+//! parsing ([`parse_header`]) is a pure function over bytes, so it is property-tested and
+//! fuzzed without touching files. A field given twice with different values is refused
+//! ([`super::fields`]); the data must end its file (bytes after it are refused, as more
+//! decompressed or ASCII data is).
 //!
 //! Every size, offset and skip is checked before it is used (see [`super::limits`]): byte and
 //! line skips with checked arithmetic, gzip and ASCII data against what the file can hold and
@@ -12,9 +15,9 @@
 //!
 //! Never: resamples, or reads more than the header promises.
 
-use super::limits::{self, Beyond, ReadLimits};
+use super::fields::HeaderFields;
+use super::limits::{self, Deflate, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, checked_voxel_count};
-use std::io::Read;
 use std::path::{Path, PathBuf};
 
 /// How the voxel data is encoded.
@@ -96,7 +99,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
             path: path.to_path_buf(),
         });
     }
-    let mut fields: Vec<(String, String)> = Vec::new();
+    let mut fields = HeaderFields::default();
     let mut position = 0usize;
     let mut header_length = None;
     let mut first = true;
@@ -125,9 +128,9 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
         let Some((field, value)) = line.split_once(": ") else {
             return Err(header_error("header", format!("line '{}' is not 'field: value'", truncate(line))));
         };
-        fields.push((field.trim().to_ascii_lowercase(), value.trim().to_string()));
+        fields.insert(field_key(field), field, value, path)?;
     }
-    let get = |name: &str| fields.iter().find(|(f, _)| f == name).map(|(_, v)| v.as_str());
+    let get = |name: &str| fields.get(name);
 
     let type_value = get("type").ok_or(VolumeError::MissingField { field: "type", path: path.to_path_buf() })?;
     let voxel_type = type_from_name(type_value).ok_or_else(|| VolumeError::Unsupported {
@@ -198,7 +201,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
             return Err(VolumeError::MissingField { field: "endian", path: path.to_path_buf() });
         }
     };
-    let data_file = match get("data file").or(get("datafile")) {
+    let data_file = match get("data file") {
         None => None,
         Some(value) if value.starts_with("LIST") || value.contains('%') || value.split_whitespace().count() > 1 => {
             return Err(VolumeError::Unsupported {
@@ -210,7 +213,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
         Some(value) => Some(PathBuf::from(value)),
     };
     let byte_skip =
-        match get("byte skip").or(get("byteskip")) {
+        match get("byte skip") {
             None => Some(0),
             Some("-1") => None,
             Some(value) => Some(value.parse::<u64>().map_err(|_| {
@@ -220,7 +223,7 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
     if byte_skip.is_none() && encoding != NrrdEncoding::Raw {
         return Err(header_error("byte skip", "-1 is only valid with raw encoding".into()));
     }
-    let line_skip = match get("line skip").or(get("lineskip")) {
+    let line_skip = match get("line skip") {
         None => 0,
         Some(value) => value
             .parse::<u64>()
@@ -239,6 +242,19 @@ pub fn parse_header(bytes: &[u8], path: &Path) -> Result<NrrdHeader, VolumeError
         orientation,
         warnings: spacing_warning.into_iter().collect(),
     })
+}
+
+/// A field name as compared: lowercase, the one-word spellings teem also reads (`datafile`,
+/// `byteskip`, `lineskip`) as their two-word forms, so that both spellings of a field count as
+/// the same field given twice.
+fn field_key(field: &str) -> String {
+    let key = field.trim().to_ascii_lowercase();
+    match key.as_str() {
+        "datafile" => "data file".into(),
+        "byteskip" => "byte skip".into(),
+        "lineskip" => "line skip".into(),
+        _ => key,
+    }
 }
 
 /// The first 60 characters of a header value, for messages.
@@ -299,23 +315,28 @@ pub fn read_with(path: &Path, limits: &ReadLimits) -> Result<NrrdRead, VolumeErr
                     path: data_path.clone(),
                 })?,
             };
-            (VoxelBytes::map_region(&data_path, offset, expected)?, false)
+            (VoxelBytes::map_final_region(&data_path, offset, expected)?, false)
         }
         NrrdEncoding::Gzip => {
             let skip = header.byte_skip.unwrap_or(0);
             let compressed = file_len.saturating_sub(offset);
             limits::check_deflate_can_hold(skip, expected as u64, compressed, &data_path)?;
-            let reader = positioned(file, &data_path, offset)?;
-            let decoder = flate2::read::MultiGzDecoder::new(reader);
-            (
-                VoxelBytes::Owned(limits::decode_exactly(decoder, skip, expected, Beyond::Refuse, limits, &data_path)?),
-                true,
-            )
+            let mut reader = positioned(file, &data_path, offset)?;
+            limits::check_compressed(&mut reader, &[Deflate::Gzip], "encoding: gzip", &data_path)?;
+            let decoder = flate2::bufread::MultiGzDecoder::new(reader);
+            (VoxelBytes::Owned(limits::decode_exactly(decoder, skip, expected, limits, &data_path)?), true)
         }
         NrrdEncoding::Ascii => {
             let available = file_len.saturating_sub(offset);
             let reader = positioned(file, &data_path, offset)?;
-            let values = parse_ascii(reader, available, header.voxel_type, voxel_count, limits, &data_path)?;
+            // Lines are counted in the data file: the header's own (attached data), then the skipped.
+            let header_lines = match (&header.data_file, header.header_length) {
+                (None, Some(length)) => head[..length].iter().filter(|&&b| b == b'\n').count() as u64,
+                _ => 0,
+            };
+            let first_line = 1 + header_lines + header.line_skip;
+            let values =
+                parse_ascii(reader, available, first_line, header.voxel_type, voxel_count, limits, &data_path)?;
             (VoxelBytes::Owned(values), false)
         }
     };
@@ -373,80 +394,11 @@ fn skip_lines(file: &std::fs::File, path: &Path, offset: u64, lines: u64) -> Res
     }
 }
 
-/// The longest ASCII value read: more is not a number but a lying file.
-const LONGEST_ASCII_VALUE: usize = 64;
-
-/// Parses `voxel_count` whitespace- or comma-separated numbers from `text` (`available` bytes)
-/// into little-endian `voxel_type` bytes; fewer or more values are errors.
-fn parse_ascii(
-    text: impl Read,
-    available: u64,
-    voxel_type: VoxelType,
-    voxel_count: usize,
-    limits: &ReadLimits,
-    path: &Path,
-) -> Result<Vec<u8>, VolumeError> {
-    let size = voxel_type.size_bytes();
-    let expected = (voxel_count * size) as u64;
-    // Each value but the last needs a separator: at least two characters a value.
-    let most_values = available.div_ceil(2);
-    if voxel_count as u64 > most_values {
-        return Err(VolumeError::CannotHold {
-            expected,
-            encoding: "ASCII",
-            available,
-            most: most_values * size as u64,
-            path: path.to_path_buf(),
-        });
-    }
-    limits::check_ceiling(expected, limits, path)?;
-    let mut bytes = limits::reserve(voxel_count * size, path)?;
-    let mut count = 0usize;
-    let mut token: Vec<u8> = Vec::with_capacity(LONGEST_ASCII_VALUE);
-    let mut finish = |token: &mut Vec<u8>, bytes: &mut Vec<u8>| -> Result<(), VolumeError> {
-        if token.is_empty() {
-            return Ok(());
-        }
-        let shown = || String::from_utf8_lossy(token).chars().take(60).collect::<String>();
-        if count == voxel_count {
-            return Err(VolumeError::ExtraData { expected, path: path.to_path_buf() });
-        }
-        let value: f64 = std::str::from_utf8(token)
-            .ok()
-            .and_then(|t| t.parse().ok())
-            .ok_or_else(|| VolumeError::header("data", format!("'{}' is not a number", shown()), path))?;
-        push_value(bytes, voxel_type, value);
-        count += 1;
-        token.clear();
-        Ok(())
-    };
-    for byte in std::io::BufReader::new(text).bytes() {
-        let byte = byte.map_err(|e| VolumeError::io(e, path))?;
-        if byte.is_ascii_whitespace() || byte == b',' {
-            finish(&mut token, &mut bytes)?;
-        } else if token.len() == LONGEST_ASCII_VALUE {
-            return Err(VolumeError::header(
-                "data",
-                format!("a value is longer than {LONGEST_ASCII_VALUE} characters"),
-                path,
-            ));
-        } else {
-            token.push(byte);
-        }
-    }
-    finish(&mut token, &mut bytes)?;
-    if count < voxel_count {
-        return Err(VolumeError::DataSize {
-            expected: expected as usize,
-            found: count * size,
-            path: path.to_path_buf(),
-        });
-    }
-    Ok(bytes)
-}
-
+mod ascii;
 mod spacing;
 mod write;
+
+use ascii::parse_ascii;
 
 use spacing::parse_spacing;
 pub(crate) use spacing::split_direction_vectors;

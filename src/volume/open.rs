@@ -64,6 +64,9 @@ pub enum Format {
 
 /// Opens the volume at `path`.
 pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
+    if let Some(spacing) = options.spacing_mm {
+        super::check_spacing(spacing, path)?;
+    }
     let format = detect_format(path, options)?;
     log::debug!("{}: opening as {format:?}", path.display());
     let cache_dir = options.cache_dir.clone().unwrap_or_else(cache::default_folder);
@@ -98,7 +101,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
             if header.encoding == nrrd::NrrdEncoding::Gzip {
                 let files = source_files(path, &data);
                 cache::open_or_import(&cache_dir, &files, "nrrd", path, || {
-                    nrrd::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                    nrrd::read_with(path, &limits).map(|r| with_warnings(r.volume))
                 })?
             } else {
                 nrrd::read_with(path, &limits)?.volume
@@ -113,7 +116,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
             if header.compressed {
                 let files = source_files(path, &data);
                 cache::open_or_import(&cache_dir, &files, "metaimage", path, || {
-                    metaimage::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                    metaimage::read_with(path, &limits).map(|r| with_warnings(r.volume))
                 })?
             } else {
                 metaimage::read_with(path, &limits)?.volume
@@ -122,7 +125,7 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
         Format::Nifti => {
             if nifti::is_gzip(path)? {
                 cache::open_or_import(&cache_dir, &[path.to_path_buf()], "nifti", path, || {
-                    nifti::read_with(path, &limits).map(|r| (r.volume, Vec::new()))
+                    nifti::read_with(path, &limits).map(|r| with_warnings(r.volume))
                 })?
             } else {
                 nifti::read_with(path, &limits)?.volume
@@ -131,14 +134,15 @@ pub fn open(path: &Path, options: &OpenOptions) -> Result<Volume, VolumeError> {
         Format::Dicom => open_dicom(path, &options.dicom, &limits, &cache_dir)?,
     };
     if let Some(spacing) = options.spacing_mm {
-        for (axis, &s) in spacing.iter().enumerate() {
-            if !(s.is_finite() && s > 0.0) {
-                return Err(VolumeError::BadSpacing { axis, value: s, path: path.to_path_buf() });
-            }
-        }
         volume.spacing_mm = spacing;
     }
     Ok(volume)
+}
+
+/// A volume and its reader's warnings, as the cache keeps them beside the entry.
+fn with_warnings(mut volume: Volume) -> (Volume, Vec<String>) {
+    let warnings = std::mem::take(&mut volume.warnings);
+    (volume, warnings)
 }
 
 /// The header and, when it is another file, the data file.

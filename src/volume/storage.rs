@@ -75,6 +75,23 @@ impl VoxelBytes {
         }
     }
 
+    /// Maps `len` bytes at `offset` of `path` that must end the file, as a header's voxel data
+    /// do: a shorter file is [`VolumeError::DataSize`], bytes after the data
+    /// [`VolumeError::TrailingData`] (the header's sizes, type or offset are wrong; decoded
+    /// data that runs on is refused the same way, [`super::limits::decode_exactly`]).
+    pub fn map_final_region(path: &Path, offset: u64, len: usize) -> Result<VoxelBytes, VolumeError> {
+        let (_, file_len) = super::limits::open_regular(path)?;
+        let end = offset.saturating_add(len as u64);
+        if file_len > end {
+            return Err(VolumeError::TrailingData {
+                expected: len as u64,
+                extra: file_len - end,
+                path: path.to_path_buf(),
+            });
+        }
+        VoxelBytes::map_region(path, offset, len)
+    }
+
     /// The voxel bytes, in the file's order and byte order.
     pub fn as_slice(&self) -> &[u8] {
         match self {

@@ -1,5 +1,5 @@
 //! A NRRD header's voxel spacing: `space directions` (the norms of the axis vectors) or
-//! `spacings`, checked to be finite and positive.
+//! `spacings`, checked to lie in the range any scan has ([`crate::volume::check_spacing`]).
 
 use super::truncate;
 use crate::volume::VolumeError;
@@ -81,11 +81,7 @@ pub(super) fn parse_spacing(
             known.join(" and ")
         )
     });
-    for (axis, &s) in spacing.iter().enumerate() {
-        if !(s.is_finite() && s > 0.0) {
-            return Err(VolumeError::BadSpacing { axis, value: s, path: path.to_path_buf() });
-        }
-    }
+    crate::volume::check_spacing(spacing, path)?;
     Ok((spacing, warning))
 }
 

@@ -111,7 +111,8 @@ proptest! {
         prop_assert_eq!(header.spacing_mm, spacing);
     }
 
-    /// What the writer writes, the reader reads back bit for bit.
+    /// What the writer writes, the reader reads back bit for bit; random float bits that hold
+    /// no finite value, or one beyond `f32`'s range, are refused by name instead.
     #[test]
     fn write_then_read_round_trips(dims in [1usize..9, 1usize..9, 1usize..9], type_index in 0usize..8, seed in any::<u64>()) {
         let voxel_type = VoxelType::ALL[type_index];
@@ -121,10 +122,103 @@ proptest! {
         let folder = tempfile::tempdir().unwrap();
         let path = folder.path().join("v.nrrd");
         write(&path, dims, [0.5, 1.0, 2.5], voxel_type, ByteOrder::Little, &bytes, "test").unwrap();
+        let values: Vec<f64> = match voxel_type {
+            VoxelType::F32 => bytes.chunks_exact(4).map(|c| f32::from_le_bytes(c.try_into().unwrap()) as f64).collect(),
+            VoxelType::F64 => bytes.chunks_exact(8).map(|c| f64::from_le_bytes(c.try_into().unwrap())).collect(),
+            _ => vec![0.0],
+        };
+        if values.iter().all(|v| !v.is_finite()) {
+            let refused = matches!(read(&path), Err(VolumeError::NoFiniteValue { .. }));
+            prop_assert!(refused, "no finite value");
+            return Ok(());
+        }
+        if values.iter().any(|v| v.is_finite() && v.abs() > f32::MAX as f64) {
+            let refused = matches!(read(&path), Err(VolumeError::ValueOverflow { scaled: false, .. }));
+            prop_assert!(refused, "beyond f32");
+            return Ok(());
+        }
         let read = read(&path).unwrap();
         prop_assert_eq!(read.volume.dims, dims);
         prop_assert_eq!(read.volume.spacing_mm, [0.5, 1.0, 2.5]);
         prop_assert_eq!(read.volume.raw_bytes(), &bytes[..]);
         prop_assert!(read.volume.is_memory_mapped());
     }
+}
+
+#[test]
+fn a_field_given_twice_is_refused_unless_it_repeats_the_same_value() {
+    for (name, extra) in [
+        ("sizes", "sizes: 4 3 4\n"),
+        ("type", "type: uchar\n"),
+        ("endian", "endian: little\n"),
+        ("encoding", "encoding: gzip\n"),
+        ("dimension", "dimension: 2\n"),
+        ("space directions", "space directions: (1,0,0) (0,1,0) (0,0,1)\n"),
+        ("byte skip", "byte skip: 1\nbyteskip: 2\n"),
+        ("data file", "data file: a.raw\ndatafile: b.raw\n"),
+    ] {
+        let text = HEADER.replace("key:=value\n", extra);
+        let error = parse_header(text.as_bytes(), Path::new("t")).unwrap_err();
+        assert!(
+            matches!(&error, VolumeError::RepeatedField { field, .. } if field.replace(' ', "") == name.replace(' ', "")),
+            "{name}: {error}"
+        );
+    }
+    let same = HEADER.replace("key:=value\n", "sizes: 4  3 2\nType: short\n");
+    let header = parse_header(same.as_bytes(), Path::new("t")).unwrap();
+    assert_eq!((header.dims, header.voxel_type), ([4, 3, 2], VoxelType::I16));
+}
+
+#[test]
+fn spacings_outside_what_any_scan_has_are_refused() {
+    for spacing in ["1e30", "1e-30", "0", "-1", "inf", "1e5", "0.00001"] {
+        // A direction's length is its spacing (a negative component only points it the other way).
+        if spacing != "-1" {
+            let text = HEADER.replace("(0,0,2)", &format!("(0,0,{spacing})"));
+            let error = parse_header(text.as_bytes(), Path::new("t")).unwrap_err();
+            assert!(matches!(error, VolumeError::BadSpacing { axis: 2, .. }), "{spacing}: {error}");
+        }
+        let text = HEADER.replace("space directions: (0.5,0,0) (0,0.5,0) (0,0,2)", &format!("spacings: {spacing} 1 1"));
+        let error = parse_header(text.as_bytes(), Path::new("t")).unwrap_err();
+        assert!(matches!(error, VolumeError::BadSpacing { axis: 0, .. }), "{spacing}: {error}");
+    }
+    for spacing in ["0.0001", "10000", "0.3"] {
+        let text = HEADER.replace("(0,0,2)", &format!("(0,0,{spacing})"));
+        assert!(parse_header(text.as_bytes(), Path::new("t")).is_ok(), "{spacing}");
+    }
+}
+
+#[test]
+fn ascii_values_are_stored_exactly_or_refused() {
+    use super::ascii::ascii_value;
+    use crate::volume::error::AsciiProblem::{NotANumber, NotWhole, OutOfRange};
+    for (text, voxel_type, expected) in [
+        ("255", VoxelType::U8, Ok(255.0)),
+        ("1e2", VoxelType::U8, Ok(100.0)),
+        ("-0", VoxelType::U8, Ok(0.0)),
+        ("256", VoxelType::U8, Err(OutOfRange)),
+        ("300", VoxelType::U8, Err(OutOfRange)),
+        ("-1", VoxelType::U8, Err(OutOfRange)),
+        ("-129", VoxelType::I8, Err(OutOfRange)),
+        ("-32768", VoxelType::I16, Ok(-32768.0)),
+        ("1e9", VoxelType::I16, Err(OutOfRange)),
+        ("65536", VoxelType::U16, Err(OutOfRange)),
+        ("4294967295", VoxelType::U32, Ok(4294967295.0)),
+        ("4294967296", VoxelType::U32, Err(OutOfRange)),
+        ("2147483648", VoxelType::I32, Err(OutOfRange)),
+        ("4.5", VoxelType::I16, Err(NotWhole)),
+        ("nan", VoxelType::I32, Err(NotWhole)),
+        ("inf", VoxelType::U8, Err(NotWhole)),
+        ("12abc", VoxelType::U8, Err(NotANumber)),
+        ("1e39", VoxelType::F32, Err(OutOfRange)),
+        ("-1e39", VoxelType::F32, Err(OutOfRange)),
+        ("3e38", VoxelType::F32, Ok(3e38)),
+        ("1e400", VoxelType::F64, Err(OutOfRange)),
+        ("1e300", VoxelType::F64, Ok(1e300)),
+        ("0.25", VoxelType::F32, Ok(0.25)),
+    ] {
+        assert_eq!(ascii_value(text, voxel_type), expected, "{text} as {voxel_type:?}");
+    }
+    assert!(ascii_value("nan", VoxelType::F32).unwrap().is_nan());
+    assert_eq!(ascii_value("-inf", VoxelType::F64), Ok(f64::NEG_INFINITY));
 }

@@ -114,7 +114,7 @@ fn write_with_header(
         file.write_all(header.as_bytes())?;
         file.write_all(bytes)
     })
-    .map_err(|e| VolumeError::io(e, path))
+    .map_err(|source| VolumeError::Write { source, path: path.to_path_buf() })
 }
 
 /// Writes a whole volume (its physical values for scaled volumes, as `float32`) to `path`.
