@@ -3,6 +3,7 @@
 
 use super::synthetic::{EXPLICIT_LITTLE, IMPLICIT_LITTLE, SyntheticSlice};
 use super::*;
+use dicom_dictionary_std::tags;
 
 fn error_text(result: Result<DicomImport, VolumeError>) -> String {
     match result {
@@ -304,4 +305,56 @@ fn a_series_that_cannot_be_read_is_skipped_with_a_warning_when_another_can() {
     let options = DicomOptions { series_uid: Some("4.5.6".into()), ..DicomOptions::default() };
     let error = read_series(folder.path(), &options).unwrap_err();
     assert!(matches!(error, VolumeError::Unsupported { .. }), "{error}");
+}
+
+#[test]
+fn a_pixel_spacing_of_zero_reads_as_1_mm_with_a_warning_and_a_negative_one_is_refused() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("cr.dcm");
+    let mut slice = SyntheticSlice::axial("5.5", "5.5.1", [3, 2], [0.0, 0.0, 0.0], |column, row| (column + row) as i16);
+    slice.pixel_spacing_mm = [0.0, 0.0];
+    slice.write(&path);
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    assert_eq!(import.volume.spacing_mm[..2], [1.0, 1.0]);
+    assert_eq!(import.warnings, ["PixelSpacing is 0 \\ 0 mm (0 means unknown): assuming 1 mm square pixels"]);
+    assert_eq!(import.volume.value_at(2, 1, 0), 3.0);
+    slice.pixel_spacing_mm = [-0.5, 0.5];
+    slice.write(&path);
+    let message = error_text(read_series(&path, &DicomOptions::default()));
+    assert!(message.contains("PixelSpacing") && message.contains("-0.5 \\ 0.5 mm: both must be positive"), "{message}");
+}
+
+/// Rewrites the PixelData of `path` (16-bit samples) with `extra` words after the image.
+fn append_to_pixel_data(path: &Path, extra: &[u16]) {
+    let mut object = dicom_object::open_file(path).unwrap();
+    let mut words: Vec<u16> = object.element(tags::PIXEL_DATA).unwrap().to_multi_int::<u16>().unwrap();
+    words.extend_from_slice(extra);
+    object.put(dicom_core::DataElement::new(
+        tags::PIXEL_DATA,
+        dicom_core::VR::OW,
+        dicom_core::value::PrimitiveValue::U16(words.into()),
+    ));
+    object.write_to_file(path).unwrap();
+}
+
+#[test]
+fn zero_padding_after_native_pixel_data_is_ignored_with_a_warning_and_anything_else_refused() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("padded.dcm");
+    let slice =
+        SyntheticSlice::axial("6.6", "6.6.1", [4, 4], [0.0, 0.0, 0.0], |column, row| (10 * row + column) as i16);
+    // Up to one word short of a frame (16 words) of zeros: read, and said.
+    slice.write(&path);
+    append_to_pixel_data(&path, &[0; 15]);
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    assert_eq!(import.volume.value_at(3, 3, 0), 33.0);
+    assert_eq!(import.warnings.len(), 1);
+    assert!(import.warnings[0].ends_with("its PixelData ends in 30 bytes of zero padding after the image, ignored"));
+    // Anything but zeros, or a whole frame more: the header does not describe the pixels.
+    for extra in [vec![0, 0, 7, 0], vec![0; 16]] {
+        slice.write(&path);
+        append_to_pixel_data(&path, &extra);
+        let message = error_text(read_series(&path, &DicomOptions::default()));
+        assert!(message.contains("the header does not describe the pixels"), "{message}");
+    }
 }
