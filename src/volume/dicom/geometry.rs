@@ -63,6 +63,9 @@ pub(super) struct StackGeometry {
     pub first_pixel_mm: Vec<[f64; 3]>,
     /// The spacing to report for a one-slice volume (SpacingBetweenSlices, SliceThickness or 1).
     pub single_slice_spacing_mm: f64,
+    /// The frames of one file without positions, stacked in file order: which way that runs
+    /// through the patient is unknown, so the volume gets no patient orientation.
+    pub unplaced: bool,
 }
 
 /// How far a series is from a regular grid.
@@ -210,7 +213,7 @@ pub(super) fn order_slices(
     let frame_spacing_mm = first.slice_thickness_mm.unwrap_or(1.0);
     if unplaced_frames {
         warnings.push(format!(
-            "the {} frames of {} carry no positions (no functional groups): stacked in file order, {frame_spacing_mm} mm apart ({})",
+            "the {} frames of {} carry no positions (no functional groups): stacked in file order, {frame_spacing_mm} mm apart ({}), without a patient orientation",
             headers.len(),
             first.path.display(),
             if first.slice_thickness_mm.is_some() { "SpacingBetweenSlices or SliceThickness" } else { "neither SpacingBetweenSlices nor SliceThickness is given" }
@@ -294,6 +297,7 @@ pub(super) fn order_slices(
         pixel_spacing_mm,
         first_pixel_mm,
         single_slice_spacing_mm,
+        unplaced: unplaced_frames,
     };
     Ok((ordered, geometry))
 }
@@ -367,6 +371,7 @@ mod tests {
             pixel_spacing_mm: [1.0, 1.0],
             first_pixel_mm: normal_positions_mm.iter().map(|w| [0.0, 0.0, *w]).collect(),
             single_slice_spacing_mm: 1.0,
+            unplaced: false,
         }
     }
 

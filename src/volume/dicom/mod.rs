@@ -284,7 +284,7 @@ fn assemble(
         check.dims = [geometry.columns, geometry.rows, geometry.slice_count()];
         if keep_values {
             let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
-            volume.orientation = series_orientation(&headers[0], None, path);
+            volume.orientation = if geometry.unplaced { None } else { series_orientation(&headers[0], None, path) };
             Some(volume)
         } else {
             None

@@ -358,3 +358,53 @@ fn zero_padding_after_native_pixel_data_is_ignored_with_a_warning_and_anything_e
         assert!(message.contains("the header does not describe the pixels"), "{message}");
     }
 }
+
+/// A 3-frame, 2 x 2 MR file of SOP class `sop_class` without functional groups or positions,
+/// with ImageOrientationPatient and SpacingBetweenSlices 2.5; frame k holds 10 k + pixel index.
+fn write_frames_without_groups(path: &Path, sop_class: &str) {
+    use dicom_core::value::{C, PrimitiveValue};
+    use dicom_core::{DataElement, VR};
+    let us = |value: u16| PrimitiveValue::U16(C::from_elem(value, 1));
+    let words: C<u16> = (0..3u16).flat_map(|k| (0..4u16).map(move |i| 10 * k + i)).collect();
+    let elements = vec![
+        DataElement::new(tags::SOP_CLASS_UID, VR::UI, sop_class),
+        DataElement::new(tags::SOP_INSTANCE_UID, VR::UI, "9.9.1"),
+        DataElement::new(tags::MODALITY, VR::CS, "MR"),
+        DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, "9.9"),
+        DataElement::new(tags::SPACING_BETWEEN_SLICES, VR::DS, "2.5"),
+        DataElement::new(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, "1\\0\\0\\0\\1\\0"),
+        DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, us(1)),
+        DataElement::new(tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2"),
+        DataElement::new(tags::NUMBER_OF_FRAMES, VR::IS, "3"),
+        DataElement::new(tags::ROWS, VR::US, us(2)),
+        DataElement::new(tags::COLUMNS, VR::US, us(2)),
+        DataElement::new(tags::BITS_ALLOCATED, VR::US, us(16)),
+        DataElement::new(tags::BITS_STORED, VR::US, us(12)),
+        DataElement::new(tags::HIGH_BIT, VR::US, us(11)),
+        DataElement::new(tags::PIXEL_REPRESENTATION, VR::US, us(0)),
+        DataElement::new(tags::PIXEL_DATA, VR::OW, PrimitiveValue::U16(words)),
+    ];
+    dicom_object::InMemDicomObject::from_element_iter(elements)
+        .with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax(EXPLICIT_LITTLE))
+        .unwrap()
+        .write_to_file(path)
+        .unwrap();
+}
+
+#[test]
+fn an_enhanced_mr_without_functional_groups_stacks_its_frames_in_file_order_without_orientation() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("emr.dcm");
+    write_frames_without_groups(&path, "1.2.840.10008.5.1.4.1.1.4.1");
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    let volume = &import.volume;
+    assert_eq!((volume.dims, volume.spacing_mm), ([2, 2, 3], [1.0, 1.0, 2.5]));
+    assert_eq!((0..3).map(|z| volume.value_at(1, 1, z)).collect::<Vec<_>>(), [3.0, 13.0, 23.0]);
+    // File order may run either way through the patient: no orientation is claimed.
+    assert_eq!(volume.orientation, None);
+    assert!(import.warnings[0].contains("stacked in file order, 2.5 mm apart"), "{:?}", import.warnings);
+    // Other multi-frame classes (here MR Image Storage) without positions stay refused.
+    write_frames_without_groups(&path, "1.2.840.10008.5.1.4.1.1.4");
+    let message = error_text(read_series(&path, &DicomOptions::default()));
+    assert!(message.contains("multi-frame DICOM image without per-frame positions"), "{message}");
+}
