@@ -3,10 +3,15 @@
 //! Deflated Explicit VR Little Endian) and an Enhanced CT file built from it here (frames in
 //! reverse order, positions in per-frame functional groups), itself compressed by dcmtk; and a
 //! folder of several series listed for the chooser (`series-picker.touch` in `replay` shows
-//! each series as a card of its own).
+//! each series as a card of its own). A 12-bit lossy JPEG copy (dcmtk's `dcmcjpeg +ee`) reads
+//! to exactly dcmtk's own decoding. Files pydicom decodes (a Modality LUT, attributes stored as
+//! UN, padded PixelData, an enhanced MR without functional groups, 12-bit JPEG, a PixelSpacing
+//! of 0) read to pydicom's voxels (`scripts/pydicom_reference.py` makes them and pydicom's
+//! values).
 //!
 //! dcmtk is a test dependency (`.ci/run` installs it); without it the dcmtk cases say so and
-//! are skipped.
+//! are skipped, except the comparison with pydicom, which needs dcmtk and python3 with pydicom
+//! (`.ci/run` installs both) and fails without them.
 
 use crate::support::data;
 use dicom_core::value::{C, DataSetSequence, PrimitiveValue, Value};
@@ -228,4 +233,148 @@ fn a_compressed_frame_that_declares_another_size_is_refused_before_decoding() {
     std::fs::write(&lying, bytes).unwrap();
     let output = crate::support::volasso(&["info", lying.to_str().unwrap()], &root.path().join("cache"));
     crate::support::assert_clean_error(&output, "compressed as 65535 x 65535 pixels", "a lying JPEG-LS header");
+}
+
+#[test]
+fn dcmtk_12_bit_lossy_jpeg_reads_to_dcmtks_own_decoding() {
+    if !dcmtk_available() {
+        return;
+    }
+    let root = tempfile::tempdir().unwrap();
+    let (lossy, decoded) = (root.path().join("jpeg-extended"), root.path().join("dcmdjpeg"));
+    std::fs::create_dir(&lossy).unwrap();
+    std::fs::create_dir(&decoded).unwrap();
+    for file in philips_files() {
+        let name = file.file_name().unwrap();
+        dcmtk("dcmcjpeg", &["+ee"], &file, &lossy.join(name));
+        dcmtk("dcmdjpeg", &[], &lossy.join(name), &decoded.join(name));
+    }
+    let ours = read_series(&lossy, &DicomOptions::default()).unwrap().volume;
+    let dcmtks = read_series(&decoded, &DicomOptions::default()).unwrap().volume;
+    assert_eq!((ours.dims, ours.voxel_type), ([512, 512, 28], dcmtks.voxel_type));
+    let differing = ours.raw_bytes().iter().zip(dcmtks.raw_bytes()).filter(|(a, b)| a != b).count();
+    assert_eq!(differing, 0, "the 12-bit JPEG Philips series differs from dcmdjpeg's decoding in {differing} bytes");
+}
+
+/// How a case of `scripts/pydicom_reference.py` must read: its voxels against pydicom's, and
+/// the warnings the import gives (each a fragment of one warning, in order).
+struct PydicomCase {
+    name: &'static str,
+    /// Lossy 12-bit JPEG: exactly dcmtk's voxels and within 2 of pydicom's (another IDCT:
+    /// ISO 10918-2 allows each decoder 1 from the exact transform); otherwise exactly
+    /// pydicom's.
+    lossy_jpeg: bool,
+    warnings: &'static [&'static str],
+}
+
+const NO_SPACING: &str = "PixelSpacing is missing: assuming 1 mm square pixels";
+const UNPLACED: &str = "the 10 frames of";
+
+const PYDICOM_CASES: [PydicomCase; 14] = [
+    PydicomCase { name: "mlut_18", lossy_jpeg: false, warnings: &[NO_SPACING] },
+    PydicomCase { name: "mlut_clipped_implicit", lossy_jpeg: false, warnings: &[NO_SPACING] },
+    PydicomCase { name: "mlut_8bit_signed_implicit", lossy_jpeg: false, warnings: &[NO_SPACING] },
+    PydicomCase { name: "explicit_VR-UN", lossy_jpeg: false, warnings: &[] },
+    PydicomCase { name: "emri_small", lossy_jpeg: false, warnings: &[UNPLACED, NO_SPACING] },
+    PydicomCase { name: "emri_small_RLE", lossy_jpeg: false, warnings: &[UNPLACED, NO_SPACING] },
+    PydicomCase { name: "emri_small_big_endian", lossy_jpeg: false, warnings: &[UNPLACED, NO_SPACING] },
+    PydicomCase { name: "emri_small_jpeg_2k_lossless", lossy_jpeg: false, warnings: &[UNPLACED, NO_SPACING] },
+    PydicomCase { name: "emri_small_jpeg_ls_lossless", lossy_jpeg: false, warnings: &[UNPLACED, NO_SPACING] },
+    PydicomCase { name: "JPGExtended", lossy_jpeg: true, warnings: &[] },
+    PydicomCase {
+        name: "JPEG-lossy",
+        lossy_jpeg: true,
+        warnings: &["the JPEG decoder warned \"Invalid SOS parameters for sequential JPEG\""],
+    },
+    PydicomCase { name: "dcmcjpeg_ee", lossy_jpeg: true, warnings: &[NO_SPACING] },
+    PydicomCase {
+        name: "MR_small_padded",
+        lossy_jpeg: false,
+        warnings: &["its PixelData ends in 128 bytes of zero padding after the image, ignored"],
+    },
+    PydicomCase {
+        name: "CR_pixel_spacing_0",
+        lossy_jpeg: false,
+        warnings: &["PixelSpacing is 0 \\ 0 mm (0 means unknown): assuming 1 mm square pixels"],
+    },
+];
+
+/// Little-endian float64 values as `scripts/pydicom_reference.py` writes them.
+fn read_f64(path: &Path) -> Vec<f64> {
+    let bytes = std::fs::read(path).unwrap_or_else(|error| panic!("{}: {error}", path.display()));
+    bytes.chunks_exact(8).map(|chunk| f64::from_le_bytes(chunk.try_into().unwrap())).collect()
+}
+
+/// Files that pydicom decodes and this reader once refused or showed raw (a Modality LUT,
+/// attributes stored as UN, padded PixelData, an enhanced MR without functional groups in five
+/// syntaxes, 12-bit lossy JPEG, a PixelSpacing of 0), each read and compared voxel for voxel
+/// with pydicom's decoding (`pixel_array`, then `apply_modality_lut`). pydicom's wheel ships
+/// some; the script makes the rest with pydicom and dcmtk (see its doc). Needs python3 with
+/// pydicom and its codec plugins, and dcmtk: `.ci/run` installs them, and this test fails
+/// without them rather than pass untested.
+#[test]
+fn files_pydicom_decodes_read_to_pydicoms_voxels() {
+    let out = tempfile::tempdir().unwrap();
+    let script = Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/pydicom_reference.py");
+    let run = Command::new("python3").arg(&script).arg(out.path()).output().expect("python3 runs");
+    assert!(
+        run.status.success(),
+        "{} failed (pydicom and its plugins: pip install pydicom pylibjpeg pylibjpeg-libjpeg pylibjpeg-openjpeg pyjpegls; dcmtk): {}",
+        script.display(),
+        String::from_utf8_lossy(&run.stderr)
+    );
+    let listing: serde_json::Value =
+        serde_json::from_slice(&std::fs::read(out.path().join("cases.json")).unwrap()).unwrap();
+    let listed: Vec<&str> =
+        listing["cases"].as_array().unwrap().iter().map(|case| case["name"].as_str().unwrap()).collect();
+    assert_eq!(listed, PYDICOM_CASES.iter().map(|case| case.name).collect::<Vec<_>>());
+    // Every case is checked and every failure listed, not only the first.
+    let mut failures = Vec::new();
+    for case in PYDICOM_CASES {
+        if let Err(failure) = check_pydicom_case(&case, out.path()) {
+            failures.push(format!("{}: {failure}", case.name));
+        }
+    }
+    assert!(failures.is_empty(), "{} of {} cases fail:\n{}", failures.len(), PYDICOM_CASES.len(), failures.join("\n"));
+}
+
+/// Reads one case and compares it with its references; the first difference found.
+fn check_pydicom_case(case: &PydicomCase, out: &Path) -> Result<(), String> {
+    let name = case.name;
+    let import =
+        read_series(&out.join(format!("{name}.dcm")), &DicomOptions::default()).map_err(|error| error.to_string())?;
+    let volume = &import.volume;
+    let [columns, rows, frames] = volume.dims;
+    let ours: Vec<f64> = (0..frames)
+        .flat_map(|z| (0..rows).flat_map(move |y| (0..columns).map(move |x| (x, y, z))))
+        .map(|(x, y, z)| volume.value_at(x, y, z))
+        .collect();
+    let pydicoms = read_f64(&out.join(format!("{name}.pydicom.f64")));
+    if ours.len() != pydicoms.len() {
+        return Err(format!("{:?} voxels against pydicom's {}", volume.dims, pydicoms.len()));
+    }
+    // The volume keeps values that are not all int16 integers as float32, so pydicom's float64
+    // values are compared rounded to float32.
+    let apart = |reference: &[f64], tolerance: f64| {
+        ours.iter().zip(reference).filter(|(a, b)| (**a - f64::from(**b as f32)).abs() > tolerance).count()
+    };
+    if case.lossy_jpeg {
+        let dcmtks = read_f64(&out.join(format!("{name}.dcmtk.f64")));
+        match (apart(&dcmtks, 0.0), apart(&pydicoms, 2.0)) {
+            (0, 0) => {}
+            (from_dcmtk, from_pydicom) => {
+                return Err(format!(
+                    "{from_dcmtk} voxels differ from dcmtk's decoding, {from_pydicom} are more than 2 from pydicom's"
+                ));
+            }
+        }
+    } else if apart(&pydicoms, 0.0) > 0 {
+        return Err(format!("{} of {} voxels differ from pydicom's", apart(&pydicoms, 0.0), ours.len()));
+    }
+    let said = import.warnings.len() == case.warnings.len()
+        && import.warnings.iter().zip(case.warnings).all(|(warning, expected)| warning.contains(expected));
+    if !said {
+        return Err(format!("warnings {:?}, expected {:?}", import.warnings, case.warnings));
+    }
+    Ok(())
 }

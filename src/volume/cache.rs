@@ -35,9 +35,10 @@ pub fn default_folder() -> PathBuf {
 /// a header and its detached data file), so a key names exactly what an import read.
 pub fn content_key(files: &[PathBuf], options: &str) -> Result<String, VolumeError> {
     let mut hasher = Sha256::new();
-    // Version 2: entries carry the patient orientation (`space` fields); version 1 entries,
-    // written without it, are not reused.
-    hasher.update(b"volasso-cache/2\0");
+    // Version 3: DICOM Modality LUTs and rescales stored as UN are applied; version 2 entries
+    // (which carry the patient orientation, `space` fields, unlike version 1) may hold such
+    // series' raw values and are not reused.
+    hasher.update(b"volasso-cache/3\0");
     hasher.update(options.as_bytes());
     let mut buffer = vec![0u8; 1 << 20];
     for path in files {

@@ -14,6 +14,9 @@ pub(super) struct DeclaredSize {
     pub width: u32,
     pub height: u32,
     pub components: u32,
+    /// Bits per sample of a JPEG frame header (8 or 12 for DCT, 2..16 lossless); `None` for
+    /// JPEG 2000.
+    pub precision: Option<u8>,
 }
 
 /// The size `frame` (the start of one frame's compressed bytes) declares for transfer syntax
@@ -55,6 +58,7 @@ fn jpeg_frame_header(bytes: &[u8]) -> Option<DeclaredSize> {
                 height: u32::from(u16::from_be_bytes([*segment.get(1)?, *segment.get(2)?])),
                 width: u32::from(u16::from_be_bytes([*segment.get(3)?, *segment.get(4)?])),
                 components: u32::from(*segment.get(5)?),
+                precision: Some(*segment.first()?),
             });
         }
         if marker == 0xDA || length < 2 {
@@ -77,6 +81,7 @@ fn jpeg2000_siz(bytes: &[u8]) -> Option<DeclaredSize> {
         width: word(4).checked_sub(word(12))?,
         height: word(8).checked_sub(word(16))?,
         components: u32::from(u16::from_be_bytes([siz[36], siz[37]])),
+        precision: None,
     })
 }
 
@@ -96,7 +101,7 @@ mod tests {
     #[test]
     fn jpeg_and_jpeg_ls_headers_are_read_past_other_segments() {
         let size = declared_size("1.2.840.10008.1.2.4.70", &jpeg(512, 256)).unwrap();
-        assert_eq!(size, DeclaredSize { width: 256, height: 512, components: 1 });
+        assert_eq!(size, DeclaredSize { width: 256, height: 512, components: 1, precision: Some(16) });
         let mut ls = jpeg(65535, 65535);
         ls[9] = 0xF7;
         assert_eq!(declared_size("1.2.840.10008.1.2.4.80", &ls).unwrap().width, 65535);
@@ -112,6 +117,6 @@ mod tests {
         }
         bytes.extend(1u16.to_be_bytes());
         let size = declared_size("1.2.840.10008.1.2.4.90", &bytes).unwrap();
-        assert_eq!(size, DeclaredSize { width: 900, height: 750, components: 1 });
+        assert_eq!(size, DeclaredSize { width: 900, height: 750, components: 1, precision: None });
     }
 }

@@ -65,6 +65,7 @@ pub(super) fn frame_headers(
     };
     let top = PlaneAttributes {
         pixel_spacing_mm: base.pixel_spacing_mm,
+        zero_pixel_spacing: base.zero_pixel_spacing,
         position_mm: base.position_mm,
         orientation: base.orientation,
         slice_thickness_mm: base.slice_thickness_mm,
@@ -80,6 +81,18 @@ pub(super) fn frame_headers(
         if let Some(items) = per_frame {
             apply_groups(&mut plane, &items[frame], path)?;
         }
+        if base.modality_lut.is_some() && !plane.rescale.is_identity() {
+            return Err(VolumeError::header(
+                "ModalityLUTSequence",
+                format!(
+                    "is present beside frame {}'s RescaleSlope {} and RescaleIntercept {}: the file does not say which maps its values",
+                    frame + 1,
+                    plane.rescale.slope,
+                    plane.rescale.intercept
+                ),
+                path,
+            ));
+        }
         if frames > 1 && plane.position_mm.is_none() {
             return Err(VolumeError::Dicom {
                 problem: format!("frame {} of {frames} has no ImagePositionPatient (PlanePositionSequence)", frame + 1),
@@ -90,6 +103,7 @@ pub(super) fn frame_headers(
             frame: frame as u32,
             sop_instance_uid: format!("{}#{frame}", base.sop_instance_uid),
             pixel_spacing_mm: plane.pixel_spacing_mm,
+            zero_pixel_spacing: plane.zero_pixel_spacing,
             position_mm: plane.position_mm,
             orientation: plane.orientation,
             slice_thickness_mm: plane.slice_thickness_mm,

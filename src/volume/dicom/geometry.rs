@@ -63,6 +63,9 @@ pub(super) struct StackGeometry {
     pub first_pixel_mm: Vec<[f64; 3]>,
     /// The spacing to report for a one-slice volume (SpacingBetweenSlices, SliceThickness or 1).
     pub single_slice_spacing_mm: f64,
+    /// The frames of one file without positions, stacked in file order: which way that runs
+    /// through the patient is unknown, so the volume gets no patient orientation.
+    pub unplaced: bool,
 }
 
 /// How far a series is from a regular grid.
@@ -204,7 +207,19 @@ pub(super) fn order_slices(
     for header in &headers[1..] {
         check_consistent(first, header)?;
     }
-    if multi_slice {
+    // The frames of one enhanced file without functional groups ([`super::header`]): stacked in
+    // file order, SpacingBetweenSlices (else SliceThickness, else 1 mm) apart.
+    let unplaced_frames = multi_slice && headers.iter().all(|h| h.path == first.path && h.position_mm.is_none());
+    let frame_spacing_mm = first.slice_thickness_mm.unwrap_or(1.0);
+    if unplaced_frames {
+        warnings.push(format!(
+            "the {} frames of {} carry no positions (no functional groups): stacked in file order, {frame_spacing_mm} mm apart ({}), without a patient orientation",
+            headers.len(),
+            first.path.display(),
+            if first.slice_thickness_mm.is_some() { "SpacingBetweenSlices or SliceThickness" } else { "neither SpacingBetweenSlices nor SliceThickness is given" }
+        ));
+    }
+    if multi_slice && !unplaced_frames {
         for header in &headers {
             let missing = if header.position_mm.is_none() {
                 Some("ImagePositionPatient")
@@ -231,12 +246,18 @@ pub(super) fn order_slices(
     let pixel_spacing_mm = match first.pixel_spacing_mm {
         Some([between_rows, between_columns]) => [between_columns, between_rows],
         None => {
-            warnings.push("PixelSpacing is missing: assuming 1 mm square pixels".into());
+            warnings.push(match first.zero_pixel_spacing {
+                Some([a, b]) => format!("PixelSpacing is {a} \\ {b} mm (0 means unknown): assuming 1 mm square pixels"),
+                None => "PixelSpacing is missing: assuming 1 mm square pixels".into(),
+            });
             [1.0, 1.0]
         }
     };
     let single_slice_spacing_mm = first.slice_thickness_mm.unwrap_or(1.0);
     let project = |header: &SliceHeader| {
+        if unplaced_frames {
+            return [0.0, 0.0, f64::from(header.frame) * frame_spacing_mm];
+        }
         let p = header.position_mm.unwrap_or([0.0; 3]);
         [dot(p, row_direction), dot(p, column_direction), dot(p, normal)]
     };
@@ -276,6 +297,7 @@ pub(super) fn order_slices(
         pixel_spacing_mm,
         first_pixel_mm,
         single_slice_spacing_mm,
+        unplaced: unplaced_frames,
     };
     Ok((ordered, geometry))
 }
@@ -349,6 +371,7 @@ mod tests {
             pixel_spacing_mm: [1.0, 1.0],
             first_pixel_mm: normal_positions_mm.iter().map(|w| [0.0, 0.0, *w]).collect(),
             single_slice_spacing_mm: 1.0,
+            unplaced: false,
         }
     }
 

@@ -7,13 +7,17 @@
 //! a structured report, a presentation state). Everything a later stage relies on is checked
 //! here once: one sample per pixel, 8 or 16 allocated bits, a transfer syntax whose pixel data
 //! dicom-rs's codec registry decodes (native, deflated, JPEG, JPEG-LS, JPEG 2000, RLE; see
-//! [`readable_transfer_syntax`]), a finite rescale, unit orientation cosines. An enhanced
-//! multi-frame image gives one header per frame ([`super::frames`]).
+//! [`readable_transfer_syntax`]), a finite rescale or a Modality LUT it can apply
+//! ([`super::modality_lut`]), unit orientation cosines. A PixelSpacing of 0 counts as absent.
+//! An enhanced multi-frame image gives one header per frame ([`super::frames`]), also one
+//! without functional groups (its frames then have no positions). Attributes stored as UN are
+//! read in their dictionary VR first ([`super::unknown_vr`]).
 //!
 //! Never: reads pixel data (that is [`super::pixels`]) or compares files with each other
 //! (that is [`super::geometry`]).
 
-use super::bounds::{self, Scope};
+use super::bounds::Scope;
+use super::modality_lut::ModalityLut;
 use crate::volume::limits::ReadLimits;
 use crate::volume::{ValueScale, VolumeError};
 use dicom_core::Tag;
@@ -22,6 +26,7 @@ use dicom_encoding::transfer_syntax::TransferSyntaxIndex;
 use dicom_object::{DefaultDicomObject, InMemDicomObject};
 use dicom_transfer_syntax_registry::TransferSyntaxRegistry;
 use std::path::{Path, PathBuf};
+use std::sync::Arc;
 
 /// Media Storage SOP Class UID of a DICOMDIR (Media Storage Directory Storage).
 pub(super) const MEDIA_STORAGE_DIRECTORY_UID: &str = "1.2.840.10008.1.3.10";
@@ -72,6 +77,8 @@ pub(super) struct SliceHeader {
     pub columns: usize,
     /// DICOM order: spacing between rows (along y), then between columns (along x).
     pub pixel_spacing_mm: Option<[f64; 2]>,
+    /// The PixelSpacing (or ImagerPixelSpacing) that was given as 0 and so taken as absent.
+    pub zero_pixel_spacing: Option<[f64; 2]>,
     /// ImagePositionPatient: centre of the first transmitted pixel.
     pub position_mm: Option<[f64; 3]>,
     /// ImageOrientationPatient: row direction cosines, then column direction cosines, normalised.
@@ -80,6 +87,8 @@ pub(super) struct SliceHeader {
     pub slice_thickness_mm: Option<f64>,
     pub pixel_format: PixelFormat,
     pub rescale: ValueScale,
+    /// The Modality LUT that replaces the rescale, where the file has one.
+    pub modality_lut: Option<Arc<ModalityLut>>,
 }
 
 /// Storage SOP classes that always carry Rows/Columns (CR, DX, CT, MR, NM, US, secondary
@@ -98,14 +107,24 @@ const IMAGE_STORAGE_CLASSES: [&str; 11] = [
     "1.2.840.10008.5.1.4.1.1.128",
 ];
 
+/// Enhanced (and legacy-converted enhanced) CT and MR storage: every frame of such a file is a
+/// slice of one volume, with or without functional groups to place it.
+const ENHANCED_VOLUME_CLASSES: [&str; 4] = [
+    "1.2.840.10008.5.1.4.1.1.2.1",
+    "1.2.840.10008.5.1.4.1.1.2.2",
+    "1.2.840.10008.5.1.4.1.1.4.1",
+    "1.2.840.10008.5.1.4.1.1.4.4",
+];
+
 /// The result of looking at one DICOM file.
 #[derive(Debug)]
 pub(super) enum FileKind {
     /// One header per frame (one for a single-frame file), in frame order.
     Image(Vec<SliceHeader>),
     /// A well-formed image this reader cannot turn into voxels (colour, a transfer syntax
-    /// without a decoder, multi-frame without per-frame positions, odd bit layout). Its series is skipped with a warning when another series
-    /// can be read, and `error` is returned when it is the one asked for.
+    /// without a decoder, multi-frame without per-frame positions, odd bit layout, a Modality
+    /// LUT it cannot apply). Its series is skipped with a warning when another series can be
+    /// read, and `error` is returned when it is the one asked for.
     Unsupported { series_uid: String, series_description: String, error: VolumeError },
     /// A valid DICOM file without an image (DICOMDIR, report): skipped quietly.
     NotImage,
@@ -114,7 +133,7 @@ pub(super) enum FileKind {
 /// Opens `path` (which must carry the DICM preamble and a file meta group) and reads its header,
 /// its element lengths checked first ([`bounds`]).
 pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, VolumeError> {
-    let object = bounds::read_object(path, Scope::Header, limits)?;
+    let object = super::unknown_vr::read_object(path, Scope::Header, limits)?;
     if object.meta().media_storage_sop_class_uid() == MEDIA_STORAGE_DIRECTORY_UID {
         return Ok(FileKind::NotImage);
     }
@@ -157,6 +176,10 @@ pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, 
         Some(frames) => frames,
     };
     let plane = PlaneAttributes::read(&object, path)?;
+    let modality_lut = match ModalityLut::read(&object, pixel_format.signed, plane.rescale, path) {
+        Ok(lut) => lut,
+        Err(error) => return Ok(FileKind::Unsupported { series_uid, series_description, error }),
+    };
     let header = SliceHeader {
         path: path.to_path_buf(),
         series_uid,
@@ -168,13 +191,25 @@ pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, 
         rows: rows as usize,
         columns: columns as usize,
         pixel_spacing_mm: plane.pixel_spacing_mm,
+        zero_pixel_spacing: plane.zero_pixel_spacing,
         position_mm: plane.position_mm,
         orientation: plane.orientation,
         slice_thickness_mm: plane.slice_thickness_mm,
         pixel_format,
         rescale: plane.rescale,
+        modality_lut,
     };
     if !super::frames::has_functional_groups(&object) {
+        if frames_in_file > 1 && ENHANCED_VOLUME_CLASSES.contains(&object.meta().media_storage_sop_class_uid()) {
+            // An enhanced CT or MR file stripped of its functional groups: its frames are
+            // slices without positions, stacked in file order ([`super::geometry`]).
+            let frames = (0..frames_in_file).map(|frame| SliceHeader {
+                frame,
+                sop_instance_uid: format!("{}#{frame}", header.sop_instance_uid),
+                ..header.clone()
+            });
+            return Ok(FileKind::Image(frames.collect()));
+        }
         if frames_in_file > 1 {
             let error = VolumeError::Unsupported {
                 what: "multi-frame DICOM image without per-frame positions (PerFrameFunctionalGroupsSequence)",
@@ -201,6 +236,7 @@ pub(super) fn read_header(path: &Path, limits: &ReadLimits) -> Result<FileKind, 
 #[derive(Clone, Copy, Debug)]
 pub(super) struct PlaneAttributes {
     pub pixel_spacing_mm: Option<[f64; 2]>,
+    pub zero_pixel_spacing: Option<[f64; 2]>,
     pub position_mm: Option<[f64; 3]>,
     pub orientation: Option<[f64; 6]>,
     pub slice_thickness_mm: Option<f64>,
@@ -212,6 +248,7 @@ impl PlaneAttributes {
     pub fn read(object: &InMemDicomObject, path: &Path) -> Result<PlaneAttributes, VolumeError> {
         let mut plane = PlaneAttributes {
             pixel_spacing_mm: None,
+            zero_pixel_spacing: None,
             position_mm: None,
             orientation: None,
             slice_thickness_mm: None,
@@ -230,19 +267,25 @@ impl PlaneAttributes {
         }
         self.rescale.slope = slope.unwrap_or(self.rescale.slope);
         self.rescale.intercept = intercept.unwrap_or(self.rescale.intercept);
-        let spacing = match floats::<2>(object, tags::PIXEL_SPACING, "PixelSpacing", path)? {
-            Some(spacing) => Some(spacing),
-            None => floats::<2>(object, tags::IMAGER_PIXEL_SPACING, "ImagerPixelSpacing", path)?,
-        };
-        if let Some(spacing) = spacing {
-            if spacing.iter().any(|s| *s <= 0.0) {
+        // A spacing of 0 (written by some CR and secondary-capture software for "unknown") is
+        // taken as absent: ImagerPixelSpacing, else 1 mm with a warning ([`super::geometry`]).
+        for (tag, field) in [(tags::PIXEL_SPACING, "PixelSpacing"), (tags::IMAGER_PIXEL_SPACING, "ImagerPixelSpacing")]
+        {
+            let Some(spacing) = floats::<2>(object, tag, field, path)? else { continue };
+            if spacing.iter().any(|s| *s < 0.0) {
                 return Err(VolumeError::header(
-                    "PixelSpacing",
+                    field,
                     format!("{} \\ {} mm: both must be positive", spacing[0], spacing[1]),
                     path,
                 ));
             }
+            if spacing.contains(&0.0) {
+                self.zero_pixel_spacing = Some(spacing);
+                continue;
+            }
             self.pixel_spacing_mm = Some(spacing);
+            self.zero_pixel_spacing = None;
+            break;
         }
         let thickness = match single_float(object, tags::SPACING_BETWEEN_SLICES, "SpacingBetweenSlices", path)? {
             Some(spacing) if spacing > 0.0 => Some(spacing),

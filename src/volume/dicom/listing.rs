@@ -7,7 +7,7 @@
 //! Never: decodes pixels, or decides which series to open (the caller passes the chosen
 //! SeriesInstanceUID to [`super::DicomOptions::series_uid`]).
 
-use super::bounds::{self, Scope};
+use super::bounds::Scope;
 use super::header::{self, FileKind};
 use super::series::{self, FoundImages};
 use crate::volume::VolumeError;
@@ -162,7 +162,7 @@ pub struct InstanceIdentity {
 /// The identity of the DICOM file at `path`, read from its attributes before PixelData (their
 /// lengths checked first).
 pub fn read_identity(path: &Path, limits: &ReadLimits) -> Result<InstanceIdentity, VolumeError> {
-    let object = bounds::read_object(path, Scope::Header, limits)?;
+    let object = super::unknown_vr::read_object(path, Scope::Header, limits)?;
     Ok(InstanceIdentity {
         series_uid: header::text(&object, tags::SERIES_INSTANCE_UID),
         sop_instance_uid: header::text(&object, tags::SOP_INSTANCE_UID),

@@ -22,8 +22,12 @@
 //!
 //! Pixel data (`pixels.rs`): native, deflated (`deflated.rs`), and the compressed syntaxes
 //! whose decoders dicom-rs's transfer syntax registry holds in this build: JPEG baseline,
-//! extended and lossless, JPEG-LS, JPEG 2000 and RLE ([`readable_transfer_syntax`]). An
-//! enhanced multi-frame CT or MR file gives one slice per frame (`frames.rs`).
+//! extended and lossless, JPEG-LS, JPEG 2000 and RLE ([`readable_transfer_syntax`]), 12-bit
+//! lossy JPEG through libjpeg-turbo (`jpeg12.rs`). Values are rescaled, or mapped through the
+//! file's Modality LUT (`modality_lut.rs`), as a viewer shows them. Attributes stored with VR UN
+//! are read in their dictionary VR (`unknown_vr.rs`). An enhanced multi-frame CT or MR file
+//! gives one slice per frame (`frames.rs`); one stripped of its functional groups, its frames
+//! stacked in file order with a warning (`geometry.rs`).
 //!
 //! Geometry (`geometry.rs`): slices are ordered along the slice normal; a regular stack (even
 //! gaps within 1 %, no in-plane shift) is copied as it is, an irregular one (gantry tilt,
@@ -43,8 +47,10 @@
 //! before dicom-object parses it, and a slice's PixelData must be exactly as long as its
 //! Rows, Columns and BitsAllocated need (`pixels`).
 //!
-//! Never: reads colour images or multi-frame images whose frames it cannot place, or writes
-//! files (the import cache is the caller's).
+//! Never: reads colour images or multi-frame images whose frames it cannot place (other than
+//! the frames of one enhanced CT or MR file, see above), shows stored values where the file
+//! maps them (a Modality LUT it cannot apply is an error), or writes files (the import cache is
+//! the caller's).
 
 mod bounds;
 mod codestream;
@@ -52,9 +58,11 @@ mod deflated;
 mod frames;
 mod geometry;
 mod header;
+mod jpeg12;
 mod listing;
 #[cfg(test)]
 mod missing_tests;
+mod modality_lut;
 mod pixels;
 #[cfg(test)]
 mod real_data_tests;
@@ -64,6 +72,7 @@ mod series;
 mod synthetic;
 #[cfg(test)]
 mod tests;
+mod unknown_vr;
 
 use super::limits::{self, ReadLimits};
 use super::{ByteOrder, ValueScale, Volume, VolumeError, VoxelBytes, VoxelType, orientation};
@@ -206,6 +215,21 @@ fn assemble(
     bounds::check_decoded_voxels(plane.saturating_mul(2 * headers.len() as u64), VoxelType::F32, limits, path)?;
     let decoded = decode_slices(&headers, limits, keep_values);
     let keep: Vec<bool> = decoded.iter().map(Result::is_ok).collect();
+    let notes: Vec<(&Path, &str)> = headers
+        .iter()
+        .zip(&decoded)
+        .filter_map(|(header, slice)| match slice {
+            Ok(DecodedSlice { note: Some(note), .. }) => Some((header.path.as_path(), note.as_str())),
+            _ => None,
+        })
+        .collect();
+    if let Some((file, note)) = notes.first() {
+        let others = match notes.len() {
+            1 => String::new(),
+            count => format!(" (and {} more files)", count - 1),
+        };
+        warnings.push(format!("{}: {note}{others}", file.display()));
+    }
     let mut slices = Vec::with_capacity(decoded.len());
     // A file that cannot be decoded is one hole however many frames it holds (its frames share
     // one error); the first error of each such file.
@@ -260,7 +284,7 @@ fn assemble(
         check.dims = [geometry.columns, geometry.rows, geometry.slice_count()];
         if keep_values {
             let mut volume = stack_slices(&slices, &geometry, &headers, path)?;
-            volume.orientation = series_orientation(&headers[0], None, path);
+            volume.orientation = if geometry.unplaced { None } else { series_orientation(&headers[0], None, path) };
             Some(volume)
         } else {
             None

@@ -234,6 +234,7 @@ mod tests {
             pixel_spacing_mm: [1.0, 1.0],
             first_pixel_mm,
             single_slice_spacing_mm: 1.0,
+            unplaced: false,
         }
     }
 

@@ -3,6 +3,7 @@
 
 use super::synthetic::{EXPLICIT_LITTLE, IMPLICIT_LITTLE, SyntheticSlice};
 use super::*;
+use dicom_dictionary_std::tags;
 
 fn error_text(result: Result<DicomImport, VolumeError>) -> String {
     match result {
@@ -304,4 +305,106 @@ fn a_series_that_cannot_be_read_is_skipped_with_a_warning_when_another_can() {
     let options = DicomOptions { series_uid: Some("4.5.6".into()), ..DicomOptions::default() };
     let error = read_series(folder.path(), &options).unwrap_err();
     assert!(matches!(error, VolumeError::Unsupported { .. }), "{error}");
+}
+
+#[test]
+fn a_pixel_spacing_of_zero_reads_as_1_mm_with_a_warning_and_a_negative_one_is_refused() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("cr.dcm");
+    let mut slice = SyntheticSlice::axial("5.5", "5.5.1", [3, 2], [0.0, 0.0, 0.0], |column, row| (column + row) as i16);
+    slice.pixel_spacing_mm = [0.0, 0.0];
+    slice.write(&path);
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    assert_eq!(import.volume.spacing_mm[..2], [1.0, 1.0]);
+    assert_eq!(import.warnings, ["PixelSpacing is 0 \\ 0 mm (0 means unknown): assuming 1 mm square pixels"]);
+    assert_eq!(import.volume.value_at(2, 1, 0), 3.0);
+    slice.pixel_spacing_mm = [-0.5, 0.5];
+    slice.write(&path);
+    let message = error_text(read_series(&path, &DicomOptions::default()));
+    assert!(message.contains("PixelSpacing") && message.contains("-0.5 \\ 0.5 mm: both must be positive"), "{message}");
+}
+
+/// Rewrites the PixelData of `path` (16-bit samples) with `extra` words after the image.
+fn append_to_pixel_data(path: &Path, extra: &[u16]) {
+    let mut object = dicom_object::open_file(path).unwrap();
+    let mut words: Vec<u16> = object.element(tags::PIXEL_DATA).unwrap().to_multi_int::<u16>().unwrap();
+    words.extend_from_slice(extra);
+    object.put(dicom_core::DataElement::new(
+        tags::PIXEL_DATA,
+        dicom_core::VR::OW,
+        dicom_core::value::PrimitiveValue::U16(words.into()),
+    ));
+    object.write_to_file(path).unwrap();
+}
+
+#[test]
+fn zero_padding_after_native_pixel_data_is_ignored_with_a_warning_and_anything_else_refused() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("padded.dcm");
+    let slice =
+        SyntheticSlice::axial("6.6", "6.6.1", [4, 4], [0.0, 0.0, 0.0], |column, row| (10 * row + column) as i16);
+    // Up to one word short of a frame (16 words) of zeros: read, and said.
+    slice.write(&path);
+    append_to_pixel_data(&path, &[0; 15]);
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    assert_eq!(import.volume.value_at(3, 3, 0), 33.0);
+    assert_eq!(import.warnings.len(), 1);
+    assert!(import.warnings[0].ends_with("its PixelData ends in 30 bytes of zero padding after the image, ignored"));
+    // Anything but zeros, or a whole frame more: the header does not describe the pixels.
+    for extra in [vec![0, 0, 7, 0], vec![0; 16]] {
+        slice.write(&path);
+        append_to_pixel_data(&path, &extra);
+        let message = error_text(read_series(&path, &DicomOptions::default()));
+        assert!(message.contains("the header does not describe the pixels"), "{message}");
+    }
+}
+
+/// A 3-frame, 2 x 2 MR file of SOP class `sop_class` without functional groups or positions,
+/// with ImageOrientationPatient and SpacingBetweenSlices 2.5; frame k holds 10 k + pixel index.
+fn write_frames_without_groups(path: &Path, sop_class: &str) {
+    use dicom_core::value::{C, PrimitiveValue};
+    use dicom_core::{DataElement, VR};
+    let us = |value: u16| PrimitiveValue::U16(C::from_elem(value, 1));
+    let words: C<u16> = (0..3u16).flat_map(|k| (0..4u16).map(move |i| 10 * k + i)).collect();
+    let elements = vec![
+        DataElement::new(tags::SOP_CLASS_UID, VR::UI, sop_class),
+        DataElement::new(tags::SOP_INSTANCE_UID, VR::UI, "9.9.1"),
+        DataElement::new(tags::MODALITY, VR::CS, "MR"),
+        DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, "9.9"),
+        DataElement::new(tags::SPACING_BETWEEN_SLICES, VR::DS, "2.5"),
+        DataElement::new(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, "1\\0\\0\\0\\1\\0"),
+        DataElement::new(tags::SAMPLES_PER_PIXEL, VR::US, us(1)),
+        DataElement::new(tags::PHOTOMETRIC_INTERPRETATION, VR::CS, "MONOCHROME2"),
+        DataElement::new(tags::NUMBER_OF_FRAMES, VR::IS, "3"),
+        DataElement::new(tags::ROWS, VR::US, us(2)),
+        DataElement::new(tags::COLUMNS, VR::US, us(2)),
+        DataElement::new(tags::BITS_ALLOCATED, VR::US, us(16)),
+        DataElement::new(tags::BITS_STORED, VR::US, us(12)),
+        DataElement::new(tags::HIGH_BIT, VR::US, us(11)),
+        DataElement::new(tags::PIXEL_REPRESENTATION, VR::US, us(0)),
+        DataElement::new(tags::PIXEL_DATA, VR::OW, PrimitiveValue::U16(words)),
+    ];
+    dicom_object::InMemDicomObject::from_element_iter(elements)
+        .with_meta(dicom_object::FileMetaTableBuilder::new().transfer_syntax(EXPLICIT_LITTLE))
+        .unwrap()
+        .write_to_file(path)
+        .unwrap();
+}
+
+#[test]
+fn an_enhanced_mr_without_functional_groups_stacks_its_frames_in_file_order_without_orientation() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("emr.dcm");
+    write_frames_without_groups(&path, "1.2.840.10008.5.1.4.1.1.4.1");
+    let import = read_series(&path, &DicomOptions::default()).unwrap();
+    let volume = &import.volume;
+    assert_eq!((volume.dims, volume.spacing_mm), ([2, 2, 3], [1.0, 1.0, 2.5]));
+    assert_eq!((0..3).map(|z| volume.value_at(1, 1, z)).collect::<Vec<_>>(), [3.0, 13.0, 23.0]);
+    // File order may run either way through the patient: no orientation is claimed.
+    assert_eq!(volume.orientation, None);
+    assert!(import.warnings[0].contains("stacked in file order, 2.5 mm apart"), "{:?}", import.warnings);
+    // Other multi-frame classes (here MR Image Storage) without positions stay refused.
+    write_frames_without_groups(&path, "1.2.840.10008.5.1.4.1.1.4");
+    let message = error_text(read_series(&path, &DicomOptions::default()));
+    assert!(message.contains("multi-frame DICOM image without per-frame positions"), "{message}");
 }
