@@ -32,7 +32,7 @@ pub struct ReceiveArgs {
     pub max_disk_use_percent: f64,
     /// Publish a series once no image of it has arrived for this long (sooner when all the
     /// images its data announce are there).
-    #[arg(long, default_value = "60", value_name = "SECONDS", value_parser = parse_seconds)]
+    #[arg(long, env = "VOLASSO_STABLE_AFTER", default_value = "60", value_name = "SECONDS", value_parser = parse_seconds)]
     pub stable_after: Duration,
     /// Associations served at once; more are rejected (A-ASSOCIATE-RJ, local limit exceeded).
     #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
@@ -50,13 +50,13 @@ pub struct ReceiveArgs {
     #[arg(long, default_value = "3600", value_name = "SECONDS", value_parser = parse_positive_seconds)]
     pub association_timeout: Duration,
     /// Speak DICOM over TLS only (BCP 195 profile), with this certificate chain (PEM).
-    #[arg(long, value_name = "PEM", requires = "tls_key")]
+    #[arg(long, env = "VOLASSO_TLS_CERT", value_name = "PEM", requires = "tls_key")]
     pub tls_cert: Option<PathBuf>,
     /// The private key of --tls-cert (PEM).
-    #[arg(long, value_name = "PEM", requires = "tls_cert")]
+    #[arg(long, env = "VOLASSO_TLS_KEY", value_name = "PEM", requires = "tls_cert")]
     pub tls_key: Option<PathBuf>,
     /// Require client certificates that chain to these CA certificates (PEM).
-    #[arg(long, value_name = "PEM", requires = "tls_cert")]
+    #[arg(long, env = "VOLASSO_TLS_CA", value_name = "PEM", requires = "tls_cert")]
     pub tls_ca: Option<PathBuf>,
 }
 

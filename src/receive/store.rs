@@ -165,12 +165,25 @@ impl Store {
                 remove_path(&entry.path());
             }
         }
-        // Folders of earlier versions of the receiver (one per association, never
-        // acknowledged as durable).
+        // Earlier versions of the receiver kept each association's files in a folder of its
+        // own (`association-ID/NAME/SOP.dcm`, beside a half-written `incoming-N.dcm`), and had
+        // acknowledged those images: they join the pending series, the rest goes.
         for entry in std::fs::read_dir(&staging)?.flatten() {
-            if entry.file_name().to_string_lossy().starts_with("association-") {
-                remove_path(&entry.path());
+            if !entry.file_name().to_string_lossy().starts_with("association-") {
+                continue;
             }
+            for series in std::fs::read_dir(entry.path())?.flatten() {
+                if !series.file_type().is_ok_and(|kind| kind.is_dir()) {
+                    continue;
+                }
+                let pending = staging.join(PENDING_FOLDER).join(series.file_name());
+                std::fs::create_dir_all(&pending)?;
+                for image in std::fs::read_dir(series.path())?.flatten() {
+                    std::fs::rename(image.path(), pending.join(image.file_name()))?;
+                }
+                sync_folder(&pending)?;
+            }
+            remove_path(&entry.path());
         }
         let mut pending = Vec::new();
         for entry in std::fs::read_dir(staging.join(PENDING_FOLDER))?.flatten() {
@@ -481,9 +494,14 @@ mod tests {
         std::fs::write(staging.join("incoming/1-0/0.dcm"), "half").unwrap();
         std::fs::write(staging.join("pending/CT-1/a.dcm"), "acknowledged").unwrap();
         std::fs::write(staging.join("candidate/CT-3.old/b.dcm"), "published").unwrap();
+        // An earlier version's association folder: its series' images were acknowledged.
+        std::fs::create_dir_all(staging.join("association-7-0/CT-1")).unwrap();
+        std::fs::write(staging.join("association-7-0/CT-1/c.dcm"), "acknowledged earlier").unwrap();
+        std::fs::write(staging.join("association-7-0/incoming-3.dcm"), "half").unwrap();
         let (store, pending) = Store::open(data.path()).unwrap();
         assert_eq!(pending, ["CT-1"]);
-        assert_eq!(store.pending_files("CT-1").len(), 1);
+        assert_eq!(store.pending_files("CT-1").len(), 2);
+        assert!(!staging.join("association-7-0").exists());
         assert!(data.path().join("CT-3/b.dcm").exists(), "the series set aside is back");
         assert!(!staging.join("incoming/1-0").exists() && !staging.join("candidate/CT-2").exists());
         assert!(!staging.join("pending/CT-empty").exists());

@@ -22,10 +22,17 @@ fn series_sizes(data_dir: &Path) -> Vec<(String, usize)> {
         .collect()
 }
 
-/// Every series visible in `data_dir` holds the whole Philips series and opens as it.
+/// Every series visible in `data_dir` holds the 28 files of the Philips series.
 fn assert_whole_or_absent(data_dir: &Path, when: &str) {
     for (name, files) in series_sizes(data_dir) {
         assert_eq!(files, 28, "{when}: {name} holds {files} files");
+    }
+}
+
+/// Every series visible in `data_dir` is the whole Philips series and opens as it.
+fn assert_whole_and_opens(data_dir: &Path, when: &str) {
+    assert_whole_or_absent(data_dir, when);
+    for name in visible_entries(data_dir) {
         assert_eq!(info(&data_dir.join(&name))["dims"], serde_json::json!([512, 512, 28]), "{when}");
     }
 }
@@ -70,7 +77,7 @@ fn half_a_series_then_the_rest_within_the_quiet_period_is_never_seen_partial() {
     let partial: Vec<&(String, usize)> = seen.iter().filter(|(_, files)| *files != 28).collect();
     assert!(partial.is_empty(), "the data folder showed a partial series: {partial:?}");
     assert!(!seen.is_empty(), "the whole series never appeared");
-    assert_whole_or_absent(&scp.data_dir, "at the end");
+    assert_whole_and_opens(&scp.data_dir, "at the end");
 }
 
 #[test]
@@ -98,7 +105,7 @@ fn a_series_whose_images_announce_their_number_is_published_as_soon_as_all_are_t
     assert!(last.status.success(), "storescu: {}", text(&last));
     let report = scp.next_report();
     assert_eq!((report["event"].as_str(), report["images"].as_u64()), (Some("stored"), Some(28)), "{report}");
-    assert_whole_or_absent(&scp.data_dir, "after the 28th image");
+    assert_whole_and_opens(&scp.data_dir, "after the 28th image");
 }
 
 /// The number of publish steps the receiver has logged since the last call.
@@ -167,6 +174,9 @@ fn an_acknowledged_series_survives_a_kill_at_twenty_points_of_its_publish() {
         let step = 1 + k * (first_steps - 1) / 11;
         let data_dir = tempfile::tempdir().unwrap();
         kill_at(data_dir.path(), &files, step, false);
+        if k % 4 == 3 {
+            assert_whole_and_opens(data_dir.path(), &format!("after the kill at step {step}"));
+        }
     }
     // Eight over a replacement of the published series.
     let data_dir = tempfile::tempdir().unwrap();
@@ -178,5 +188,6 @@ fn an_acknowledged_series_survives_a_kill_at_twenty_points_of_its_publish() {
         let step = 1 + k * (replace_steps - 1) / 7;
         kill_at(data_dir.path(), &files, step, true);
     }
+    assert_whole_and_opens(data_dir.path(), "after eight kills in replacements");
     eprintln!("20 kills over {first_steps} and {replace_steps} publish steps in {:?}", started.elapsed());
 }
