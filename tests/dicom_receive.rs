@@ -1,8 +1,15 @@
 //! `volasso receive` against dcmtk's real clients (`storescu`, `echoscu`) on loopback ports the
 //! system picks: C-ECHO, the Philips series stored once and replaced when sent again, two
 //! compressed series in one association, an association killed midway, an unknown SOP class,
-//! a calling AE title not allowed, and a full data partition. Each client runs under a
-//! timeout; without dcmtk the tests say so and are skipped (`.ci/run` installs it).
+//! a calling AE title not allowed, and a full data partition; `publish` (a series appears
+//! whole or not at all, also across kills), `truth` (failures are told to the sender),
+//! `hostile_peers` (limits and timeouts) and `tls`. Each client runs under a timeout; without
+//! dcmtk the tests say so and are skipped (`.ci/run` installs it).
+
+mod hostile_peers;
+mod publish;
+mod tls;
+mod truth;
 
 use crate::dicom_codecs::dcmtk_available;
 use crate::support::data;
@@ -15,11 +22,16 @@ use std::time::{Duration, Instant};
 /// The longest a client or an expected line may take.
 const PATIENCE: Duration = Duration::from_secs(20);
 
+/// The quiet period the tests publish after, unless a test sets its own.
+const TEST_STABLE_AFTER: &str = "0.3";
+
 /// A running `volasso receive` on a free loopback port, killed when dropped.
 struct Scp {
     child: Child,
     port: u16,
-    data_dir: tempfile::TempDir,
+    data_dir: PathBuf,
+    /// The data folder, when this receiver made it.
+    _owned: Option<tempfile::TempDir>,
     stdout: Receiver<String>,
     stderr: Receiver<String>,
 }
@@ -27,10 +39,20 @@ struct Scp {
 impl Scp {
     fn start(extra: &[&str]) -> Scp {
         let data_dir = tempfile::tempdir().unwrap();
-        let mut child = Command::new(env!("CARGO_BIN_EXE_volasso"))
-            .args(["receive", "--port", "0", "--listen", "127.0.0.1", "--data-dir"])
-            .arg(data_dir.path())
-            .args(extra)
+        let mut scp = Scp::start_in(data_dir.path(), extra, &[]);
+        scp._owned = Some(data_dir);
+        scp
+    }
+
+    /// A receiver on `data_dir` (which outlives it), with `extra` arguments and environment.
+    fn start_in(data_dir: &Path, extra: &[&str], environment: &[(&str, &str)]) -> Scp {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_volasso"));
+        command.args(["receive", "--port", "0", "--listen", "127.0.0.1", "--data-dir"]).arg(data_dir).args(extra);
+        if !extra.contains(&"--stable-after") {
+            command.args(["--stable-after", TEST_STABLE_AFTER]);
+        }
+        let mut child = command
+            .envs(environment.iter().copied())
             .env("RUST_LOG", "info")
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
@@ -49,7 +71,7 @@ impl Scp {
         };
         let stdout = lines(Box::new(child.stdout.take().unwrap()));
         let stderr = lines(Box::new(child.stderr.take().unwrap()));
-        let mut scp = Scp { child, port: 0, data_dir, stdout, stderr };
+        let mut scp = Scp { child, port: 0, data_dir: data_dir.to_path_buf(), _owned: None, stdout, stderr };
         let listening = scp.wait_line(false, |line| line.contains("listening on 127.0.0.1:"));
         let port = listening.split("127.0.0.1:").nth(1).and_then(|rest| rest.split_whitespace().next());
         scp.port = port.and_then(|port| port.parse().ok()).expect("a port in the listening line");
@@ -84,13 +106,7 @@ impl Scp {
 
     /// The entries of the data folder that the chooser would see (not dot-names).
     fn visible_entries(&self) -> Vec<String> {
-        let mut names: Vec<String> = std::fs::read_dir(self.data_dir.path())
-            .unwrap()
-            .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|name| !name.starts_with('.'))
-            .collect();
-        names.sort();
-        names
+        visible_entries(&self.data_dir)
     }
 
     fn stderr_so_far(&self) -> String {
@@ -103,6 +119,17 @@ impl Drop for Scp {
         let _ = self.child.kill();
         let _ = self.child.wait();
     }
+}
+
+/// The entries of `data_dir` that the chooser would see (not dot-names), sorted.
+fn visible_entries(data_dir: &Path) -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(data_dir)
+        .unwrap()
+        .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|name| !name.starts_with('.'))
+        .collect();
+    names.sort();
+    names
 }
 
 fn run_with_timeout(mut command: Command) -> Output {
@@ -159,7 +186,7 @@ fn echo_then_the_philips_series_is_stored_once_and_replaced_when_sent_again() {
     assert_eq!(report["images"], 28);
     assert_eq!(report["replaced"], false);
     assert_eq!(scp.visible_entries(), std::slice::from_ref(&name));
-    let stored = scp.data_dir.path().join(&name);
+    let stored = scp.data_dir.join(&name);
     assert_eq!(info(&stored)["dims"], serde_json::json!([512, 512, 28]));
     // The same series again: the same name, replaced, still 28 files.
     let again = scp.client("storescu", &[], &files);
@@ -201,13 +228,13 @@ fn two_compressed_series_in_one_association_are_two_volumes() {
     assert_eq!(reports[0]["dims"], serde_json::json!([512, 512, 28]));
     assert_eq!(scp.visible_entries().len(), 2);
     for report in &reports {
-        let stored = scp.data_dir.path().join(report["name"].as_str().unwrap());
+        let stored = scp.data_dir.join(report["name"].as_str().unwrap());
         assert_eq!(info(&stored)["dims"], report["dims"]);
     }
 }
 
 #[test]
-fn an_association_killed_midway_leaves_nothing() {
+fn an_association_killed_midway_publishes_nothing_until_a_sender_completes_the_series() {
     if !dcmtk_available() {
         return;
     }
@@ -221,31 +248,41 @@ fn an_association_killed_midway_leaves_nothing() {
         .stderr(Stdio::null())
         .spawn()
         .unwrap();
-    let staging = scp.data_dir.path().join(volasso::receive::STAGING_FOLDER);
-    let received = || {
-        let Ok(associations) = std::fs::read_dir(&staging) else { return 0 };
-        associations
+    // Killed once the first images are acknowledged (they are then in the pending folder).
+    let pending = scp.data_dir.join(volasso::receive::STAGING_FOLDER).join("pending");
+    let acknowledged = || {
+        std::fs::read_dir(&pending)
+            .into_iter()
             .flatten()
-            .filter(|entry| entry.file_name().to_string_lossy().starts_with("association"))
-            .flat_map(|association| std::fs::read_dir(association.path()).into_iter().flatten().flatten())
+            .flatten()
             .flat_map(|series| std::fs::read_dir(series.path()).into_iter().flatten())
             .count()
     };
     let deadline = Instant::now() + PATIENCE;
-    while received() < 3 {
+    while acknowledged() < 3 {
         assert!(Instant::now() < deadline, "nothing arrived");
         assert!(sender.try_wait().unwrap().is_none(), "storescu finished before it could be killed");
         std::thread::sleep(Duration::from_millis(2));
     }
     sender.kill().unwrap();
     sender.wait().unwrap();
-    scp.wait_line(false, |line| line.contains("dropped, its images removed"));
+    let held = scp.next_report();
+    assert_eq!(held["event"], "incomplete", "{held}");
+    assert!(held["reason"].as_str().unwrap().contains("ended without a release"), "{held}");
+    // Quiet for longer than the quiet period: still nothing published, what was acknowledged kept.
+    std::thread::sleep(Duration::from_secs(1));
     assert_eq!(scp.visible_entries(), Vec::<String>::new());
-    assert_eq!(received(), 0);
     assert!(scp.stdout.try_recv().is_err(), "a series was reported");
-    // The receiver serves on.
+    let kept = acknowledged();
+    assert!((3..=28).contains(&kept), "{kept} images kept");
+    // The receiver serves on, and a sender that sends the whole series completes it.
     let echo = scp.client("echoscu", &[], &[]);
     assert!(echo.status.success(), "echoscu after the kill: {}", text(&echo));
+    let store = scp.client("storescu", &[], &files[..28]);
+    assert!(store.status.success(), "storescu: {}", text(&store));
+    let report = scp.next_report();
+    assert_eq!((report["event"].as_str(), report["images"].as_u64()), (Some("stored"), Some(28)), "{report}");
+    assert_eq!(acknowledged(), 0);
 }
 
 #[test]

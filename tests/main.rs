@@ -27,7 +27,9 @@
 //! * `dicom_jpeg2000`: JPEG 2000 lossless DICOM (encoded here with OpenJPEG) reads to the same
 //!   voxels.
 //! * `dicom_receive`: `volasso receive` against dcmtk's storescu and echoscu (store, replace,
-//!   several series, a killed association, refusals).
+//!   several series, a killed association, refusals); a series published whole or not at all,
+//!   also across kills of the receiver; failures told to the sender; limits and timeouts
+//!   against hostile peers; TLS.
 //! * `library`: the array entry of the pipeline labels as `volasso classify` does.
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 

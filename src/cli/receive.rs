@@ -1,13 +1,14 @@
 //! `volasso receive`: runs the DICOM storage SCP ([`crate::receive`]) until the process is
-//! stopped; one JSON line per stored series on stdout, a `listening on ADDRESS` line on stderr
-//! once the port is open.
+//! stopped; one JSON line per published or held-back series on stdout, a `listening on
+//! ADDRESS` line on stderr once the port is open.
 
 use super::CliError;
-use crate::receive::{ReceiveOptions, serve};
+use crate::receive::{Limits, ReceiveOptions, Timeouts, TlsFiles, serve};
 use clap::Args;
 use std::net::TcpListener;
 use std::path::PathBuf;
 use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
 #[derive(Debug, Args)]
 pub struct ReceiveArgs {
@@ -29,6 +30,51 @@ pub struct ReceiveArgs {
     /// Refuse images (status A700, out of resources) when the data partition is fuller than this.
     #[arg(long, default_value_t = 90.0, value_name = "PERCENT", value_parser = parse_percent)]
     pub max_disk_use_percent: f64,
+    /// Publish a series once no image of it has arrived for this long (sooner when all the
+    /// images its data announce are there).
+    #[arg(long, env = "VOLASSO_STABLE_AFTER", default_value = "60", value_name = "SECONDS", value_parser = parse_seconds)]
+    pub stable_after: Duration,
+    /// Associations served at once; more are rejected (A-ASSOCIATE-RJ, local limit exceeded).
+    #[arg(long, default_value_t = 16, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub max_associations: u16,
+    /// Associations served at once from one peer address; more are rejected likewise.
+    #[arg(long, default_value_t = 8, value_name = "N", value_parser = clap::value_parser!(u16).range(1..))]
+    pub max_associations_per_peer: u16,
+    /// From a connection to its negotiated association (TLS handshake included).
+    #[arg(long, default_value = "30", value_name = "SECONDS", value_parser = parse_positive_seconds)]
+    pub acse_timeout: Duration,
+    /// An association whose peer sends no PDU for this long is aborted.
+    #[arg(long, default_value = "60", value_name = "SECONDS", value_parser = parse_positive_seconds)]
+    pub idle_timeout: Duration,
+    /// No association lasts longer than this, whatever its peer sends.
+    #[arg(long, default_value = "3600", value_name = "SECONDS", value_parser = parse_positive_seconds)]
+    pub association_timeout: Duration,
+    /// Speak DICOM over TLS only (BCP 195 profile), with this certificate chain (PEM).
+    #[arg(long, env = "VOLASSO_TLS_CERT", value_name = "PEM", requires = "tls_key")]
+    pub tls_cert: Option<PathBuf>,
+    /// The private key of --tls-cert (PEM).
+    #[arg(long, env = "VOLASSO_TLS_KEY", value_name = "PEM", requires = "tls_cert")]
+    pub tls_key: Option<PathBuf>,
+    /// Require client certificates that chain to these CA certificates (PEM).
+    #[arg(long, env = "VOLASSO_TLS_CA", value_name = "PEM", requires = "tls_cert")]
+    pub tls_ca: Option<PathBuf>,
+}
+
+/// Seconds, decimals allowed, 0 or more (at most a year).
+fn parse_seconds(text: &str) -> Result<Duration, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|seconds| (0.0..=365.0 * 86400.0).contains(seconds))
+        .map(Duration::from_secs_f64)
+        .ok_or_else(|| format!("'{text}' is not a number of seconds from 0 to a year"))
+}
+
+/// Seconds, decimals allowed, more than 0 (at most a year).
+fn parse_positive_seconds(text: &str) -> Result<Duration, String> {
+    parse_seconds(text)
+        .ok()
+        .filter(|duration| !duration.is_zero())
+        .ok_or_else(|| format!("'{text}' is not a number of seconds above 0 and up to a year"))
 }
 
 fn parse_percent(text: &str) -> Result<f64, String> {
@@ -48,12 +94,21 @@ pub fn run(args: &ReceiveArgs) -> Result<(), CliError> {
     if args.allow_ae.is_empty() {
         log::warn!("no --allow-ae given: any calling AE title may store");
     }
-    eprintln!("volasso receive: listening on {bound} as {}", args.ae_title);
+    let tls = match (&args.tls_cert, &args.tls_key) {
+        (Some(cert), Some(key)) => Some(TlsFiles { cert: cert.clone(), key: key.clone(), ca: args.tls_ca.clone() }),
+        _ => None,
+    };
+    let over = if tls.is_some() { " over TLS" } else { "" };
+    eprintln!("volasso receive: listening on {bound} as {}{over}", args.ae_title);
     let options = ReceiveOptions {
         ae_title: args.ae_title.clone(),
         allowed_calling_ae: args.allow_ae.iter().map(|title| title.trim().to_string()).collect(),
         data_dir: args.data_dir.clone(),
         max_disk_use_fraction: args.max_disk_use_percent / 100.0,
+        stable_after: args.stable_after,
+        limits: Limits { total: args.max_associations.into(), per_peer: args.max_associations_per_peer.into() },
+        timeouts: Timeouts { acse: args.acse_timeout, idle: args.idle_timeout, association: args.association_timeout },
+        tls,
     };
     serve(listener, options, Arc::new(Mutex::new(std::io::stdout())))
         .map_err(|error| CliError::Usage(error.to_string()))

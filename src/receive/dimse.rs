@@ -76,8 +76,12 @@ pub fn parse_command(bytes: &[u8]) -> Option<Command> {
     })
 }
 
-/// The response to `request` (C-STORE-RSP or C-ECHO-RSP) with `status`, as command bytes.
-pub fn response(request: &Command, status: u16) -> Vec<u8> {
+/// The longest Error Comment (0000,0902): one LO value.
+pub const MOST_COMMENT_CHARS: usize = 64;
+
+/// The response to `request` (C-STORE-RSP or C-ECHO-RSP) with `status` and, for a failure, an
+/// Error Comment (cut to [`MOST_COMMENT_CHARS`] printable ASCII characters), as command bytes.
+pub fn response(request: &Command, status: u16, comment: Option<&str>) -> Vec<u8> {
     let mut elements = vec![
         DataElement::new(tags::COMMAND_FIELD, VR::US, dicom_value!(U16, [request.field | 0x8000])),
         DataElement::new(tags::MESSAGE_ID_BEING_RESPONDED_TO, VR::US, dicom_value!(U16, [request.message_id])),
@@ -98,11 +102,33 @@ pub fn response(request: &Command, status: u16) -> Vec<u8> {
             PrimitiveValue::from(request.affected_sop_instance.as_str()),
         ));
     }
+    if let Some(comment) = comment.map(error_comment).filter(|comment| !comment.is_empty()) {
+        elements.push(DataElement::new(tags::ERROR_COMMENT, VR::LO, PrimitiveValue::from(comment)));
+    }
     let mut bytes = Vec::new();
     // Writing a command set of six short elements into memory cannot fail.
     let _ = InMemDicomObject::command_from_element_iter(elements)
         .write_dataset_with_ts(&mut bytes, &IMPLICIT_VR_LITTLE_ENDIAN.erased());
     bytes
+}
+
+/// `text` as an Error Comment: printable ASCII without backslashes (LO's repertoire without
+/// a character set), runs of anything else as one space, at most [`MOST_COMMENT_CHARS`].
+pub fn error_comment(text: &str) -> String {
+    let mut comment = String::new();
+    for character in text.chars() {
+        let keep = character.is_ascii_graphic() && character != '\\';
+        if keep {
+            comment.push(character);
+        } else if !comment.ends_with(' ') && !comment.is_empty() {
+            comment.push(' ');
+        }
+        if comment.len() >= MOST_COMMENT_CHARS {
+            break;
+        }
+    }
+    comment.truncate(MOST_COMMENT_CHARS);
+    comment.trim_end().to_string()
 }
 
 #[cfg(test)]
@@ -118,17 +144,37 @@ mod tests {
             affected_sop_instance: "1.2.3.4".into(),
             has_data_set: true,
         };
-        let parsed = parse_command(&response(&request, status::OUT_OF_RESOURCES)).unwrap();
+        let parsed = parse_command(&response(&request, status::OUT_OF_RESOURCES, None)).unwrap();
         assert_eq!(parsed.field, 0x8001);
         assert_eq!(parsed.affected_sop_instance, "1.2.3.4");
         assert!(!parsed.has_data_set);
         let object = InMemDicomObject::read_dataset_with_ts(
-            response(&request, status::OUT_OF_RESOURCES).as_slice(),
+            response(&request, status::OUT_OF_RESOURCES, None).as_slice(),
             &IMPLICIT_VR_LITTLE_ENDIAN.erased(),
         )
         .unwrap();
         assert_eq!(object.get(tags::STATUS).unwrap().to_int::<u16>().unwrap(), 0xA700);
         assert_eq!(object.get(tags::MESSAGE_ID_BEING_RESPONDED_TO).unwrap().to_int::<u16>().unwrap(), 7);
+        assert!(object.get(tags::ERROR_COMMENT).is_none());
         assert!(parse_command(b"not a command").is_none());
+    }
+
+    #[test]
+    fn a_failure_carries_a_short_printable_error_comment() {
+        let request = Command {
+            field: C_STORE_RQ,
+            message_id: 1,
+            affected_sop_class: uids::CT_IMAGE_STORAGE.into(),
+            affected_sop_instance: "1.2.3".into(),
+            has_data_set: true,
+        };
+        let long = "PixelData holds 1000 bytes\nbut Rows x Columns \\ needs 524288, which is far more than it has";
+        let bytes = response(&request, status::CANNOT_UNDERSTAND, Some(long));
+        let object =
+            InMemDicomObject::read_dataset_with_ts(bytes.as_slice(), &IMPLICIT_VR_LITTLE_ENDIAN.erased()).unwrap();
+        let comment = object.get(tags::ERROR_COMMENT).unwrap().to_str().unwrap().trim_end().to_string();
+        assert!(comment.starts_with("PixelData holds 1000 bytes but Rows x Columns needs"), "{comment}");
+        assert!(comment.len() <= MOST_COMMENT_CHARS && comment.bytes().all(|b| b.is_ascii_graphic() || b == b' '));
+        assert_eq!(object.get(tags::STATUS).unwrap().to_int::<u16>().unwrap(), 0xC000);
     }
 }

@@ -1,41 +1,70 @@
 //! `volasso receive`: a DICOM storage SCP that a PACS or a modality pushes series to
-//! (`interfaces.md`, "receive"; DICOM PS3.4 Annex B Storage and Annex A Verification service
-//! classes, PS3.8 upper layer through dicom-ul).
+//! (`interfaces.md`, "receive"; `docs/conformance.md`, its conformance statement; DICOM PS3.4
+//! Annex B Storage and Annex A Verification service classes, PS3.8 upper layer through
+//! dicom-ul, PS3.15 Annex B.9 BCP 195 TLS).
 //!
 //! It answers C-ECHO and stores CT and MR images (single-frame, enhanced and legacy-converted
 //! enhanced) in every transfer syntax the DICOM reader decodes ([`accepted_transfer_syntaxes`]).
 //! Other SOP classes are refused at negotiation (their presentation contexts get "abstract
 //! syntax not supported") and, should a C-STORE name one anyway, with status 0122H; a data
-//! partition more than [`ReceiveOptions::max_disk_use_fraction`] full answers 0xA700 (out of
-//! resources). Only the called AE title [`ReceiveOptions::ae_title`] and the calling AE titles
-//! in [`ReceiveOptions::allowed_calling_ae`] (any, when empty) are accepted.
+//! partition more than [`ReceiveOptions::max_disk_use_fraction`] full answers A700H (out of
+//! resources); a data set the kiosk could not read answers C000H or A900H with an Error
+//! Comment (`association.rs`). Only the called AE title [`ReceiveOptions::ae_title`] and the
+//! calling AE titles in [`ReceiveOptions::allowed_calling_ae`] (any, when empty) are accepted.
 //!
-//! A series becomes a volume in the data folder only when it is *complete*: its association
-//! was released normally, and the series (with what earlier associations sent of it) imports
-//! cleanly, exactly as the kiosk would read it (`store.rs`). Each association's files are
-//! streamed to a hidden staging folder on the same filesystem (`association.rs`) and renamed
-//! into place; an aborted association leaves nothing. One JSON line per series goes to stdout
-//! ([`store::SeriesReport`]).
+//! Success is answered only for an image that is durably stored and readable; a series
+//! becomes a volume in the data folder only when it is *stable* (`stable.rs`: quiet for
+//! [`ReceiveOptions::stable_after`], or all the images the data announce are there) and
+//! imports cleanly, published crash-safely (`store.rs`). One JSON line per published or
+//! held-back series goes to stdout ([`store::SeriesReport`]).
 //!
-//! Associations are served on their own threads, at most [`MOST_ASSOCIATIONS`] at once.
+//! Each connection is served on its own thread, within [`admission::Limits`] (over them: an
+//! A-ASSOCIATE-RJ "local limit exceeded", `admission.rs`) and [`Timeouts`] (`watchdog.rs`);
+//! with [`ReceiveOptions::tls`], over TLS only (`tls.rs`).
 //!
 //! Never: prints or logs a patient's name or ID, names a file after DICOM text, or opens a
 //! volume for display.
 
+mod admission;
 mod association;
 mod dimse;
+mod stable;
 mod store;
+mod tls;
+mod watchdog;
 
+pub use admission::{Limits, MOST_REJECTING, REJECT_PATIENCE};
 pub use dimse::STORAGE_SOP_CLASSES;
-pub use store::{STAGING_FOLDER, SeriesReport, series_name};
+pub use store::{KILL_AT_STEP_VARIABLE, STAGING_FOLDER, SeriesReport, series_name};
+pub use tls::{TlsError, TlsFiles};
 
 use std::io::Write;
 use std::net::TcpListener;
 use std::path::PathBuf;
-use std::sync::{Arc, Condvar, Mutex};
+use std::sync::{Arc, Mutex};
+use std::time::Duration;
 
-/// Associations served at once; more wait in the listen queue.
-pub const MOST_ASSOCIATIONS: usize = 4;
+/// How long the receiver waits for a peer.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct Timeouts {
+    /// From the connection to the negotiated association (TLS handshake and
+    /// A-ASSOCIATE-RQ): PS3.8's ARTIM timer.
+    pub acse: Duration,
+    /// Between two PDUs of an association.
+    pub idle: Duration,
+    /// From the connection to the end of the association, whatever the peer does.
+    pub association: Duration,
+}
+
+impl Default for Timeouts {
+    fn default() -> Timeouts {
+        Timeouts {
+            acse: Duration::from_secs(30),
+            idle: Duration::from_secs(60),
+            association: Duration::from_secs(3600),
+        }
+    }
+}
 
 /// What `volasso receive` was told.
 #[derive(Clone, Debug)]
@@ -46,8 +75,17 @@ pub struct ReceiveOptions {
     pub allowed_calling_ae: Vec<String>,
     /// Where series are published.
     pub data_dir: PathBuf,
-    /// Above this fraction of the data partition in use, images are refused (0xA700).
+    /// Above this fraction of the data partition in use, images are refused (A700H).
     pub max_disk_use_fraction: f64,
+    /// A series is published when no image of it has arrived for this long (or sooner, when
+    /// all the images the data announce are there).
+    pub stable_after: Duration,
+    /// Connections served at once, in all and from one peer address.
+    pub limits: Limits,
+    /// How long peers are waited for.
+    pub timeouts: Timeouts,
+    /// The port speaks DICOM over TLS only, with these files.
+    pub tls: Option<TlsFiles>,
 }
 
 /// Why the receiver could not start.
@@ -68,6 +106,25 @@ pub enum ReceiveError {
         title: String,
         /// The rule it breaks.
         problem: &'static str,
+    },
+    /// The TLS certificate, key or CA cannot be used.
+    #[error(transparent)]
+    Tls(#[from] TlsError),
+    /// A limit or timeout that cannot work.
+    #[error("{setting} {problem}")]
+    Setting {
+        /// The setting's name.
+        setting: &'static str,
+        /// What is wrong with its value.
+        problem: &'static str,
+    },
+    /// A thread of the receiver cannot be started.
+    #[error("cannot start the receiver's {what} thread: {source}")]
+    Thread {
+        /// Which thread.
+        what: &'static str,
+        /// The system's error.
+        source: std::io::Error,
     },
 }
 
@@ -108,8 +165,8 @@ pub fn check_ae_title(title: &str) -> Result<(), ReceiveError> {
     }
 }
 
-/// Serves associations on `listener` until the process ends, printing one JSON line per
-/// series to `output`.
+/// Serves connections on `listener` until the process ends, printing one JSON line per
+/// published or held-back series to `output`.
 pub fn serve(
     listener: TcpListener,
     options: ReceiveOptions,
@@ -119,10 +176,39 @@ pub fn serve(
     for title in &options.allowed_calling_ae {
         check_ae_title(title)?;
     }
-    let store = store::Store::open(&options.data_dir)
-        .map_err(|source| ReceiveError::DataDir { source, path: options.data_dir.clone() })?;
-    let shared = Arc::new((options, store));
-    let active = Arc::new((Mutex::new(0usize), Condvar::new()));
+    if options.limits.total == 0 || options.limits.per_peer == 0 {
+        return Err(ReceiveError::Setting { setting: "the association limits", problem: "must be at least 1" });
+    }
+    let timeouts = options.timeouts;
+    if [timeouts.acse, timeouts.idle, timeouts.association].contains(&Duration::ZERO) {
+        return Err(ReceiveError::Setting { setting: "the timeouts", problem: "must be longer than 0 seconds" });
+    }
+    let tls = options.tls.as_ref().map(tls::server_config).transpose()?;
+    let data_dir_error = |source| ReceiveError::DataDir { source, path: options.data_dir.clone() };
+    std::fs::create_dir_all(&options.data_dir).map_err(data_dir_error)?;
+    let (store, pending) = store::Store::open(&options.data_dir).map_err(data_dir_error)?;
+    // Each pending series' UID, from one of its files (all were read before they were kept).
+    let limits = crate::volume::limits::ReadLimits::default();
+    let pending: Vec<(String, String)> = pending
+        .into_iter()
+        .filter_map(|name| {
+            let files = store.pending_files(&name);
+            let identity = files.iter().find_map(|file| crate::volume::dicom::read_identity(file, &limits).ok());
+            if identity.is_none() {
+                log::warn!("series {name}: none of its received images can be read back; it is left unpublished");
+            }
+            identity.map(|identity| (name, identity.series_uid))
+        })
+        .collect();
+    if !pending.is_empty() {
+        log::info!("{} received series not yet published: each is published once stable", pending.len());
+    }
+    let store = Arc::new(store);
+    let tracker = stable::Tracker::start(Arc::clone(&store), pending, options.stable_after, Arc::clone(&output))
+        .map_err(|source| ReceiveError::Thread { what: "publishing", source })?;
+    let watchdog = watchdog::Watchdog::start().map_err(|source| ReceiveError::Thread { what: "watchdog", source })?;
+    let admission = admission::Admission::new(options.limits);
+    let context = Arc::new(association::Context::new(options, store, tracker, watchdog, output, tls));
     for stream in listener.incoming() {
         let stream = match stream {
             Ok(stream) => stream,
@@ -131,51 +217,44 @@ pub fn serve(
                 continue;
             }
         };
-        {
-            let (count, freed) = &*active;
-            let mut count = count.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-            while *count >= MOST_ASSOCIATIONS {
-                count = freed.wait(count).unwrap_or_else(|poisoned| poisoned.into_inner());
-            }
-            *count += 1;
-        }
-        let (shared, slot, output) = (Arc::clone(&shared), Arc::clone(&active), Arc::clone(&output));
-        let peer = stream.peer_addr().map(|address| address.to_string()).unwrap_or_default();
-        std::thread::spawn(move || {
-            let _slot = Slot(slot);
-            let (options, store) = &*shared;
-            match association::serve(stream, options, store) {
-                association::Outcome::Released(reports) => {
-                    let mut output = output.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-                    for report in reports {
-                        if let Ok(line) = serde_json::to_string(&report) {
-                            let _ = writeln!(output, "{line}");
-                        }
+        let Ok(peer) = stream.peer_addr() else { continue };
+        let slot = match admission.admit(peer.ip()) {
+            Ok(slot) => slot,
+            Err(over) => {
+                let which = match over {
+                    admission::OverLimit::Total => "the receiver's",
+                    admission::OverLimit::PerPeer => "its address'",
+                };
+                log::warn!("connection from {peer} rejected: {which} association limit is reached");
+                match &context.tls {
+                    None => admission.reject(stream, Some),
+                    Some(config) => {
+                        let config = Arc::clone(config);
+                        admission.reject(stream, move |socket| {
+                            let connection = rustls::ServerConnection::new(config).ok()?;
+                            Some(rustls::StreamOwned::new(connection, socket))
+                        })
                     }
-                    let _ = output.flush();
-                    log::info!("association from {peer} released");
                 }
+                continue;
+            }
+        };
+        let context = Arc::clone(&context);
+        let spawned = std::thread::Builder::new().name("receive-association".into()).spawn(move || {
+            let _slot = slot;
+            match association::serve(stream, &context) {
+                association::Outcome::Released => log::info!("association from {peer} released"),
                 association::Outcome::Refused(reason) => log::warn!("association from {peer} refused: {reason}"),
                 association::Outcome::Dropped(reason) => {
-                    log::warn!("association from {peer} dropped, its images removed: {reason}")
+                    log::warn!("association from {peer} dropped: {reason}; what it stored is kept unpublished")
                 }
             }
         });
+        if let Err(error) = spawned {
+            log::error!("cannot serve a connection from {peer}: {error}");
+        }
     }
     Ok(())
-}
-
-/// One association's place among [`MOST_ASSOCIATIONS`], given back when its thread ends
-/// (panicking included).
-struct Slot(Arc<(Mutex<usize>, Condvar)>);
-
-impl Drop for Slot {
-    fn drop(&mut self) {
-        let (count, freed) = &*self.0;
-        let mut count = count.lock().unwrap_or_else(|poisoned| poisoned.into_inner());
-        *count = count.saturating_sub(1);
-        freed.notify_one();
-    }
 }
 
 #[cfg(test)]
