@@ -248,6 +248,9 @@ fn twenty_thousand_copies_of_a_loop_cost_what_one_does() {
     assert_eq!(set.classes[0].voxels.len(), 512 * 512);
     assert_eq!(set.classes[0].stroke_voxel_counts[0], 512 * 512);
     assert!(set.classes[0].stroke_voxel_counts[1..].iter().all(|&count| count == 0));
+    // The cap splits its quota over the 20,000 strokes in one pass over the voxels.
+    let capped = set.capped(256, 1);
+    assert_eq!((capped.classes[0].voxels.len(), capped.classes[0].stroke_voxel_counts[0]), (256, 256));
     // Shifted copies are no exact repeats: merged run by run, they cost their rows.
     let shifted: Vec<Lasso> = (0..2_000)
         .map(|k| {
