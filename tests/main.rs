@@ -7,6 +7,10 @@
 //!   in a process of its own so that its allocations can be counted.
 //! * `hostile`: files built to exhaust memory or reach outside their folder (bombs, wrapping
 //!   skips, device data files, edited DICOM) give one clear error each within 300 MB.
+//! * `hostile_cli`: hostile use of the command line and the kiosk (outputs that name inputs,
+//!   strokes and scripts that are FIFOs, devices or not UTF-8, zig-zag and repeated loops,
+//!   255 classes, constant volumes, camera options out of range, a failed classification's
+//!   banner, the 12-class kiosk under a 3 GB address-space limit), each within 30 s and 1 GB.
 //! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, loops in a
@@ -37,6 +41,7 @@ mod dicom_jpeg2000;
 mod dicom_receive;
 mod formats;
 mod hostile;
+mod hostile_cli;
 mod library;
 mod malformed;
 mod mutations;
