@@ -58,6 +58,7 @@ pub mod cpu;
 #[doc(hidden)]
 pub mod display;
 pub mod features;
+pub mod input_file;
 #[doc(hidden)]
 pub mod kiosk;
 pub mod phantom;

@@ -16,7 +16,8 @@ use std::sync::atomic::AtomicBool;
 
 use ndarray::{Array3, ArrayView3};
 
-use crate::segmentation::{self, LabelVolume, SegmentationError, SegmentationOptions, Segmenter};
+use crate::classify::Inseparable;
+use crate::segmentation::{self, ClassifierKind, LabelVolume, SegmentationError, SegmentationOptions, Segmenter};
 use crate::strokes::{ClassSamples, StrokesError, StrokesFile, TrainingSet};
 use crate::transfer::{ClassTable, HueTemplate, TransferError};
 use crate::volume::{Volume, VolumeError};
@@ -36,6 +37,9 @@ pub enum PipelineError {
     /// The array could not be made into a volume (empty, bad spacing).
     #[error(transparent)]
     Volume(#[from] VolumeError),
+    /// The training set cannot teach the classifier anything ([`check_training`]).
+    #[error(transparent)]
+    Training(#[from] TrainingError),
     /// The scribbles array has another shape than the intensities.
     #[error("the scribbles are {scribbles:?} voxels (z, y, x) but the volume is {volume:?}")]
     ScribbleShape {
@@ -44,6 +48,137 @@ pub enum PipelineError {
         /// Shape of the intensity array.
         volume: (usize, usize, usize),
     },
+}
+
+/// Classes the SN-SVM classifies at most: it trains one binary SN-SVM per pair of classes and
+/// asks them at every voxel, so its work grows with the square of the classes. 32 classes are
+/// 496 pairs, trained and applied in seconds; 128 classes (8,128 pairs) took 152 s and 255
+/// (32,385 pairs) ran for many minutes, while the random forest labels 255 classes in under a
+/// second. More classes than this go to the forest ([`forest_fallback`]).
+pub const MAX_PAIRWISE_CLASSES: usize = 32;
+
+/// For `class_count` classes, more than [`MAX_PAIRWISE_CLASSES`], where `options` train the
+/// SN-SVM: the random forest on its own features, the seed and everything else as in
+/// `options`. `None` where `options` stand.
+pub fn forest_fallback(options: &SegmentationOptions, class_count: usize) -> Option<SegmentationOptions> {
+    if class_count <= MAX_PAIRWISE_CLASSES || options.classifier_kind != ClassifierKind::SnSvm {
+        return None;
+    }
+    let forest = SegmentationOptions::forest();
+    Some(SegmentationOptions {
+        feature_set: forest.feature_set,
+        classifier_kind: forest.classifier_kind,
+        ..options.clone()
+    })
+}
+
+/// Why the training voxels cannot train a classifier, found by [`check_training`] before any
+/// training: each names the class and, where one voxel is at fault, the voxel (x, y, z).
+#[derive(Debug, thiserror::Error)]
+pub enum TrainingError {
+    /// A lassoed voxel is NaN or infinite.
+    #[error(
+        "voxel ({}, {}, {}) of class '{class}' is {value:?}: NaN or infinite voxels cannot be trained on (draw the loop around valid voxels)",
+        voxel[0], voxel[1], voxel[2]
+    )]
+    NonFiniteVoxel {
+        /// The class whose lassos select it.
+        class: String,
+        /// The voxel.
+        voxel: [usize; 3],
+        /// Its value.
+        value: f32,
+    },
+    /// A feature of a finite voxel overflows f32.
+    #[error(
+        "the {feature} of voxel ({}, {}, {}) of class '{class}' (value {value:?}) is not a finite number: values this large, or a spacing this small ({:?} x {:?} x {:?} mm), overflow single precision",
+        voxel[0], voxel[1], voxel[2], spacing_mm[0], spacing_mm[1], spacing_mm[2]
+    )]
+    FeatureOverflow {
+        /// The class whose lassos select the voxel.
+        class: String,
+        /// The voxel.
+        voxel: [usize; 3],
+        /// Its value.
+        value: f32,
+        /// The feature's name ([`crate::features::FeatureSet::names`]).
+        feature: &'static str,
+        /// The volume's spacing.
+        spacing_mm: [f64; 3],
+    },
+    /// Every lassoed voxel has the same features.
+    #[error(
+        "the classes cannot be told apart: every voxel the lassos select has the same features (value {value:?}); is the volume constant?"
+    )]
+    AllEqual {
+        /// The value of the voxels.
+        value: f32,
+    },
+    /// Two classes' voxels all have one and the same features.
+    #[error(
+        "classes '{first}' and '{second}' cannot be told apart: every voxel their lassos select has the same features (value {value:?})"
+    )]
+    SameFeatures {
+        /// The first class's name.
+        first: String,
+        /// The second class's name.
+        second: String,
+        /// The value of their voxels.
+        value: f32,
+    },
+}
+
+/// Refuses a training set that cannot teach a classifier anything, before any training: a
+/// lassoed voxel that is NaN or infinite (any of them), a feature that overflows f32 (values
+/// near the float range's limit, a spacing of 10^-30 mm), or classes that cannot be told apart
+/// ([`crate::classify::find_inseparable`]: a constant volume, two classes drawn on one flat
+/// material). The features are those of the voxels `options`' cap keeps, as training takes
+/// them.
+pub fn check_training(
+    volume: &Volume,
+    training: &TrainingSet,
+    options: &SegmentationOptions,
+) -> Result<(), PipelineError> {
+    let position = |voxel: usize| {
+        let [nx, ny, _] = volume.dims;
+        [voxel % nx, (voxel / nx) % ny, voxel / (nx * ny)]
+    };
+    // Voxel values are f32 when read for features; the f64 of `Volume::value` holds them exactly.
+    let value_of = |voxel: usize| volume.value(voxel) as f32;
+    for class in &training.classes {
+        if let Some(&voxel) = class.voxels.iter().find(|&&voxel| !value_of(voxel).is_finite()) {
+            let value = value_of(voxel);
+            return Err(
+                TrainingError::NonFiniteVoxel { class: class.name.clone(), voxel: position(voxel), value }.into()
+            );
+        }
+    }
+    let capped = training.capped(options.max_training_per_class, options.seed);
+    let (voxels, labels) = capped.labelled_voxels();
+    let dim = options.feature_set.dim();
+    let features =
+        crate::features::features_of_voxels(volume, options.feature_set, &voxels).map_err(SegmentationError::from)?;
+    let class_name = |id: u8| capped.classes[id as usize - 1].name.clone();
+    let error = match crate::classify::find_inseparable(&features, dim, &labels) {
+        None => return Ok(()),
+        Some(Inseparable::NotFinite { sample, feature }) => TrainingError::FeatureOverflow {
+            class: class_name(labels[sample]),
+            voxel: position(voxels[sample]),
+            value: value_of(voxels[sample]),
+            feature: options.feature_set.names().get(feature).copied().unwrap_or("feature"),
+            spacing_mm: volume.spacing_mm,
+        },
+        Some(Inseparable::AllEqual) => TrainingError::AllEqual { value: value_of(voxels[0]) },
+        Some(Inseparable::SameVectors { first, second }) => {
+            let sample = labels.iter().position(|&label| label == first).unwrap_or(0);
+            TrainingError::SameFeatures {
+                first: class_name(first),
+                second: class_name(second),
+                value: value_of(voxels[sample]),
+            }
+        }
+    };
+    Err(error.into())
 }
 
 /// How a long run reports and stops: `progress` gets the fraction of labelling done (0..=1,
@@ -91,7 +226,9 @@ pub struct Classified {
 }
 
 /// The strokes' classes trained and applied to `volume`, coloured with `template` (`None`:
-/// the default template for the number of classes).
+/// the default template for the number of classes). The training set is checked first
+/// ([`check_training`]), and more classes than the SN-SVM classifies go to the random forest
+/// ([`forest_fallback`]; the segmenter's summary names the classifier trained).
 pub fn classify_strokes(
     volume: &Volume,
     strokes: &StrokesFile,
@@ -100,6 +237,9 @@ pub fn classify_strokes(
     control: RunControl<'_>,
 ) -> Result<Classified, PipelineError> {
     let training = TrainingSet::from_strokes(strokes, volume.dims)?;
+    let fallback = forest_fallback(options, training.classes.len());
+    let options = fallback.as_ref().unwrap_or(options);
+    check_training(volume, &training, options)?;
     let (segmenter, labels) = classify_training(volume, &training, options, control)?;
     let class_count = strokes.classes.len();
     let template = template.unwrap_or_else(|| HueTemplate::default_for(class_count));

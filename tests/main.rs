@@ -10,6 +10,10 @@
 //! * `hostile_values`: header values generated per format and field (absurd spacings, fields
 //!   given twice, byte-order flags, ASCII values out of range, NIfTI series and scalings,
 //!   trailing bytes, non-finite volumes) give one clear error or the sensible volume and warning.
+//! * `hostile_cli`: hostile use of the command line and the kiosk (outputs that name inputs,
+//!   strokes and scripts that are FIFOs, devices or not UTF-8, zig-zag and repeated loops,
+//!   255 classes, constant volumes, camera options out of range, a failed classification's
+//!   banner, the 12-class kiosk under a 3 GB address-space limit), each within 30 s and 1 GB.
 //! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, loops in a
@@ -43,6 +47,7 @@ mod dicom_receive;
 mod formats;
 mod hostile;
 mod hostile_values;
+mod hostile_cli;
 mod library;
 mod malformed;
 mod mutations;

@@ -119,6 +119,7 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `clip.touch`, `opacity.touch` (then `opacity-restored.touch` on its session),
 ///   `snapshot.touch`: the 3-D view's tools on the demo volume;
 /// * `unsure.touch`: where the classifier is unsure, and "Draw here next", on the demo volume;
+/// * `classification-fails.touch`: a float CT with a column of NaN voxels (`hostile_cli`);
 /// * `finger-loops.touch`: a loop run on past its start and one with a tail, on the demo volume;
 /// * `shaky-finger.touch`: the same loops drawn by a slow, shaking fingertip, on the demo volume;
 /// * the others run on the demo volume from the start screen.
@@ -183,6 +184,11 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             crate::replay_gallery::write_gallery_problems(work);
             vec!["--data-dir".into(), work.join("data").display().to_string()]
         }
+        "classification-fails.touch" => {
+            let volume = work.join("nan-column.nrrd");
+            crate::hostile_cli::write_nan_column(&volume);
+            vec!["--volume".into(), volume.display().to_string()]
+        }
         "series-picker.touch" => {
             let study = work.join("data/study");
             std::fs::create_dir_all(&study).unwrap();
@@ -235,7 +241,7 @@ fn every_script_passes_at_the_reference_panel_size() {
 /// Scripts whose own tests run them at the reference size (with the same files, or more checks
 /// of what they leave): [`every_script_passes_at_the_reference_panel_size`] does not run them a
 /// second time.
-const WITH_OWN_TESTS: [&str; 10] = [
+const WITH_OWN_TESTS: [&str; 12] = [
     "gallery-save-open.touch",
     "gallery-problems.touch",
     "attract-gallery.touch",
@@ -246,6 +252,8 @@ const WITH_OWN_TESTS: [&str; 10] = [
     "after-abuse.touch",
     "hostile-files.touch",
     "restore-set-aside.touch",
+    "classification-fails.touch",
+    "twelve-classes.touch",
 ];
 
 /// Every script in tests/replay/ passes at each of [`THREE_SIZES`]. It runs every script three

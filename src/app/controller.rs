@@ -25,6 +25,27 @@ use crate::strokes::{ClassStrokes, StrokesFile};
 use crate::transfer::{ClassStyle, HueTemplate, TemplateType, apply_template};
 use std::path::PathBuf;
 
+/// What a finished job or an edit means for the banner of a failed classification.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub enum Failure {
+    /// Nothing new.
+    #[default]
+    Unchanged,
+    /// A classification failed, for this reason: the banner says so ([`failure_banner`]).
+    Failed(String),
+    /// A classification succeeded, or no classification is wanted any more: a failure's
+    /// banner goes.
+    Cleared,
+}
+
+/// The banner of a classification that failed for `reason`.
+pub fn failure_banner(reason: &str) -> String {
+    format!("{FAILURE_BANNER_START}{reason}")
+}
+
+/// How the banner of a failed classification starts (so that it alone is cleared).
+pub const FAILURE_BANNER_START: &str = "Classification failed: ";
+
 /// What an intent or a finished job changed, for the UI to show.
 #[derive(Clone, Debug, Default, PartialEq)]
 pub struct Changed {
@@ -36,6 +57,8 @@ pub struct Changed {
     pub view_cleared: bool,
     /// A line for the status bar.
     pub status: Option<String>,
+    /// The banner of a failed classification.
+    pub failure: Failure,
 }
 
 /// The user's work and its workers.
@@ -164,6 +187,7 @@ impl Controller {
                 let status = Some(format!("Classified in {:.2} s", classified.seconds));
                 let Some(work) = self.work.as_mut() else { return Changed::default() };
                 work.classified = Some(classified);
+                work.failure = None;
                 let labels = work.classified.as_ref().map(|c| c.labels.clone());
                 let view = match (self.display_styles(), labels) {
                     (Some(styles), Some(labels)) => {
@@ -172,9 +196,21 @@ impl Controller {
                     }
                     _ => false,
                 };
-                Changed { classes: true, view, view_cleared: false, status }
+                Changed { classes: true, view, view_cleared: false, status, failure: Failure::Cleared }
             }
-            Some(JobOutcome::Failed(message)) => Changed { status: Some(message), ..Changed::default() },
+            Some(JobOutcome::Failed(reason)) => {
+                log::warn!("classification failed: {reason}");
+                // The last good result stays on screen, under the banner that says why the
+                // newest one failed.
+                if let Some(work) = self.work.as_mut() {
+                    work.failure = Some(reason.clone());
+                }
+                Changed {
+                    status: Some("Classification failed".to_string()),
+                    failure: Failure::Failed(reason),
+                    ..Changed::default()
+                }
+            }
             None => Changed::default(),
         }
     }
@@ -229,6 +265,7 @@ impl Controller {
         let template = self.template();
         let training = self.training_strokes();
         let Some(work) = self.work.as_mut() else { return Changed::default() };
+        let mut failure = Failure::Unchanged;
         match training {
             Some(strokes) if work.requested.as_ref() != Some(&strokes) => {
                 self.jobs.start(work.loaded.volume.clone(), strokes.clone(), template);
@@ -239,9 +276,36 @@ impl Controller {
                 self.jobs.cancel();
                 work.requested = None;
                 work.classified = None;
+                if work.failure.take().is_some() {
+                    failure = Failure::Cleared;
+                }
             }
         }
-        Changed { classes: true, view: false, view_cleared: work.classified.is_none(), status: None }
+        Changed { classes: true, view: false, view_cleared: work.classified.is_none(), status: None, failure }
+    }
+
+    /// The line over the 3-D view while it has nothing to show: what to do next, or that a
+    /// classification is on its way or failed (never "Classifying..." once the job ended).
+    pub fn view_hint(&self) -> &'static str {
+        let Some(work) = self.work.as_ref() else { return "" };
+        if work.classified.is_some() {
+            ""
+        } else if work.session.classes.is_empty() && work.session.pending.is_empty() {
+            "Draw a loop around a structure on any slice, then tap Define class. Each class gets its colour here in 3-D."
+        } else if self.training_class_count() < 2 {
+            "Now draw a loop around something else: the 3-D view appears once two classes can be told apart."
+        } else if self.jobs.busy() {
+            "Classifying..."
+        } else if work.failure.is_some() {
+            "The classification failed (the banner above says why): undo or change a lasso to try again."
+        } else {
+            "Classifying..."
+        }
+    }
+
+    /// Why the newest classification failed, if it did.
+    pub fn failure(&self) -> Option<&str> {
+        self.work.as_ref()?.failure.as_deref()
     }
 
     /// The defined classes plus the pending lassos as the provisional next class; `None` when

@@ -217,3 +217,138 @@ fn a_saved_session_comes_back_on_its_volume_only() {
     assert!(restored.work.is_none());
     assert!(autosave::load(&dir).is_none());
 }
+
+/// A 32 x 32 x 16 volume of `value(x, y, z)` at `spacing_mm`, opened as the chooser opens one.
+fn loaded(spacing_mm: [f64; 3], value: impl Fn(usize, usize, usize) -> f32) -> LoadedVolume {
+    let dims = [32, 32, 16];
+    let values: Vec<f32> =
+        (0..dims[0] * dims[1] * dims[2]).map(|i| value(i % 32, (i / 32) % 32, i / (32 * 32))).collect();
+    let volume = crate::volume::Volume::from_f32(dims, spacing_mm, &values, std::path::Path::new("test.nrrd")).unwrap();
+    let entropies = foreground_slice_entropies(&volume);
+    let windows = WindowChoices::for_volume(&volume);
+    LoadedVolume { source: VolumeSource::Demo, volume: Arc::new(volume), entropies, windows }
+}
+
+/// Deterministic noise in -8..8, so that no two lassoed voxels are alike.
+fn noise(x: usize, y: usize, z: usize) -> f32 {
+    (crate::rng::hash64(7, (x + 32 * (y + 32 * z)) as u64) % 1600) as f32 / 100.0 - 8.0
+}
+
+/// Soft tissue (100) on the left half, bone (400) on the right, both with noise.
+fn two_materials(x: usize, y: usize, z: usize) -> f32 {
+    if x < 16 { 100.0 + noise(x, y, z) } else { 400.0 + noise(x, y, z) }
+}
+
+/// A square loop around x0..x0+6, y0..y0+6 on axial slice `z`.
+fn square(z: usize, x0: f64, y0: f64) -> Lasso {
+    Lasso {
+        axis: crate::slices::Axis::Z,
+        slice: z,
+        points: vec![[x0, y0], [x0 + 6.0, y0], [x0 + 6.0, y0 + 6.0], [x0, y0 + 6.0]],
+    }
+}
+
+/// Opens `loaded`, defines a class from `first` and draws `second` (the provisional second
+/// class, which starts a classification), and returns what its end changed.
+fn classify_two(controller: &mut Controller, loaded: LoadedVolume, first: Lasso, second: Lasso) -> Changed {
+    controller.open(Work::new(loaded), None);
+    draw(controller, &[first]);
+    define(controller);
+    draw(controller, &[second]);
+    assert!(controller.jobs.busy(), "two classes: a classification is requested");
+    classified(controller)
+}
+
+/// A failed classification: a banner with the reason, no spinner, no result invented.
+fn assert_failed(controller: &Controller, changed: &Changed, words: &[&str]) {
+    let Failure::Failed(reason) = &changed.failure else { panic!("not a failure: {changed:?}") };
+    for word in words {
+        assert!(reason.contains(word), "'{word}' not in: {reason}");
+    }
+    assert_eq!(changed.status.as_deref(), Some("Classification failed"));
+    assert!(failure_banner(reason).starts_with(FAILURE_BANNER_START));
+    assert_eq!(controller.failure(), Some(reason.as_str()));
+    assert!(!controller.jobs.busy());
+    assert!(controller.work.as_ref().unwrap().classified.is_none());
+    let hint = controller.view_hint();
+    assert!(hint.contains("failed") && !hint.contains("Classifying"), "{hint}");
+}
+
+#[test]
+fn lassoed_nan_voxels_fail_with_a_banner_that_names_the_voxel() {
+    // A block of NaN under the first class's loop.
+    let volume =
+        loaded(
+            [1.0; 3],
+            |x, y, z| if (5..11).contains(&x) && (5..11).contains(&y) { f32::NAN } else { two_materials(x, y, z) },
+        );
+    let mut controller = Controller::new(None);
+    let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
+    assert_failed(&controller, &changed, &["of class 'Class 1' is NaN", "cannot be trained on"]);
+}
+
+#[test]
+fn values_near_the_float_limit_fail_with_a_banner_that_says_they_overflow() {
+    // 3e38 beside -3e38 under the first loop: each value is finite, their difference is not.
+    let huge = |x: usize, y: usize, z: usize| match x {
+        0..8 => 3e38,
+        8..16 => -3e38,
+        _ => 400.0 + noise(x, y, z),
+    };
+    let mut controller = Controller::new(None);
+    let changed = classify_two(&mut controller, loaded([1.0; 3], huge), square(8, 4.5, 4.5), square(8, 20.5, 20.5));
+    assert_failed(
+        &controller,
+        &changed,
+        &["of class 'Class 1'", "is not a finite number", "overflow single precision"],
+    );
+}
+
+#[test]
+fn a_spacing_of_ten_to_the_minus_thirty_fails_with_a_banner_that_says_it_overflows() {
+    let mut controller = Controller::new(None);
+    let volume = loaded([1e-30; 3], two_materials);
+    let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
+    assert_failed(
+        &controller,
+        &changed,
+        &["is not a finite number", "(value 94.22) is not", "1e-30 x 1e-30 x 1e-30 mm"],
+    );
+}
+
+#[test]
+fn a_constant_volume_fails_with_a_banner_that_the_classes_cannot_be_told_apart() {
+    let mut controller = Controller::new(None);
+    let changed =
+        classify_two(&mut controller, loaded([1.0; 3], |_, _, _| 0.0), square(8, 4.5, 4.5), square(8, 20.5, 20.5));
+    assert_failed(&controller, &changed, &["cannot be told apart", "is the volume constant?"]);
+}
+
+#[test]
+fn a_failure_keeps_the_last_good_result_and_the_next_success_clears_its_banner() {
+    // The left half flat at 100: two loops there are one and the same material.
+    let volume = loaded([1.0; 3], |x, y, z| if x < 16 { 100.0 } else { 400.0 + noise(x, y, z) });
+    let mut controller = Controller::new(None);
+    let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
+    assert_eq!(changed.failure, Failure::Cleared, "{changed:?}");
+    define(&mut controller);
+    let good = controller.work.as_ref().unwrap().classified.as_ref().unwrap().labels.clone();
+
+    // A third class on the same flat material as the first cannot be told apart from it.
+    draw(&mut controller, &[square(3, 4.5, 20.5)]);
+    assert!(controller.jobs.busy());
+    let changed = classified(&mut controller);
+    let Failure::Failed(reason) = &changed.failure else { panic!("not a failure: {changed:?}") };
+    assert!(reason.contains("classes 'Class 1' and 'Class 3' cannot be told apart"), "{reason}");
+    let kept = controller.work.as_ref().unwrap().classified.as_ref().expect("the last result stays");
+    assert!(Arc::ptr_eq(&kept.labels, &good), "the last good labels are shown");
+    assert_eq!(controller.view_hint(), "", "the 3-D view shows the last result, the banner says why it is old");
+    assert!(!controller.jobs.busy());
+
+    // Undo: the two classes again, classified anew; the failure's banner goes.
+    controller.edit(|session| session.undo());
+    assert!(controller.jobs.busy());
+    let changed = classified(&mut controller);
+    assert_eq!(changed.failure, Failure::Cleared, "{changed:?}");
+    assert_eq!(controller.failure(), None);
+}

@@ -149,6 +149,9 @@ struct Work {
     /// goes on with it ([`FingerPath::resumed_or_new`]).
     broken_off: Option<(usize, FingerPath)>,
     classified: Option<Classified>,
+    /// Why the newest classification failed; `None` once one succeeds, and while fewer than
+    /// two classes are drawn. The last good result stays in `classified`.
+    failure: Option<String>,
     /// The training data of the newest job started, so an unchanged set is not sent again.
     requested: Option<StrokesFile>,
     /// The display window of the slices and its name (a preset, or "Custom" after a drag).
@@ -189,6 +192,7 @@ impl Work {
             drawing: None,
             broken_off: None,
             classified: None,
+            failure: None,
             requested: None,
             window: initial.window,
             window_name: initial.name.to_string(),

@@ -1,5 +1,6 @@
 //! The app's state by name, for replay scripts' `expect KEY VALUE` ([`super::App::query`]):
-//! `screen` (start, chooser, work), `classes`, `pending`, `volume`, `banner`, `busy`,
+//! `screen` (start, chooser, work), `classes`, `pending`, `volume`, `banner`, `hint` (the line
+//! over an empty 3-D view), `failed` (`yes` while the newest classification failed), `busy`,
 //! `classifying`, `classified`, `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the
 //! chooser's cards), `cannot-open` (those whose file cannot be opened), `panels` (the panels'
 //! axes, e.g. `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown),
@@ -30,6 +31,8 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
         "banner" => state.banner.clone(),
+        "hint" => state.ctl.view_hint().to_string(),
+        "failed" => if state.ctl.failure().is_some() { "yes" } else { "no" }.to_string(),
         "busy" => (state.ctl.jobs.busy() || state.opening.is_some()).to_string(),
         "classifying" => state.ctl.jobs.busy().to_string(),
         "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),

@@ -1,7 +1,7 @@
 //! Moving state into the UI, and collecting finished work from the loader, classifier,
 //! painter and renderer threads (the poll timer). Each `push_*` sets only the `Session` properties it names.
 
-use super::controller::Changed;
+use super::controller::{Changed, FAILURE_BANNER_START, Failure, failure_banner};
 use super::loading;
 use super::painter::PictureRequest;
 use super::pictures::class_colour;
@@ -68,6 +68,11 @@ pub(super) fn apply(window: &AppWindow, state: &Shared, changed: Changed) {
         if let Some(status) = &changed.status {
             state.status = status.clone();
         }
+        match &changed.failure {
+            Failure::Failed(reason) => state.banner = failure_banner(reason),
+            Failure::Cleared if state.banner.starts_with(FAILURE_BANNER_START) => state.banner.clear(),
+            Failure::Cleared | Failure::Unchanged => {}
+        }
         if changed.view {
             state.view_dirty = true;
         }
@@ -77,7 +82,7 @@ pub(super) fn apply(window: &AppWindow, state: &Shared, changed: Changed) {
     }
     if changed.classes {
         push_work(window, state);
-    } else if changed.status.is_some() {
+    } else if changed.status.is_some() || changed.failure != Failure::Unchanged {
         push_status(window, state);
     }
 }
@@ -159,17 +164,7 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
         Some(progress) => format!("Classifying... {:.0} %", progress * 100.0),
         None => state.status.clone(),
     };
-    let hint = match state.ctl.work.as_ref() {
-        Some(work) if work.classified.is_some() => "",
-        Some(work) if work.session.classes.is_empty() && work.session.pending.is_empty() => {
-            "Draw a loop around a structure on any slice, then tap Define class. Each class gets its colour here in 3-D."
-        }
-        Some(_) if state.training_class_count() < 2 => {
-            "Now draw a loop around something else: the 3-D view appears once two classes can be told apart."
-        }
-        Some(_) => "Classifying...",
-        None => "",
-    };
+    let hint = state.ctl.view_hint();
     session.set_view_hint(hint.into());
     session.set_busy(busy);
     session.set_progress(state.ctl.jobs.progress().unwrap_or(0.0));

@@ -26,6 +26,7 @@ mod ovo;
 mod params;
 mod predict;
 mod scatter;
+pub mod separable;
 mod smo;
 mod snsvm;
 mod spectrum;
@@ -41,6 +42,7 @@ pub use ovo::{
     ranks_above, tally_votes, tally_votes_among, train, train_with_classes, vote_winner,
 };
 pub use params::{ScaleMode, SnSvmParams, SnSvmValidParams};
+pub use separable::{Inseparable, find_inseparable};
 pub use smo::SolveReport;
 pub use snsvm::PenaltySpectra;
 

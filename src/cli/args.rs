@@ -80,17 +80,17 @@ pub struct RenderArgs {
     /// The PNG to write.
     #[arg(long)]
     pub out: PathBuf,
-    /// Image size in pixels.
-    #[arg(long, default_value = "800x600", value_parser = parse_size, value_name = "WxH")]
+    /// Image size in pixels, at most 2048 per side (the renderer's 2-D texture limit).
+    #[arg(long, default_value = "800x600", value_parser = parse_render_size, value_name = "WxH")]
     pub size: [u32; 2],
-    /// Camera orbit around the vertical axis, degrees.
-    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true)]
+    /// Camera orbit around the vertical axis, degrees (-3600 to 3600).
+    #[arg(long, default_value_t = 30.0, allow_negative_numbers = true, value_parser = parse_azimuth)]
     pub azimuth: f32,
-    /// Camera elevation, degrees.
-    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true)]
+    /// Camera elevation, degrees (-90 to 90).
+    #[arg(long, default_value_t = 20.0, allow_negative_numbers = true, value_parser = parse_elevation)]
     pub elevation: f32,
-    /// Zoom (1 fits the volume).
-    #[arg(long, default_value_t = 1.0)]
+    /// Zoom: 1 fits the volume, 0.25 to 8 (the kiosk's range).
+    #[arg(long, default_value_t = 1.0, allow_negative_numbers = true, value_parser = parse_zoom)]
     pub zoom: f32,
     #[arg(long, value_enum, default_value_t = RenderModeChoice::Post)]
     pub mode: RenderModeChoice,
@@ -166,12 +166,12 @@ pub struct ClassifyArgs {
     pub trees: Option<u32>,
     /// Training voxels kept by the largest class; a smaller class keeps N times the fourth root
     /// of its size over the largest's (stratified over its strokes).
-    #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N")]
+    #[arg(long, default_value_t = crate::segmentation::DEFAULT_TRAINING_CAP, value_name = "N", value_parser = parse_cap)]
     pub cap: usize,
     /// Background: `auto` (the air joined to the volume's faces and everything below Otsu's
     /// threshold, unless a class reaches there; air a lasso took in is not trained on),
     /// `none`, or a value: voxels below it get label 0 and are not evaluated.
-    #[arg(long, default_value = "auto", value_parser = parse_background, value_name = "auto|none|VALUE")]
+    #[arg(long, default_value = "auto", value_parser = parse_background, value_name = "auto|none|VALUE", allow_negative_numbers = true)]
     pub background: crate::segmentation::Background,
     /// Also write the paper's pre-classified RGBA volume (4 x uint8 per voxel) as NRRD.
     #[arg(long, value_name = "RGBA.nrrd")]
@@ -184,13 +184,13 @@ pub struct ClassifyArgs {
     #[arg(long, value_enum, default_value = "majority")]
     pub coherence: CoherenceChoice,
     /// RBF kernel width g in exp(-g |x - y|^2) on standardised features.
-    #[arg(long, value_name = "G")]
+    #[arg(long, value_name = "G", allow_negative_numbers = true)]
     pub kernel_width: Option<f64>,
     /// SVM box constraint C.
-    #[arg(long, value_name = "C")]
+    #[arg(long, value_name = "C", allow_negative_numbers = true)]
     pub c: Option<f64>,
     /// SN-SVM eta (ignored with --classifier svm).
-    #[arg(long, value_name = "ETA")]
+    #[arg(long, value_name = "ETA", allow_negative_numbers = true)]
     pub eta: Option<f64>,
     /// Benchmark: run training and prediction N times and report the median of each timing
     /// (the label volume of the last run is written).
@@ -234,7 +234,7 @@ pub struct VolumeArgs {
     #[arg(long = "type", value_parser = parse_type, value_name = "TYPE")]
     pub voxel_type: Option<VoxelType>,
     /// Voxel spacing in mm, e.g. 1,1,1.4 (overrides the file's).
-    #[arg(long, value_parser = parse_spacing, value_name = "X,Y,Z")]
+    #[arg(long, value_parser = parse_spacing, value_name = "X,Y,Z", allow_hyphen_values = true)]
     pub spacing: Option<[f64; 3]>,
     /// DICOM: the SeriesInstanceUID to read when a folder holds several series.
     #[arg(long, value_name = "UID")]
@@ -243,7 +243,7 @@ pub struct VolumeArgs {
     #[arg(long)]
     pub no_resample: bool,
     /// DICOM: slice spacing in mm for resampled series.
-    #[arg(long, value_name = "MM")]
+    #[arg(long, value_name = "MM", allow_negative_numbers = true)]
     pub slice_spacing: Option<f64>,
     /// DICOM: open a series with a missing or unreadable slice, resampled across the hole
     /// (refused without it).
@@ -314,12 +314,53 @@ fn parse_background(text: &str) -> Result<crate::segmentation::Background, Strin
 }
 
 pub(super) fn parse_size(text: &str) -> Result<[u32; 2], String> {
+    size_within(text, 8192)
+}
+
+/// The largest side of an image `render` draws: the renderer asks the GPU for WebGPU's
+/// downlevel limits (`render::gpu::required_limits`), whose 2-D textures stop at 2048.
+pub const MAX_RENDER_SIDE: u32 = 2048;
+
+fn parse_render_size(text: &str) -> Result<[u32; 2], String> {
+    size_within(text, MAX_RENDER_SIDE)
+}
+
+fn size_within(text: &str, largest: u32) -> Result<[u32; 2], String> {
     let (width, height) = text.split_once('x').ok_or_else(|| format!("'{text}' is not WxH"))?;
-    let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| (1..=8192).contains(&v));
+    let parse = |t: &str| t.trim().parse::<u32>().ok().filter(|&v| (1..=largest).contains(&v));
     match (parse(width), parse(height)) {
         (Some(w), Some(h)) => Ok([w, h]),
-        _ => Err(format!("'{text}' is not WxH with sides from 1 to 8192")),
+        _ => Err(format!("'{text}' is not WxH with sides from 1 to {largest}")),
     }
+}
+
+/// A number within `range`, for a camera option; `what` names it in the message.
+fn number_within(text: &str, range: std::ops::RangeInclusive<f32>, what: &str) -> Result<f32, String> {
+    text.trim()
+        .parse::<f32>()
+        .ok()
+        .filter(|value| range.contains(value))
+        .ok_or_else(|| format!("'{text}' is not {what} from {} to {}", range.start(), range.end()))
+}
+
+fn parse_azimuth(text: &str) -> Result<f32, String> {
+    number_within(text, -3600.0..=3600.0, "an angle in degrees")
+}
+
+fn parse_elevation(text: &str) -> Result<f32, String> {
+    number_within(text, -90.0..=90.0, "an elevation in degrees")
+}
+
+fn parse_zoom(text: &str) -> Result<f32, String> {
+    number_within(text, 0.25..=8.0, "a zoom")
+}
+
+fn parse_cap(text: &str) -> Result<usize, String> {
+    text.trim()
+        .parse::<usize>()
+        .ok()
+        .filter(|&cap| cap >= 1)
+        .ok_or_else(|| format!("'{text}' is not a number of training voxels of at least 1"))
 }
 
 /// A pixel density for `--dpi`: a number within `kiosk::dpi::DPI_RANGE`.
@@ -333,4 +374,59 @@ pub(super) fn parse_dpi(text: &str) -> Result<f32, String> {
 fn parse_type(text: &str) -> Result<VoxelType, String> {
     VoxelType::from_name(text)
         .ok_or_else(|| format!("'{text}' is not one of uint8, int8, uint16, int16, uint32, int32, float32, float64"))
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use clap::Parser;
+
+    fn parse(args: &[&str]) -> Result<Cli, clap::Error> {
+        Cli::try_parse_from(std::iter::once("volasso").chain(args.iter().copied()))
+    }
+
+    #[test]
+    fn the_render_size_limit_is_the_renderer_s() {
+        assert_eq!(MAX_RENDER_SIDE, wgpu::Limits::downlevel_defaults().max_texture_dimension_2d);
+        let args = ["render", "demo", "--strokes", "s.json", "--out", "o.png", "--size"];
+        assert!(parse(&[&args[..], &["2048x2048"]].concat()).is_ok());
+        let error = parse(&[&args[..], &["2049x600"]].concat()).unwrap_err().to_string();
+        assert!(error.contains("from 1 to 2048"), "{error}");
+    }
+
+    #[test]
+    fn negative_numbers_are_read_after_a_space_then_checked() {
+        let classify = ["classify", "demo", "--strokes", "s.json", "--out", "o.nrrd"];
+        let Some(Command::Classify(args)) =
+            parse(&[&classify[..], &["--background", "-500"]].concat()).unwrap().command
+        else {
+            panic!("not classify")
+        };
+        assert_eq!(args.background, crate::segmentation::Background::Below(-500.0));
+        let parsed = parse(&[&classify[..], &["--eta", "-1", "--spacing", "-1,1,1"]].concat());
+        let error = parsed.unwrap_err().to_string();
+        assert!(error.contains("spacing must be positive"), "{error}");
+        let render = ["render", "demo", "--strokes", "s.json", "--out", "o.png"];
+        let Some(Command::Render(args)) =
+            parse(&[&render[..], &["--azimuth", "-45", "--elevation", "-90", "--zoom", "0.25"]].concat())
+                .unwrap()
+                .command
+        else {
+            panic!("not render")
+        };
+        assert_eq!([args.azimuth, args.elevation, args.zoom], [-45.0, -90.0, 0.25]);
+        for (option, value, words) in [
+            ("--zoom", "-1", "not a zoom from 0.25 to 8"),
+            ("--zoom", "0", "not a zoom"),
+            ("--zoom", "NaN", "not a zoom"),
+            ("--azimuth", "1e308", "not an angle in degrees from -3600 to 3600"),
+            ("--azimuth", "nan", "not an angle"),
+            ("--elevation", "91", "not an elevation in degrees from -90 to 90"),
+        ] {
+            let error = parse(&[&render[..], &[option, value]].concat()).unwrap_err().to_string();
+            assert!(error.contains(words), "{option} {value}: {error}");
+        }
+        let error = parse(&[&classify[..], &["--cap", "0"]].concat()).unwrap_err().to_string();
+        assert!(error.contains("at least 1"), "{error}");
+    }
 }

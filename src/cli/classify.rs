@@ -18,13 +18,13 @@
 //! file is not timed). With `--repeat N` each is the median over N runs: the classification
 //! benchmark (`benches/README.md`).
 
-use super::CliError;
 use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};
+use super::{CliError, outputs};
 use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
-use crate::pipeline::{self, RunControl};
+use crate::pipeline::{self, MAX_PAIRWISE_CLASSES, RunControl};
 use crate::segmentation::{
     self, ClassifierKind, Coherence, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter,
 };
@@ -38,8 +38,19 @@ use std::time::Instant;
 
 pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     let total = Instant::now();
+    let table_path = class_table_path(&args.out);
+    let export_paths: Vec<std::path::PathBuf> =
+        args.export_features.iter().flat_map(|folder| EXPORTED.map(|name| folder.join(name))).collect();
+    let mut outputs: Vec<(&'static str, &Path)> =
+        vec![("label volume (--out)", &args.out), ("class table written beside --out", &table_path)];
+    if let Some(rgba) = &args.rgba {
+        outputs.push(("RGBA volume (--rgba)", rgba));
+    }
+    outputs.extend(export_paths.iter().map(|path| ("feature export (--export-features)", path.as_path())));
+    outputs::check(&[("volume", &args.volume), ("strokes file (--strokes)", &args.strokes)], &outputs)?;
     remove_stale_outputs(args);
     let volume = super::open_volume(&args.volume, &args.open)?;
+    outputs::check_mapped("volume's voxel data", &outputs)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
     let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;
     if training.contested_voxels > 0 {
@@ -51,7 +62,26 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     volume.body();
     let load_seconds = total.elapsed().as_secs_f64();
 
-    let options = segmentation_options(args);
+    let class_count = strokes.classes.len();
+    let mut options = segmentation_options(args);
+    let mut fallback = None;
+    if let Some(forest) = pipeline::forest_fallback(&options, class_count) {
+        if let Some(choice) = args.classifier {
+            return Err(CliError::Usage(format!(
+                "{class_count} classes are more than the {MAX_PAIRWISE_CLASSES} the {} classifies (one model per pair of classes); use --classifier forest",
+                if choice == ClassifierChoice::Svm { "SVM" } else { "SN-SVM" },
+            )));
+        }
+        let reason = format!(
+            "{class_count} classes: more than the {MAX_PAIRWISE_CLASSES} the SN-SVM classifies, so the random forest classified them"
+        );
+        log::warn!("{reason}");
+        options =
+            SegmentationOptions { feature_set: args.features.map_or(forest.feature_set, FeatureSet::from), ..forest };
+        fallback = Some(reason);
+    }
+    pipeline::check_training(&volume, &training, &options)
+        .map_err(|error| super::pipeline_error(error, &args.strokes))?;
     let mut runs = Vec::new();
     let mut result = None;
     for _ in 0..args.repeat {
@@ -79,7 +109,6 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
 
     // Colours (§3.5): the class table is kept beside the labels, so the renderer can classify
     // after interpolation and restyle without classifying again.
-    let class_count = strokes.classes.len();
     let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
     let run = run_id();
     let comment =
@@ -101,7 +130,6 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         file.write_all(&labels.labels)
     })
     .map_err(output(&args.out))?;
-    let table_path = class_table_path(&args.out);
     let table_text = serde_json::to_string_pretty(&TableOfRun { table: &table, run: &run })
         .map_err(|source| TransferError::TableJson { source, path: table_path.clone() })?;
     let staged_table = stage(&table_path, |file| file.write_all(table_text.as_bytes())).map_err(output(&table_path))?;
@@ -130,6 +158,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
             ClassifierKind::SnSvm => "snsvm",
             ClassifierKind::Forest(_) => "forest",
         },
+        "classifier_fallback": fallback,
         "features": segmenter.feature_set.name(),
         "refinement": match options.refinement { Refinement::Exact => "exact", Refinement::CoarseToFine => "coarse-to-fine" },
         "parameters": parameters_json(&summary.classifier),
@@ -152,6 +181,10 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     println!("{line}");
     Ok(())
 }
+
+/// The files `--export-features DIR` writes into DIR.
+const EXPORTED: [&str; 5] =
+    ["train_features.npy", "train_labels.npy", "predict_features.npy", "volasso_labels.npy", "volasso.json"];
 
 /// The class table as written beside the labels: its fields, then the run that wrote it.
 #[derive(serde::Serialize)]

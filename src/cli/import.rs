@@ -6,7 +6,10 @@ use super::args::ImportArgs;
 use crate::volume::nrrd;
 
 pub fn run(args: &ImportArgs) -> Result<(), CliError> {
+    let output = [("imported volume (--out)", args.out.as_path())];
+    super::outputs::check(&[("source volume", &args.source)], &output)?;
     let volume = super::open_volume(&args.source, &args.open)?;
+    super::outputs::check_mapped("source volume's voxel data", &output)?;
     nrrd::write_volume(&args.out, &volume, &format!("imported by volasso from {}", volume.source.display()))?;
     let range = volume.value_range();
     println!(

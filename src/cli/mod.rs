@@ -10,6 +10,7 @@ mod import;
 mod info;
 mod memory;
 mod npy;
+mod outputs;
 mod receive;
 mod record;
 mod render;
@@ -40,6 +41,12 @@ pub enum CliError {
     Touch(#[from] crate::touch::TouchError),
     #[error("cannot write {}: {source}", path.display())]
     Output { source: std::io::Error, path: std::path::PathBuf },
+    /// The training voxels cannot train a classifier.
+    #[error(transparent)]
+    Training(#[from] crate::pipeline::TrainingError),
+    /// An output path names an input, another output or a folder.
+    #[error(transparent)]
+    Paths(#[from] outputs::PathClash),
     #[error(transparent)]
     Accuracy(#[from] crate::accuracy::AccuracyError),
     /// The kiosk (DRM display, platform, replay harness) failed.
@@ -65,11 +72,6 @@ pub enum CliError {
 pub fn main() -> ExitCode {
     let cli = Cli::parse();
     init_logging(cli.verbose);
-    // faer's own threads cost more than they give on the SN-SVM's matrices (at most 512
-    // points a pair, and pairs already train in parallel): sequential, training took 0.77
-    // instead of 1.03 ms on the lobster and 2.2 instead of 2.8 ms on the engine (medians, two
-    // cores, benchmark lassos).
-    faer::set_global_parallelism(faer::Par::Seq);
     match run(cli) {
         Ok(()) => ExitCode::SUCCESS,
         Err(error) => {
@@ -88,6 +90,7 @@ fn pipeline_error(error: crate::pipeline::PipelineError, strokes: &std::path::Pa
         PipelineError::Segmentation(error) => error.into(),
         PipelineError::Transfer(error) => error.into(),
         PipelineError::Volume(error) => error.into(),
+        PipelineError::Training(error) => CliError::Training(error),
         error @ PipelineError::ScribbleShape { .. } => CliError::Usage(error.to_string()),
     }
 }

@@ -19,6 +19,9 @@ pub fn run(args: &RecordArgs) -> Result<(), CliError> {
     use crate::touch::format::{self, Recording};
     use std::time::{Duration, Instant, SystemTime};
 
+    let inputs: Vec<(&'static str, &std::path::Path)> =
+        args.device.iter().map(|device| ("input device (--device)", device.as_path())).collect();
+    super::outputs::check(&inputs, &[("recording (--out)", &args.out)])?;
     let device = match &args.device {
         Some(path) => TouchDevice::open(path)?,
         None => TouchDevice::open_first()?,

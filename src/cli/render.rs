@@ -12,10 +12,13 @@ use crate::segmentation::SegmentationOptions;
 use crate::strokes::StrokesFile;
 
 pub fn run(args: &RenderArgs) -> Result<(), CliError> {
+    let output = [("image (--out)", args.out.as_path())];
+    super::outputs::check(&[("volume", &args.volume), ("strokes file (--strokes)", &args.strokes)], &output)?;
     for removed in crate::atomic_file::remove_stale_temporaries(&args.out) {
         log::info!("removed {}, left by a run that was stopped", removed.display());
     }
     let volume = super::open_volume(&args.volume, &args.open)?;
+    super::outputs::check_mapped("volume's voxel data", &output)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
     let classified =
         pipeline::classify_strokes(&volume, &strokes, &SegmentationOptions::default(), None, RunControl::batch())

@@ -42,6 +42,12 @@ pub struct ReplayArgs {
 }
 
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
+    if let Some(events_out) = &args.events_out {
+        let mut inputs: Vec<(&'static str, &std::path::Path)> =
+            args.scripts.iter().map(|script| ("touch script", script.as_path())).collect();
+        inputs.extend(args.volume.iter().map(|volume| ("volume (--volume)", volume.as_path())));
+        super::outputs::check(&inputs, &[("event recording (--events-out)", events_out)])?;
+    }
     let ui = UiArgs {
         volume: args.volume.clone(),
         data_dir: args.data_dir.clone(),

@@ -20,10 +20,9 @@ pub enum KioskError {
     ShowUi(#[source] slint::PlatformError),
     #[error("the UI was still busy after {seconds} s")]
     StillBusy { seconds: u64 },
-    #[error("cannot read the script: {source}, in {}", path.display())]
-    ReadScript { source: std::io::Error, path: PathBuf },
-    #[error("the script is not UTF-8 text, in {}", path.display())]
-    ScriptNotText { path: PathBuf },
+    /// A script or recording is not a regular file, too large, not UTF-8, or unreadable.
+    #[error(transparent)]
+    ReadScript(#[from] crate::input_file::InputFileError),
     #[error("{source}, in {}", path.display())]
     Script { source: crate::touch::ScriptError, path: PathBuf },
     #[error("{source}, in {}", path.display())]

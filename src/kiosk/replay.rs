@@ -206,9 +206,10 @@ impl Run {
     }
 }
 
+/// A touch script or recording: a regular UTF-8 file of at most a recording's ceiling
+/// (`touch::format::MAX_FILE_BYTES`), so a FIFO or `/dev/zero` is refused, not read for ever.
 fn read_script(path: &std::path::Path) -> Result<String, KioskError> {
-    let bytes = std::fs::read(path).map_err(|source| KioskError::ReadScript { source, path: path.to_path_buf() })?;
-    String::from_utf8(bytes).map_err(|_| KioskError::ScriptNotText { path: path.to_path_buf() })
+    Ok(crate::input_file::read_text(path, "touch script", crate::touch::format::MAX_FILE_BYTES)?)
 }
 
 /// Event recordings start with their format line or carry evemu's `E:` event lines.

@@ -10,6 +10,10 @@ use std::path::Path;
 /// The format string every strokes file starts with.
 pub const FORMAT: &str = "volasso-strokes/1";
 
+/// The largest strokes file read, in bytes: a hand draws kilobytes; this bounds what a
+/// hostile file can make the reader hold (about three million points).
+pub const MAX_FILE_BYTES: u64 = 64 << 20;
+
 /// A strokes file: classes with their lassos. Class id k is `classes[k - 1]`.
 #[derive(Clone, Debug, PartialEq, Default)]
 pub struct StrokesFile {
@@ -92,10 +96,10 @@ impl StrokesFile {
         Ok(file)
     }
 
-    /// Reads and parses the strokes file at `path`; errors name the path.
+    /// Reads and parses the strokes file at `path`, a regular file of at most
+    /// [`MAX_FILE_BYTES`] in UTF-8; errors name the path.
     pub fn read(path: &Path) -> Result<StrokesFile, StrokesError> {
-        let text =
-            std::fs::read_to_string(path).map_err(|source| StrokesError::Io { source, path: path.to_path_buf() })?;
+        let text = crate::input_file::read_text(path, "strokes file", MAX_FILE_BYTES)?;
         StrokesFile::parse(&text).map_err(|e| e.with_path(path))
     }
 
@@ -287,6 +291,7 @@ mod tests {
         assert!(message.ends_with(&format!("in {}", path.display())), "{message}");
         assert!(matches!(error.innermost(), StrokesError::SliceOutOfRange { .. }));
         let missing = StrokesFile::read(&folder.path().join("none.json")).unwrap_err();
-        assert!(matches!(missing, StrokesError::Io { .. }));
+        assert!(matches!(missing, StrokesError::Read(crate::input_file::InputFileError::Io { .. })));
+        assert!(missing.to_string().starts_with("cannot read the strokes file: "), "{missing}");
     }
 }

@@ -5,7 +5,10 @@
 //! standard ray-crossing test, which counts a vertex on the line once). A pixel centre (i, j) is
 //! inside when an odd number of crossings lie at or left of it, i.e. it falls in
 //! `[c0, c1), [c2, c3), ...` of the row's sorted crossings. Each edge is visited only for the
-//! rows it spans, so the cost is edges + crossings + selected voxels, not pixels x edges.
+//! rows it spans, so the cost is edges + crossings + selected voxels, not pixels x edges; the
+//! rows are swept one at a time, so the memory is the edges and one row's crossings, never
+//! every crossing at once ([`row_crossings`] counts them beforehand, for a caller that bounds
+//! the work).
 //!
 //! The crossing of an edge is always computed from its lower end, so a polygon, its reverse and
 //! any rotation of its point list produce the very same crossings and select the same voxels.
@@ -39,6 +42,9 @@ impl Lasso {
 /// Calls `run(j, i_start, i_end)` for each run of pixels `i_start..i_end` of row `j` whose centres
 /// lie inside the closed polygon `points` (even-odd rule), in a `width x height` image; rows in
 /// increasing order, runs left to right, never empty, never outside the image.
+///
+/// Rows are swept one at a time with the edges that span them, so the memory is the edges and
+/// one row's crossings, and the time [`row_crossings`] (each sorted within its row).
 pub fn polygon_rows(points: &[[f64; 2]], width: usize, height: usize, mut run: impl FnMut(usize, usize, usize)) {
     if points.len() < 3 || width == 0 || height == 0 {
         return;
@@ -48,33 +54,33 @@ pub fn polygon_rows(points: &[[f64; 2]], width: usize, height: usize, mut run: i
     }
     let largest_coordinate = points.iter().flat_map(|p| [p[0].abs(), p[1].abs()]).fold(1.0f64, f64::max);
     let tolerance = RELATIVE_RUN_TOLERANCE * largest_coordinate;
-    // (row, x) of every crossing inside the image's rows.
-    let mut crossings: Vec<(usize, f64)> = Vec::new();
-    let last_row = (height - 1) as f64;
-    for (k, &a) in points.iter().enumerate() {
-        let b = points[(k + 1) % points.len()];
-        if a[1] == b[1] {
-            continue; // horizontal edges never cross a row by the half-open rule
-        }
-        let (low, high) = if a[1] < b[1] { (a, b) } else { (b, a) };
-        // Rows j with low.y <= j < high.y, clipped to the image.
-        let first = low[1].max(0.0).ceil();
-        if first > last_row {
-            continue;
-        }
-        let slope = (high[0] - low[0]) / (high[1] - low[1]);
-        let mut j = first as usize;
-        while j < height && (j as f64) < high[1] {
-            crossings.push((j, low[0] + (j as f64 - low[1]) * slope));
-            j += 1;
-        }
-    }
-    crossings.sort_unstable_by(|a, b| a.0.cmp(&b.0).then(a.1.total_cmp(&b.1)));
+    let mut edges: Vec<Edge> = edges_in_rows(points, height).collect();
+    edges.sort_unstable_by_key(|edge| edge.first_row);
     let right_edge = width as f64;
-    for row in crossings.chunk_by(|a, b| a.0 == b.0) {
-        let j = row[0].0;
-        for pair in row.chunks_exact(2) {
-            let (enter, leave) = (pair[0].1, pair[1].1);
+    let mut waiting = edges.into_iter().peekable();
+    let mut active: Vec<Edge> = Vec::new();
+    let mut crossings: Vec<f64> = Vec::new();
+    let mut j = 0;
+    loop {
+        if active.is_empty() {
+            // Skip the rows no edge spans.
+            match waiting.peek() {
+                Some(edge) => j = j.max(edge.first_row),
+                None => return,
+            }
+        }
+        if j >= height {
+            return;
+        }
+        // An edge joins at its first row (first_row < high.y) and leaves after its last.
+        while let Some(edge) = waiting.next_if(|edge| edge.first_row <= j) {
+            active.push(edge);
+        }
+        crossings.clear();
+        crossings.extend(active.iter().map(|edge| edge.low[0] + (j as f64 - edge.low[1]) * edge.slope));
+        crossings.sort_unstable_by(f64::total_cmp);
+        for pair in crossings.chunks_exact(2) {
+            let (enter, leave) = (pair[0], pair[1]);
             if leave - enter <= tolerance {
                 continue;
             }
@@ -85,7 +91,77 @@ pub fn polygon_rows(points: &[[f64; 2]], width: usize, height: usize, mut run: i
                 run(j, i_start, i_end);
             }
         }
+        active.retain(|edge| ((j + 1) as f64) < edge.high[1]);
+        j += 1;
     }
+}
+
+/// How many (edge, row) crossings rasterising `points` in an image of `height` rows computes:
+/// the work of [`polygon_rows`], found in one pass over the points. A loop a hand draws crosses
+/// about twice as many rows as it is tall; one that zig-zags across the image crosses every
+/// row with every edge.
+pub fn row_crossings(points: &[[f64; 2]], height: usize) -> u64 {
+    if points.len() < 3 || points.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+        return 0;
+    }
+    edges_in_rows(points, height)
+        .map(|edge| {
+            // Rows j with first_row <= j < high.y and j < height.
+            let end = edge.high[1].ceil().min(height as f64) as u64;
+            end.saturating_sub(edge.first_row as u64)
+        })
+        .sum()
+}
+
+/// How many pixels of a `width x height` image the bounding box of `points` covers: at least
+/// as many as the polygon selects, found in one pass over the points.
+pub fn bounding_pixels(points: &[[f64; 2]], width: usize, height: usize) -> u64 {
+    if points.len() < 3 || points.iter().any(|p| !(p[0].is_finite() && p[1].is_finite())) {
+        return 0;
+    }
+    let span = |coordinate: usize, size: usize| {
+        let (low, high) = points.iter().fold((f64::INFINITY, f64::NEG_INFINITY), |(low, high), p| {
+            (low.min(p[coordinate]), high.max(p[coordinate]))
+        });
+        // Centres i with low <= i <= high, clipped to 0..size.
+        let first = low.max(0.0).ceil().min(size as f64) as u64;
+        let last = (high.floor() + 1.0).max(0.0).min(size as f64) as u64;
+        last.saturating_sub(first)
+    };
+    span(0, width).saturating_mul(span(1, height))
+}
+
+/// An edge of a polygon that crosses at least one row of the image, from its lower end.
+struct Edge {
+    /// The lower end (smaller y).
+    low: [f64; 2],
+    /// The upper end.
+    high: [f64; 2],
+    /// dx / dy.
+    slope: f64,
+    /// The first image row it crosses: `low.y <= row < high.y`.
+    first_row: usize,
+}
+
+/// The edges of the closed polygon `points` that cross a row of an image of `height` rows.
+fn edges_in_rows(points: &[[f64; 2]], height: usize) -> impl Iterator<Item = Edge> + '_ {
+    let last_row = height.saturating_sub(1) as f64;
+    points.iter().enumerate().filter_map(move |(k, &a)| {
+        let b = points[(k + 1) % points.len()];
+        if a[1] == b[1] || height == 0 {
+            return None; // horizontal edges never cross a row by the half-open rule
+        }
+        let (low, high) = if a[1] < b[1] { (a, b) } else { (b, a) };
+        // Rows j with low.y <= j < high.y, clipped to the image.
+        let first = low[1].max(0.0).ceil();
+        if first > last_row || first >= high[1] {
+            return None;
+        }
+        // The crossing of an edge is always computed from its lower end, so a polygon, its
+        // reverse and any rotation of its point list give the very same crossings.
+        let slope = (high[0] - low[0]) / (high[1] - low[1]);
+        Some(Edge { low, high, slope, first_row: first as usize })
+    })
 }
 
 #[cfg(test)]
@@ -257,6 +333,26 @@ mod tests {
                 prop_assert!(expected.len() - pixels.len() <= 2 * geometry.height);
                 prop_assert_eq!(pixels.len(), voxels.len());
             }
+        }
+
+        #[test]
+        fn the_work_and_the_bounding_box_are_counted_beforehand(
+            points in polygon_strategy(),
+        ) {
+            let (width, height) = (23, 17);
+            // The half-open rule's crossings, edge by edge and row by row.
+            let counted: u64 = (0..height)
+                .map(|j| {
+                    let y = j as f64;
+                    (0..points.len())
+                        .filter(|&k| (points[k][1] > y) != (points[(k + 1) % points.len()][1] > y))
+                        .count() as u64
+                })
+                .sum();
+            let expected = if points.len() < 3 { 0 } else { counted };
+            prop_assert_eq!(row_crossings(&points, height), expected);
+            let selected = scanline(&points, width, height).len() as u64;
+            prop_assert!(bounding_pixels(&points, width, height) >= selected);
         }
 
         #[test]

@@ -17,10 +17,10 @@ mod lasso;
 mod nesting;
 mod training;
 
-pub use file::{FORMAT, StrokesFile};
-pub use lasso::polygon_rows;
+pub use file::{FORMAT, MAX_FILE_BYTES, StrokesFile};
+pub use lasso::{polygon_rows, row_crossings};
 pub use nesting::{NESTED_SHARE, NESTED_SIZE_RATIO};
-pub use training::{CAP_SIZE_EXPONENT, ClassSamples, TrainingSet};
+pub use training::{CAP_SIZE_EXPONENT, ClassSamples, MAX_ROW_CROSSINGS, TrainingSet};
 
 use crate::slices::Axis;
 use serde::Serialize;
@@ -51,8 +51,12 @@ pub struct ClassStrokes {
 /// and the stroke's 0-based position in that class say so.
 #[derive(Debug, thiserror::Error)]
 pub enum StrokesError {
-    /// The strokes file cannot be read or written.
-    #[error("cannot access the strokes file: {source}, in {}", path.display())]
+    /// The strokes file cannot be read: not a regular file, too large, not UTF-8, or an I/O
+    /// error (the message names the file).
+    #[error(transparent)]
+    Read(#[from] crate::input_file::InputFileError),
+    /// The strokes file cannot be written.
+    #[error("cannot write the strokes file: {source}, in {}", path.display())]
     Io {
         /// The underlying I/O error.
         source: std::io::Error,
@@ -139,6 +143,20 @@ pub enum StrokesError {
         /// The other class's id.
         other_id: usize,
     },
+    /// The lassos would cost more than [`MAX_ROW_CROSSINGS`] to rasterise.
+    #[error(
+        "stroke {stroke} of class '{class}' brings the lassos to {crossings} crossings of slice rows, more than the {limit} a strokes file may have (a loop of very many points running across many rows)"
+    )]
+    TooManyCrossings {
+        /// Name of the stroke's class.
+        class: String,
+        /// 0-based position of the stroke in its class.
+        stroke: usize,
+        /// Crossings of the lassos up to and including this stroke.
+        crossings: u64,
+        /// The bound.
+        limit: u64,
+    },
     /// The file defines no class.
     #[error("the strokes file defines no class")]
     NoClasses,
@@ -163,7 +181,7 @@ impl StrokesError {
     pub fn with_path(self, path: impl Into<PathBuf>) -> StrokesError {
         match self {
             // These already name their path.
-            StrokesError::Io { .. } | StrokesError::WithPath { .. } => self,
+            StrokesError::Read(_) | StrokesError::Io { .. } | StrokesError::WithPath { .. } => self,
             other => StrokesError::WithPath { path: path.into(), source: Box::new(other) },
         }
     }

@@ -10,14 +10,16 @@
 //! the other and it has at most [`NESTED_SIZE_RATIO`] of the other's voxels, so two loops of
 //! about one size that overlap where a finger leaked over a shared border are not nested, and
 //! their common voxels stay contested (dropped from both, `super::training`). Only files a hand
-//! draws are compared: in one with more than [`MAX_LOOPS_ON_A_SLICE`] loops on a slice every
-//! shared voxel stays contested, so a crowded file cannot cost the square of its loops.
+//! draws are compared: in one with more than [`MAX_LOOPS_ON_A_SLICE`] loops on a slice, or whose
+//! loops cover more than [`MAX_COMPARED_VOXELS`], every shared voxel stays contested, so a
+//! crowded file cannot cost the square of its loops nor hold all their voxels at once.
 //!
 //! Never: reads files, or looks at the volume's values; loops become voxels through
 //! [`super::Lasso::selected_voxels`], as for the training set.
 
 use super::StrokesFile;
-use crate::slices::Axis;
+use super::lasso::bounding_pixels;
+use crate::slices::{Axis, SliceGeometry};
 
 /// A loop is nested in another when at least this share of its voxels lies in the other: a
 /// finger's inner loop drawn close to the outer one's edge may cross it for a voxel or two.
@@ -31,6 +33,11 @@ pub const NESTED_SIZE_RATIO: f64 = 0.5;
 /// on a slice (a script's, or a hostile one) would cost their number squared, and its shared
 /// voxels all stay contested.
 pub const MAX_LOOPS_ON_A_SLICE: usize = 64;
+
+/// The voxels of all loops held at once while comparing them, at most (their bounding boxes
+/// counted): 32 Mi voxels, 256 MiB of indices. A file whose loops cover more leaves every
+/// shared voxel contested, as a crowded slice does.
+pub const MAX_COMPARED_VOXELS: u64 = 1 << 25;
 
 /// One drawn loop: its class (position in the strokes file), slice and voxels.
 struct DrawnLoop {
@@ -60,6 +67,21 @@ pub(super) fn inner_classes(file: &StrokesFile, dims: [usize; 3], contested: &[u
     if let Some(crowded) = planes.chunk_by(|a, b| a == b).map(<[_]>::len).find(|&count| count > MAX_LOOPS_ON_A_SLICE) {
         log::warn!(
             "{crowded} loops on one slice: more than {MAX_LOOPS_ON_A_SLICE}, so no loop counts as drawn inside another"
+        );
+        return vec![None; contested.len()];
+    }
+    let covered: u64 = file
+        .classes
+        .iter()
+        .flat_map(|class| class.strokes.iter())
+        .filter_map(|lasso| {
+            let geometry = SliceGeometry::new(dims, lasso.axis, lasso.slice)?;
+            Some(bounding_pixels(&lasso.points, geometry.width, geometry.height))
+        })
+        .fold(0u64, u64::saturating_add);
+    if covered > MAX_COMPARED_VOXELS {
+        log::warn!(
+            "the loops cover {covered} voxels: more than {MAX_COMPARED_VOXELS}, so no loop counts as drawn inside another"
         );
         return vec![None; contested.len()];
     }

@@ -1,6 +1,10 @@
 //! Training voxels per class from a strokes file, and a stratified cap on their number.
 //!
-//! Within a class a voxel selected by several strokes counts once, for the first of them.
+//! Within a class a voxel selected by several strokes counts once, for the first of them; a
+//! stroke that repeats an earlier one exactly is not rasterised again, and loops on one slice
+//! are merged run by run, so many copies of a loop cost nothing and many overlapping loops
+//! cost their runs, not their voxels. A file whose loops would cross more than
+//! [`MAX_ROW_CROSSINGS`] slice rows is refused before any is rasterised.
 //! A voxel selected by two or more *classes* belongs to the one whose loop was drawn inside
 //! the others' loops on its slice (a nucleus circled inside its cell: `super::nesting`).
 //! Otherwise it is contested: it is dropped from all of them (counted in
@@ -8,9 +12,13 @@
 //! teaches the classifier nothing and would make its classes overlap. Neither rule depends on
 //! the order of the classes.
 
+use super::lasso::{polygon_rows, row_crossings};
 use super::nesting;
-use super::{StrokesError, StrokesFile};
+use super::{Lasso, StrokesError, StrokesFile};
 use crate::rng::{SplitMix64, hash64};
+use crate::slices::SliceGeometry;
+use std::collections::HashMap;
+use std::hash::{Hash, Hasher};
 
 /// How a class's share of the training cap follows its size ([`TrainingSet::capped`]): a class
 /// drawn at a sixteenth of the largest one's voxels keeps up to half as many. The SN-SVM weighs
@@ -23,6 +31,13 @@ use crate::rng::{SplitMix64, hash64};
 /// `scripts/heldout.py` among 0, 1/5, 1/4, 1/3, 1/2 and 1 (benches/README.md); the accuracy
 /// harness's lassos stay under the cap and do not tell them apart.
 pub const CAP_SIZE_EXPONENT: f64 = 0.25;
+
+/// The (edge, row) crossings a strokes file's distinct lassos may cost to rasterise
+/// ([`super::lasso::row_crossings`]). A hand-drawn loop crosses about twice as many rows as it
+/// is tall, so a thousand loops across a 2048-row slice stay far below; a loop of a million
+/// points that zig-zags across every row of a 512-row slice (5 x 10^8) is refused at once
+/// instead of sorting its crossings for minutes. At the bound, rasterising takes about a second.
+pub const MAX_ROW_CROSSINGS: u64 = 1 << 26;
 
 /// The training voxels of one class.
 #[derive(Clone, Debug, PartialEq)]
@@ -81,19 +96,14 @@ impl TrainingSet {
     /// first other class that selects one of them.
     fn build(file: &StrokesFile, dims: [usize; 3]) -> Result<(TrainingSet, Vec<Option<usize>>), StrokesError> {
         file.check_for_volume(dims)?;
+        let distinct: Vec<Vec<usize>> = file.classes.iter().map(|class| distinct_strokes(&class.strokes)).collect();
+        check_row_crossings(file, &distinct, dims)?;
         let mut classes: Vec<ClassSamples> = file
             .classes
             .iter()
-            .map(|class| {
-                let mut tagged: Vec<(usize, u32)> = Vec::new();
-                for (stroke, lasso) in class.strokes.iter().enumerate() {
-                    tagged.extend(lasso.selected_voxels(dims).into_iter().map(|v| (v, stroke as u32)));
-                }
-                // Sorting by (voxel, stroke) and keeping the first of each voxel gives it to
-                // its first stroke.
-                tagged.sort_unstable();
-                tagged.dedup_by_key(|&mut (voxel, _)| voxel);
-                let (voxels, stroke_of_voxel) = tagged.into_iter().unzip();
+            .zip(&distinct)
+            .map(|(class, distinct)| {
+                let (voxels, stroke_of_voxel) = class_voxels(&class.strokes, distinct, dims).into_iter().unzip();
                 ClassSamples {
                     name: class.name.clone(),
                     voxels,
@@ -263,14 +273,13 @@ impl ClassSamples {
         let quotas = largest_remainder_quotas(&self.stroke_voxel_counts, max_per_class);
         let mut rng = SplitMix64::new(seed);
         let mut kept: Vec<(usize, u32)> = Vec::with_capacity(max_per_class);
-        for (stroke, &quota) in quotas.iter().enumerate() {
-            let mut members: Vec<usize> = self
-                .voxels
-                .iter()
-                .zip(&self.stroke_of_voxel)
-                .filter(|&(_, &s)| s as usize == stroke)
-                .map(|(&voxel, _)| voxel)
-                .collect();
+        // Each stroke's voxels in one pass (one pass per stroke cost strokes x voxels: minutes
+        // for a file of 20,000 loops).
+        let mut by_stroke: Vec<Vec<usize>> = vec![Vec::new(); quotas.len()];
+        for (&voxel, &stroke) in self.voxels.iter().zip(&self.stroke_of_voxel) {
+            by_stroke[stroke as usize].push(voxel);
+        }
+        for (stroke, (&quota, mut members)) in quotas.iter().zip(by_stroke).enumerate() {
             rng.partial_shuffle(&mut members, quota);
             kept.extend(members[..quota].iter().map(|&voxel| (voxel, stroke as u32)));
         }
@@ -306,6 +315,111 @@ fn largest_remainder_quotas(counts: &[usize], target: usize) -> Vec<usize> {
         quotas[stroke] += 1;
     }
     quotas
+}
+
+/// The positions of `strokes` that are not exact repeats of an earlier stroke (same axis,
+/// slice and points), in order: a repeat selects nothing its first copy did not, so it costs
+/// nothing.
+fn distinct_strokes(strokes: &[Lasso]) -> Vec<usize> {
+    let key = |lasso: &Lasso| {
+        let mut hasher = std::collections::hash_map::DefaultHasher::new();
+        (lasso.axis.position(), lasso.slice).hash(&mut hasher);
+        for point in &lasso.points {
+            (point[0].to_bits(), point[1].to_bits()).hash(&mut hasher);
+        }
+        hasher.finish()
+    };
+    let same = |a: &Lasso, b: &Lasso| {
+        a.axis == b.axis
+            && a.slice == b.slice
+            && a.points.len() == b.points.len()
+            && a.points
+                .iter()
+                .zip(&b.points)
+                .all(|(p, q)| p[0].to_bits() == q[0].to_bits() && p[1].to_bits() == q[1].to_bits())
+    };
+    let mut seen: HashMap<u64, Vec<usize>> = HashMap::new();
+    let mut distinct = Vec::new();
+    for (position, lasso) in strokes.iter().enumerate() {
+        let earlier = seen.entry(key(lasso)).or_default();
+        if !earlier.iter().any(|&k| same(&strokes[k], lasso)) {
+            earlier.push(position);
+            distinct.push(position);
+        }
+    }
+    distinct
+}
+
+/// Refuses a file whose distinct lassos would cost more than [`MAX_ROW_CROSSINGS`] to
+/// rasterise, naming the stroke that passes the bound.
+fn check_row_crossings(file: &StrokesFile, distinct: &[Vec<usize>], dims: [usize; 3]) -> Result<(), StrokesError> {
+    let mut crossings = 0u64;
+    for (class, distinct) in file.classes.iter().zip(distinct) {
+        for &stroke in distinct {
+            let lasso = &class.strokes[stroke];
+            let Some(geometry) = SliceGeometry::new(dims, lasso.axis, lasso.slice) else { continue };
+            crossings = crossings.saturating_add(row_crossings(&lasso.points, geometry.height));
+            if crossings > MAX_ROW_CROSSINGS {
+                return Err(StrokesError::TooManyCrossings {
+                    class: class.name.clone(),
+                    stroke,
+                    crossings,
+                    limit: MAX_ROW_CROSSINGS,
+                });
+            }
+        }
+    }
+    Ok(())
+}
+
+/// The voxels the strokes at positions `distinct` select, each once with the first stroke that
+/// selects it, sorted by voxel. Loops on one slice are merged run by run (a run already taken
+/// costs a lookup, not its length), so many overlapping loops cost their runs, and the memory
+/// is the voxels selected.
+fn class_voxels(strokes: &[Lasso], distinct: &[usize], dims: [usize; 3]) -> Vec<(usize, u32)> {
+    let mut by_plane = distinct.to_vec();
+    by_plane.sort_by_key(|&stroke| (strokes[stroke].axis.position(), strokes[stroke].slice, stroke));
+    let mut tagged: Vec<(usize, u32)> = Vec::new();
+    for plane in by_plane.chunk_by(|&a, &b| (strokes[a].axis, strokes[a].slice) == (strokes[b].axis, strokes[b].slice))
+    {
+        let first = &strokes[plane[0]];
+        let Some(geometry) = SliceGeometry::new(dims, first.axis, first.slice) else { continue };
+        // Per row, the runs taken so far: sorted, disjoint, not touching.
+        let mut taken: HashMap<usize, Vec<(usize, usize)>> = HashMap::new();
+        for &stroke in plane {
+            polygon_rows(&strokes[stroke].points, geometry.width, geometry.height, |j, start, end| {
+                take_run(taken.entry(j).or_default(), start, end, |from, to| {
+                    tagged.extend(geometry.row_indices(j, from, to).map(|voxel| (voxel, stroke as u32)));
+                });
+            });
+        }
+    }
+    // A voxel on slices of two axes: sorting by (voxel, stroke) and keeping the first of each
+    // voxel gives it to its first stroke.
+    tagged.sort_unstable();
+    tagged.dedup_by_key(|&mut (voxel, _)| voxel);
+    tagged
+}
+
+/// Adds the run `start..end` to `taken` (sorted, disjoint, not touching runs), calling `new`
+/// with each part of it that was not taken before, left to right.
+fn take_run(taken: &mut Vec<(usize, usize)>, start: usize, end: usize, mut new: impl FnMut(usize, usize)) {
+    let first = taken.partition_point(|&(_, taken_end)| taken_end < start);
+    let (mut cursor, mut merged) = (start, (start, end));
+    let mut last = first;
+    while last < taken.len() && taken[last].0 <= end {
+        let (taken_start, taken_end) = taken[last];
+        if taken_start > cursor {
+            new(cursor, taken_start);
+        }
+        cursor = cursor.max(taken_end);
+        merged = (merged.0.min(taken_start), merged.1.max(taken_end));
+        last += 1;
+    }
+    if cursor < end {
+        new(cursor, end);
+    }
+    taken.splice(first..last, [merged]);
 }
 
 /// Voxels that appear in more than one class, sorted.

@@ -194,3 +194,93 @@ fn largest_remainder_quotas_add_up_to_the_target() {
         assert_eq!(quotas.iter().sum::<usize>(), target);
     }
 }
+
+/// Every class's voxels and strokes as the plain rule gives them: each stroke's voxels, the
+/// first stroke of each voxel kept (how the set was built before loops were merged by runs).
+fn first_stroke_of_each_voxel(strokes: &[Lasso]) -> Vec<(usize, u32)> {
+    let mut tagged: Vec<(usize, u32)> = Vec::new();
+    for (stroke, lasso) in strokes.iter().enumerate() {
+        tagged.extend(lasso.selected_voxels(DIMS).into_iter().map(|voxel| (voxel, stroke as u32)));
+    }
+    tagged.sort_unstable();
+    tagged.dedup_by_key(|&mut (voxel, _)| voxel);
+    tagged
+}
+
+#[test]
+fn overlapping_and_repeated_loops_give_each_voxel_to_its_first_stroke() {
+    let mut rng = crate::rng::SplitMix64::new(5);
+    for _ in 0..200 {
+        let count = 1 + (rng.next_u64() % 6) as usize;
+        let strokes: Vec<Lasso> = (0..count)
+            .map(|_| {
+                let axis = Axis::ALL[(rng.next_u64() % 3) as usize];
+                let slice = (rng.next_u64() % 3) as usize;
+                let points =
+                    (0..3 + rng.next_u64() % 5).map(|_| [rng.next_f64() * 44.0 - 2.0, rng.next_f64() * 34.0 - 2.0]);
+                Lasso { axis, slice, points: points.collect() }
+            })
+            .collect();
+        // Repeat some strokes exactly, as a file of copies does.
+        let mut with_copies = strokes.clone();
+        with_copies.insert(0, strokes[count - 1].clone());
+        with_copies.push(strokes[0].clone());
+        for strokes in [strokes, with_copies] {
+            let file = StrokesFile { classes: vec![class("a", strokes.clone())] };
+            let set = TrainingSet::from_strokes_keeping_empty(&file, DIMS).unwrap();
+            let expected = first_stroke_of_each_voxel(&strokes);
+            let (voxels, stroke_of_voxel): (Vec<usize>, Vec<u32>) = expected.into_iter().unzip();
+            assert_eq!(set.classes[0].voxels, voxels);
+            assert_eq!(set.classes[0].stroke_of_voxel, stroke_of_voxel);
+        }
+    }
+}
+
+#[test]
+fn twenty_thousand_copies_of_a_loop_cost_what_one_does() {
+    // A full-slice loop on a 512 x 512 slice, 20,000 times: the copies are not rasterised.
+    let dims = [512, 512, 2];
+    let full =
+        Lasso { axis: Axis::Z, slice: 1, points: vec![[-1.0, -1.0], [600.0, -1.0], [600.0, 600.0], [-1.0, 600.0]] };
+    let file = StrokesFile { classes: vec![class("all", vec![full; 20_000])] };
+    let started = std::time::Instant::now();
+    let set = TrainingSet::from_strokes(&file, dims).unwrap();
+    assert_eq!(set.classes[0].voxels.len(), 512 * 512);
+    assert_eq!(set.classes[0].stroke_voxel_counts[0], 512 * 512);
+    assert!(set.classes[0].stroke_voxel_counts[1..].iter().all(|&count| count == 0));
+    // The cap splits its quota over the 20,000 strokes in one pass over the voxels.
+    let capped = set.capped(256, 1);
+    assert_eq!((capped.classes[0].voxels.len(), capped.classes[0].stroke_voxel_counts[0]), (256, 256));
+    // Shifted copies are no exact repeats: merged run by run, they cost their rows.
+    let shifted: Vec<Lasso> = (0..2_000)
+        .map(|k| {
+            let d = k as f64 * 1e-3;
+            Lasso {
+                axis: Axis::Z,
+                slice: 1,
+                points: vec![[-1.0 - d, -1.0], [600.0, -1.0], [600.0, 600.0], [-1.0, 600.0]],
+            }
+        })
+        .collect();
+    let set = TrainingSet::from_strokes(&StrokesFile { classes: vec![class("all", shifted)] }, dims).unwrap();
+    assert_eq!(set.classes[0].voxels.len(), 512 * 512);
+    assert!(started.elapsed().as_secs_f64() < 10.0, "{:?}", started.elapsed());
+}
+
+#[test]
+fn a_loop_zig_zagging_across_every_row_is_refused_before_it_is_rasterised() {
+    // 10^6 points, every edge from row 0 to row 511: 5 x 10^8 crossings.
+    let dims = [512, 512, 1];
+    let points: Vec<[f64; 2]> =
+        (0..1_000_000).map(|k| [k as f64 * 512.0 / 1e6, if k % 2 == 0 { -0.5 } else { 511.5 }]).collect();
+    let zig_zag = Lasso { axis: Axis::Z, slice: 0, points };
+    let file = StrokesFile { classes: vec![class("zig", vec![zig_zag]), class("zag", vec![rectangle(0, 1, 1, 3, 3)])] };
+    let started = std::time::Instant::now();
+    let error = TrainingSet::from_strokes(&file, dims).unwrap_err();
+    assert!(
+        matches!(&error, StrokesError::TooManyCrossings { class, stroke: 0, crossings, limit: MAX_ROW_CROSSINGS }
+            if class == "zig" && *crossings > MAX_ROW_CROSSINGS),
+        "{error}"
+    );
+    assert!(started.elapsed().as_secs_f64() < 2.0, "{:?}", started.elapsed());
+}

@@ -55,10 +55,9 @@ pub enum TouchError {
     Incomplete { format: &'static str, problem: String },
     #[error("a recording may have at most {limit} events")]
     TooManyEvents { limit: usize },
-    #[error("recording is {size_bytes} bytes, more than the {limit_bytes} allowed: {}", path.display())]
-    TooLarge { size_bytes: u64, limit_bytes: u64, path: PathBuf },
-    #[error("cannot read {}: {source}", path.display())]
-    Read { source: std::io::Error, path: PathBuf },
+    /// The recording is not a regular file, too large, or cannot be read.
+    #[error(transparent)]
+    Read(#[from] crate::input_file::InputFileError),
     #[error("cannot open input device {}: {source}", path.display())]
     OpenDevice { source: std::io::Error, path: PathBuf },
     #[error("not a touchscreen (no ABS_MT_POSITION_X/Y, nor ABS_X/Y with BTN_TOUCH or BTN_LEFT): {}", path.display())]
@@ -71,11 +70,7 @@ pub enum TouchError {
 
 /// Reads a recording, telling the format by its first line: `volasso-events/1` or evemu's.
 pub fn read_recording(path: &std::path::Path) -> Result<Recording, TouchError> {
-    let size_bytes = std::fs::metadata(path).map_err(|source| TouchError::Read { source, path: path.into() })?.len();
-    if size_bytes > format::MAX_FILE_BYTES {
-        return Err(TouchError::TooLarge { size_bytes, limit_bytes: format::MAX_FILE_BYTES, path: path.into() });
-    }
-    let bytes = std::fs::read(path).map_err(|source| TouchError::Read { source, path: path.into() })?;
+    let bytes = crate::input_file::read_bytes(path, "event recording", format::MAX_FILE_BYTES)?;
     let text = String::from_utf8_lossy(&bytes);
     if text.trim_start().starts_with(format::MAGIC) { format::parse(&text) } else { evemu::parse(&text) }
 }
