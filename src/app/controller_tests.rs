@@ -305,15 +305,12 @@ fn values_near_the_float_limit_fail_with_a_banner_that_says_they_overflow() {
 }
 
 #[test]
-fn a_spacing_of_ten_to_the_minus_thirty_fails_with_a_banner_that_says_it_overflows() {
-    let mut controller = Controller::new(None);
-    let volume = loaded([1e-30; 3], two_materials);
-    let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
-    assert_failed(
-        &controller,
-        &changed,
-        &["is not a finite number", "(value 94.22) is not", "1e-30 x 1e-30 x 1e-30 mm"],
-    );
+fn a_spacing_of_ten_to_the_minus_thirty_never_reaches_the_classifier() {
+    // Its features would overflow single precision; the volume is refused when it opens (the
+    // chooser's "Cannot open" card), so no classification of it can hang.
+    let values = vec![0f32; 32 * 32 * 16];
+    let refused = crate::volume::Volume::from_f32([32, 32, 16], [1e-30; 3], &values, std::path::Path::new("t.nrrd"));
+    assert!(refused.is_err());
 }
 
 #[test]
