@@ -233,6 +233,31 @@ fn two_compressed_series_in_one_association_are_two_volumes() {
     }
 }
 
+/// JPEG Extended's 12-bit form (`dcmcjpeg +ee`), as CT and MR use it: negotiated, stored and
+/// read back to the series' size.
+#[test]
+fn a_12_bit_lossy_jpeg_series_is_accepted_and_stored() {
+    if !dcmtk_available() {
+        return;
+    }
+    let scp = Scp::start(&[]);
+    let compressed = tempfile::tempdir().unwrap();
+    let mut files = Vec::new();
+    for file in series_files("philips_phantom_5mm") {
+        let copy = compressed.path().join(file.file_name().unwrap());
+        let made = Command::new("dcmcjpeg").arg("+ee").arg(&file).arg(&copy).output().unwrap();
+        assert!(made.status.success(), "{}", String::from_utf8_lossy(&made.stderr));
+        files.push(copy);
+    }
+    // -xx proposes JPEG Extended (and the uncompressed syntaxes).
+    let store = scp.client("storescu", &["-xx"], &files);
+    assert!(store.status.success(), "storescu: {}", text(&store));
+    let report = scp.next_report();
+    assert!(report["event"] == "stored" && report["images"] == 28, "{report}");
+    let stored = scp.data_dir.join(report["name"].as_str().unwrap());
+    assert_eq!(info(&stored)["dims"], serde_json::json!([512, 512, 28]));
+}
+
 #[test]
 fn an_association_killed_midway_publishes_nothing_until_a_sender_completes_the_series() {
     if !dcmtk_available() {

@@ -129,11 +129,10 @@ pub enum ReceiveError {
 }
 
 /// The transfer syntaxes offered to senders, preferred first: the uncompressed ones, then
-/// every compressed one whose pixel data this build decodes. JPEG Extended (4.51) is left out:
-/// CT and MR use its 12-bit form, which jpeg-decoder does not decode, and a sender that is
-/// refused it sends another syntax instead.
+/// every compressed one whose pixel data this build decodes (JPEG Extended's 12-bit form, as CT
+/// and MR use it, through libjpeg-turbo).
 pub fn accepted_transfer_syntaxes() -> Vec<&'static str> {
-    const CANDIDATES: [&str; 12] = [
+    const CANDIDATES: [&str; 13] = [
         "1.2.840.10008.1.2.1",    // Explicit VR Little Endian
         "1.2.840.10008.1.2",      // Implicit VR Little Endian
         "1.2.840.10008.1.2.2",    // Explicit VR Big Endian
@@ -146,6 +145,7 @@ pub fn accepted_transfer_syntaxes() -> Vec<&'static str> {
         "1.2.840.10008.1.2.4.91", // JPEG 2000
         "1.2.840.10008.1.2.5",    // RLE Lossless
         "1.2.840.10008.1.2.4.50", // JPEG Baseline
+        "1.2.840.10008.1.2.4.51", // JPEG Extended
     ];
     CANDIDATES.into_iter().filter(|uid| crate::volume::dicom::readable_transfer_syntax(uid)).collect()
 }
