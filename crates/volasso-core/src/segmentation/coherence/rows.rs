@@ -53,7 +53,7 @@ pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], fla
 
 /// A row's flagged voxels are first cleared of unbeatable ones ([`unflag_unbeatable`]) when
 /// at least one in this many of its span is flagged: the row-wise count costs about as much
-/// as counting a few voxels label by label. Measured with `RUST_LOG=volasso::segmentation::refine=debug`
+/// as counting a few voxels label by label. Measured with `RUST_LOG=volasso_core::segmentation::refine=debug`
 /// (median filter time over `classify --repeat 21`): 1 in 8 took the Visible Male head's
 /// filter from 53.6 to 37.7 ms and the lobster's from 3.2 to 3.3 ms; 1 in 4, 16 and 32 were no
 /// better on either.
