@@ -32,12 +32,15 @@ pub mod autosave;
 mod callbacks;
 pub mod clip;
 mod controller;
+pub mod dpi;
 pub mod drawing;
+mod elements;
 pub mod gallery;
 mod guidance;
 pub mod jobs;
 pub mod library;
 mod loading;
+pub mod memory;
 mod painter;
 mod path_loops;
 pub mod pictures;
@@ -84,8 +87,8 @@ pub struct AppConfig {
     /// Open this volume at once instead of showing the start screen.
     pub initial_volume: Option<VolumeSource>,
     pub open_options: OpenOptions,
-    /// The panel's pixel density, which sizes touch targets and text (`kiosk::dpi`); `None`:
-    /// `kiosk::dpi::DEFAULT_DPI`.
+    /// The panel's pixel density, which sizes touch targets and text ([`dpi`]); `None`:
+    /// [`dpi::DEFAULT_DPI`].
     pub dpi: Option<f32>,
     /// Where USB sticks are mounted (snapshots are copied onto each one found).
     pub media_roots: Vec<PathBuf>,
@@ -309,13 +312,13 @@ impl Drop for App {
 impl App {
     /// Builds the UI on the current Slint platform. With a saved session in
     /// `config.session_dir`, its volume opens and its classes come back. Volumes decode into
-    /// at most the kiosk's memory ceiling (`kiosk::memory`) unless the options set one.
+    /// at most the kiosk's memory ceiling ([`memory`]) unless the options set one.
     pub fn new(mut config: AppConfig) -> Result<App, slint::PlatformError> {
         if config.open_options.max_decoded_bytes.is_none() {
-            config.open_options.max_decoded_bytes = crate::kiosk::memory::kiosk_memory_ceiling();
+            config.open_options.max_decoded_bytes = memory::kiosk_memory_ceiling();
         }
         let window = AppWindow::new()?;
-        window.global::<ui::Theme>().set_dpi(crate::kiosk::dpi::resolve(config.dpi, None));
+        window.global::<ui::Theme>().set_dpi(dpi::resolve(config.dpi, None));
         let sources = library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
             Some(autosave::Restore::Session(session)) => (Some(session), String::new()),

@@ -363,9 +363,9 @@ fn parse_cap(text: &str) -> Result<usize, String> {
         .ok_or_else(|| format!("'{text}' is not a number of training voxels of at least 1"))
 }
 
-/// A pixel density for `--dpi`: a number within `kiosk::dpi::DPI_RANGE`.
+/// A pixel density for `--dpi`: a number within `app::dpi::DPI_RANGE`.
 pub(super) fn parse_dpi(text: &str) -> Result<f32, String> {
-    let range = crate::kiosk::dpi::DPI_RANGE;
+    let range = crate::app::dpi::DPI_RANGE;
     text.trim().parse::<f32>().ok().filter(|dpi| range.contains(dpi)).ok_or_else(|| {
         format!("'{text}' is not a pixel density from {} to {} dots per inch", range.start(), range.end())
     })

@@ -1,6 +1,6 @@
 //! The appliance's main loop: the app drawn by Slint's software renderer straight into a DRM
 //! display's buffers, touch from the project's evdev reader (src/touch) through the same
-//! router as the replay harness, systemd told when the UI is up and that it is alive.
+//! router as the replay harness (without depending on it), systemd told when the UI is up and that it is alive.
 //!
 //! Why this reader and not Slint's libinput path: it is the code the replay tests exercise,
 //! it computes multi-touch gestures in Rust (Slint has no public multi-touch events), and it
@@ -40,8 +40,8 @@ pub struct TouchOptions {
 pub fn run(mut config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) -> Result<(), KioskError> {
     let mut display = DrmDisplay::open(card.as_deref())?;
     let size = display.size();
-    let panel_dpi = display.physical_size_mm().and_then(|mm| super::dpi::from_physical_size(size, mm));
-    config.dpi = Some(super::dpi::resolve(config.dpi, panel_dpi));
+    let panel_dpi = display.physical_size_mm().and_then(|mm| crate::app::dpi::from_physical_size(size, mm));
+    config.dpi = Some(crate::app::dpi::resolve(config.dpi, panel_dpi));
     log::info!("panel {:?} mm, UI at {:.0} dpi", display.physical_size_mm(), config.dpi.unwrap_or_default());
     let window = KioskWindow::install(size, Clock::Real(Instant::now()))?;
     let app = App::new(config).map_err(KioskError::StartUi)?;
@@ -60,7 +60,7 @@ pub fn run(mut config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) ->
                 Ok(first) => {
                     for event in std::iter::once(first).chain(fingers.try_iter()) {
                         routed.clear();
-                        router.route(&event, &|label| super::harness::element_rect(&app, label), &mut routed);
+                        router.route(&event, &|label| app.element_rect(label), &mut routed);
                         deliver(&app, &window, &mut routed);
                     }
                 }

@@ -13,7 +13,6 @@ use crate::app::{App, AppConfig};
 use crate::touch::contacts::FingerEvent;
 use crate::touch::script::Rect;
 use crate::transfer::RgbImage;
-use i_slint_backend_testing::ElementHandle;
 use slint::Rgb8Pixel;
 use std::cell::Cell;
 use std::rc::Rc;
@@ -43,32 +42,6 @@ impl FrameTimes {
         let position = ((sorted.len() - 1) as f64 * q.clamp(0.0, 1.0)).round() as usize;
         sorted[position] * 1000.0
     }
-}
-
-/// Where the element of `app` with accessible label `label` is on screen (the first with a
-/// size), in logical pixels (the kiosk's scale factor is 1, so also screen pixels).
-pub fn element_rect(app: &App, label: &str) -> Option<Rect> {
-    ElementHandle::find_by_accessible_label(app.window(), label).find_map(|element| {
-        let (position, size) = (element.absolute_position(), element.size());
-        (size.width > 0.0 && size.height > 0.0).then_some(Rect {
-            x: position.x,
-            y: position.y,
-            width: size.width,
-            height: size.height,
-        })
-    })
-}
-
-/// The accessible value of the element of `app` with accessible label `label` (the first with
-/// a size), with where it is on screen: e.g. the letter at a slice's edge.
-pub fn element_value(app: &App, label: &str) -> Option<(Rect, String)> {
-    ElementHandle::find_by_accessible_label(app.window(), label).find_map(|element| {
-        let (position, size) = (element.absolute_position(), element.size());
-        (size.width > 0.0 && size.height > 0.0).then(|| {
-            let rect = Rect { x: position.x, y: position.y, width: size.width, height: size.height };
-            (rect, element.accessible_value().map(|value| value.to_string()).unwrap_or_default())
-        })
-    })
 }
 
 /// The app under a scripted hand; see the module doc.
@@ -121,12 +94,12 @@ impl Harness {
 
     /// Where the element with accessible label `label` is on screen (the first visible one).
     pub fn element_rect(&self, label: &str) -> Option<Rect> {
-        element_rect(&self.app, label)
+        self.app.element_rect(label)
     }
 
     /// The accessible value of the element with accessible label `label`, and where it is.
     pub fn element_value(&self, label: &str) -> Option<(Rect, String)> {
-        element_value(&self.app, label)
+        self.app.element_value(label)
     }
 
     /// Feeds one finger event at its time (the clock moves there first, frame by frame).
@@ -134,7 +107,7 @@ impl Harness {
         self.advance_to(Duration::from_micros(event.time_us));
         let app = &self.app;
         let mut routed = Vec::new();
-        self.router.route(event, &|label| element_rect(app, label), &mut routed);
+        self.router.route(event, &|label| app.element_rect(label), &mut routed);
         if !routed.is_empty() {
             self.app.note_input();
         }

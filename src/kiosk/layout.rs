@@ -1,6 +1,6 @@
 //! Whether a screen's controls are usable by a finger on this panel: every button and slider
 //! lies whole inside the window, none overlaps another, and each is at least a touch target
-//! (9 mm, `kiosk::dpi`) on both sides at the UI's density. Replay scripts ask for it with
+//! (9 mm, `app::dpi`) on both sides at the UI's density. Replay scripts ask for it with
 //! `expect layout 9mm` on each screen, at each panel size.
 //!
 //! What counts: the elements whose accessible role is button or slider, as the UI's

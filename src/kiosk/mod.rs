@@ -6,12 +6,10 @@
 //! targets (dpi.rs), the memory one volume may take in the
 //! kiosk (memory.rs), and what all of them fail with (error.rs).
 
-pub mod dpi;
 pub mod drm_loop;
 pub mod error;
 pub mod harness;
 pub mod layout;
-pub mod memory;
 pub mod platform;
 pub mod replay;
 pub mod router;

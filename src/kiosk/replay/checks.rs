@@ -24,8 +24,9 @@
 //!
 //! Never: touches or waits, other than `view-steady`'s wait for the 3-D view.
 
+use crate::app::dpi;
 use crate::kiosk::harness::Harness;
-use crate::kiosk::{dpi, layout};
+use crate::kiosk::layout;
 use crate::touch::script::{Rect, expectations};
 use crate::transfer::RgbImage;
 use std::collections::HashMap;

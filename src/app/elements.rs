@@ -1,0 +1,37 @@
+//! Where the app's elements are on screen, found by their accessible labels (the names touch
+//! scripts tap): the DRM loop routes gestures to the 3-D view and the slices by these
+//! rectangles, and the replay harness aims its taps with them.
+//!
+//! Never: changes the UI; it reads where things are.
+
+use super::App;
+use crate::touch::script::Rect;
+use i_slint_backend_testing::ElementHandle;
+
+impl App {
+    /// Where the element with accessible label `label` is on screen (the first with a
+    /// size), in logical pixels (the kiosk's scale factor is 1, so also screen pixels).
+    pub fn element_rect(&self, label: &str) -> Option<Rect> {
+        ElementHandle::find_by_accessible_label(self.window(), label).find_map(|element| {
+            let (position, size) = (element.absolute_position(), element.size());
+            (size.width > 0.0 && size.height > 0.0).then_some(Rect {
+                x: position.x,
+                y: position.y,
+                width: size.width,
+                height: size.height,
+            })
+        })
+    }
+
+    /// The accessible value of the element with accessible label `label` (the first with
+    /// a size), with where it is on screen: e.g. the letter at a slice's edge.
+    pub fn element_value(&self, label: &str) -> Option<(Rect, String)> {
+        ElementHandle::find_by_accessible_label(self.window(), label).find_map(|element| {
+            let (position, size) = (element.absolute_position(), element.size());
+            (size.width > 0.0 && size.height > 0.0).then(|| {
+                let rect = Rect { x: position.x, y: position.y, width: size.width, height: size.height };
+                (rect, element.accessible_value().map(|value| value.to_string()).unwrap_or_default())
+            })
+        })
+    }
+}
