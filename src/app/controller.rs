@@ -80,11 +80,18 @@ pub struct Controller {
 pub const MAX_OPACITY_PERCENT: i32 = 200;
 
 impl Controller {
+    /// A controller whose 3-D view renders on the GPU, on its render thread.
     pub fn new(session_dir: Option<PathBuf>) -> Controller {
+        Controller::with_renderer(session_dir, ViewRenderer::new())
+    }
+
+    /// A controller that sends the 3-D view's requests to `renderer` (tests pass
+    /// [`ViewRenderer::without_gpu`]).
+    pub fn with_renderer(session_dir: Option<PathBuf>, renderer: ViewRenderer) -> Controller {
         Controller {
             work: None,
             jobs: ClassificationJobs::default(),
-            renderer: ViewRenderer::new(),
+            renderer,
             saver: AutosaveWriter::new(),
             chosen_template: None,
             session_dir,

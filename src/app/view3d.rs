@@ -95,6 +95,9 @@ pub struct ViewRenderer {
     /// the GPU driver can hang there (lavapipe registering LLVM passes while the exit handlers
     /// destroy LLVM's registry spun forever in a replay test).
     thread: Option<std::thread::JoinHandle<()>>,
+    /// Without a render thread ([`ViewRenderer::without_gpu`]): the requests wait here unread
+    /// (held so that sending them succeeds).
+    _unread: Option<Receiver<Request>>,
 }
 
 impl Default for ViewRenderer {
@@ -112,7 +115,33 @@ impl ViewRenderer {
             .name("render".into())
             .spawn(move || render_thread(request_receiver, reply_sender));
         let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
-        ViewRenderer { requests, replies, next_id: 0, awaited: None, label_uploads: 0, settled: true, thread }
+        ViewRenderer {
+            requests,
+            replies,
+            next_id: 0,
+            awaited: None,
+            label_uploads: 0,
+            settled: true,
+            thread,
+            _unread: None,
+        }
+    }
+
+    /// A renderer with no thread and no GPU: requests are taken and counted, no picture ever
+    /// comes back. For the logic's tests, which check what is sent, not what is drawn.
+    pub fn without_gpu() -> ViewRenderer {
+        let (requests, unread) = channel();
+        let replies = channel().1;
+        ViewRenderer {
+            requests,
+            replies,
+            next_id: 0,
+            awaited: None,
+            label_uploads: 0,
+            settled: true,
+            thread: None,
+            _unread: Some(unread),
+        }
     }
 
     /// Ends the render thread and waits for it (at most the frame it is drawing). Later
