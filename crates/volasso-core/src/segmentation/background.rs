@@ -18,7 +18,10 @@
 //!    distance below the median) is dropped, inside the face air or not. Dark voxels that
 //!    continue the class's own distribution stay (a scan cropped inside the body, where a dark
 //!    tissue touches the faces; a lasso in the lungs).
-//! 3. When air is a class, every voxel is classified. Otherwise the threshold is the dark
+//! 3. When air is a class, the air around the body (the dark region joined to the faces, up
+//!    to midway between the air's drawn intensities and the darkest class brighter than it) is
+//!    that class by construction, and the classifier never gives it to a voxel inside the body:
+//!    a windowed chest's lungs, as dark as the air, stay the lungs. Otherwise the threshold is the dark
 //!    level, lowered to the darkest kept voxel inside the body, so that no such training
 //!    voxel falls into the background (a lasso in the lungs or the sinuses); the face air
 //!    stays background all the same. Kept voxels in the face air (a dim edge that continues a
@@ -98,6 +101,10 @@ pub struct BackgroundPlan {
     pub dropped_per_class: Vec<usize>,
     /// A class was drawn in the air around the body.
     pub air_is_a_class: bool,
+    /// That class's position: the air around the body (`face_air`) is that class by
+    /// construction, and no voxel inside the body is (the lungs of a chest are not the air
+    /// however dark a window makes them).
+    pub air_class: Option<usize>,
 }
 
 /// Applies `background` to `training` on `volume`: the training set without the voxels the
@@ -141,10 +148,11 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     let face_air = |voxel: usize| dark_in_face.binary_search(&(voxel, true)).is_ok();
     let face_flags: Vec<Vec<bool>> =
         training.classes.iter().map(|class| class.voxels.iter().map(|&v| face_air(v)).collect()).collect();
-    let air_is_a_class = face_flags.iter().any(|flags| {
+    let air_class = face_flags.iter().position(|flags| {
         let inside = flags.iter().filter(|&&f| f).count();
         !flags.is_empty() && inside as f64 >= AIR_CLASS_SHARE * flags.len() as f64
     });
+    let air_is_a_class = air_class.is_some();
 
     let mut classes = Vec::with_capacity(training.classes.len());
     let mut dropped_per_class = Vec::with_capacity(training.classes.len());
@@ -176,7 +184,28 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     }
     let cleaned = TrainingSet { classes, contested_voxels: training.contested_voxels };
     let plan = if air_is_a_class {
-        BackgroundPlan { threshold: None, face_air: None, dropped_per_class, air_is_a_class }
+        // Every voxel is classified; the air around the body is the air class's, up to midway
+        // between the air's drawn intensities and the darkest other class's brighter than it (a
+        // windowed CT's fat under the skin lies below the dark level, joined to the air, and is
+        // not air).
+        let median = |values: &[f64]| {
+            let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+            sorted.sort_by(f64::total_cmp);
+            sorted.get(sorted.len() / 2).copied()
+        };
+        let air_median = air_class.and_then(|position| median(&values[position]));
+        // Classes as dark as the air (a windowed CT's lungs) are inside the body, not its edge.
+        let darkest_other = (0..values.len())
+            .filter(|&position| Some(position) != air_class)
+            .filter_map(|position| median(&values[position]))
+            .filter(|&other| air_median.is_some_and(|air| other > air))
+            .fold(f64::INFINITY, f64::min);
+        let air_level = match air_median {
+            Some(air) if darkest_other.is_finite() && air < darkest_other => level.min((air + darkest_other) / 2.0),
+            _ => level,
+        };
+        let face_air = Some(Arc::new(FaceRegion::find(volume, air_level)));
+        BackgroundPlan { threshold: None, face_air, dropped_per_class, air_is_a_class, air_class }
     } else {
         // A class reaches into the dark inside the body: everything is classified down to its
         // darkest voxel, except the face air (below its own level, lowered to a class's dim
@@ -185,7 +214,7 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
         let threshold = lowest_kept.min(face_level);
         let face_air = (threshold < face_level).then(|| Arc::new(FaceRegion::find(volume, face_level)));
         log::debug!("background: dark level {level}, face air below {face_level}, threshold {threshold}");
-        BackgroundPlan { threshold: Some(threshold), face_air, dropped_per_class, air_is_a_class }
+        BackgroundPlan { threshold: Some(threshold), face_air, dropped_per_class, air_is_a_class, air_class: None }
     };
     (cleaned, plan)
 }

@@ -227,8 +227,11 @@ pub struct TrainingSummary {
     pub contested_voxels: usize,
     /// Voxels below this value are background; `None` when every voxel is classified.
     pub background_threshold: Option<f64>,
-    /// Voxels of this region (the air joined to the volume's faces) are background too.
+    /// Voxels of this region (the air joined to the volume's faces) get `region_label`
+    /// without being classified.
     pub background_region: Option<std::sync::Arc<face_air::FaceRegion>>,
+    /// The label of `background_region`: 0 (background), or the class drawn in the air.
+    pub region_label: u8,
     /// Training voxels the background rule dropped per class (air a lasso took in).
     pub dropped_as_air_per_class: Vec<usize>,
     /// A class was drawn in the air around the body, so the air is classified.
@@ -382,7 +385,12 @@ pub fn train(
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
             // The drawn classes are the trained ones, in order (the background rule and the
             // cap keep every class); `PairwiseSnSvm::train` opens a gate that does not fit.
-            let gate = drawn.gate();
+            // A class drawn in the air is the air around the body by construction (the
+            // region's label), never a voxel the classifier labels.
+            let gate = match background.air_class {
+                Some(position) => drawn.gate().without(position),
+                None => drawn.gate(),
+            };
             let model = pairwise::PairwiseSnSvm::train(
                 &raw_features,
                 &scaling,
@@ -427,6 +435,7 @@ pub fn train(
         contested_voxels: capped.contested_voxels,
         background_threshold: background.threshold,
         background_region: background.face_air,
+        region_label: background.air_class.map_or(0, |position| position as u8 + 1),
         dropped_as_air_per_class: background.dropped_per_class,
         air_is_a_class: background.air_is_a_class,
         features_seconds,

@@ -202,12 +202,16 @@ fn label_volume_in(
     );
     let mut classified = classified;
     if let Some(region) = &segmenter.summary.background_region {
-        // Dark voxels inside the body are classified; the air joined to the faces is not.
+        // Dark voxels inside the body are classified; the air joined to the faces is not: it is
+        // background, or the class drawn in the air.
+        let region_label = segmenter.summary.region_label;
         for index in region.voxels.iter() {
-            if labels[index] != 0 {
-                labels[index] = 0;
-                classified -= 1;
+            match (labels[index] != 0, region_label != 0) {
+                (true, false) => classified -= 1,
+                (false, true) => classified += 1,
+                _ => {}
             }
+            labels[index] = region_label;
         }
     }
     if segmenter.coherence == super::Coherence::Majority {
@@ -221,6 +225,12 @@ fn label_volume_in(
         let neighbourhood = super::coherence::Neighbourhood::for_spacing(volume.spacing_mm);
         let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands), neighbourhood);
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
+    }
+    if let Some(region) = segmenter.summary.background_region.as_ref().filter(|_| segmenter.summary.region_label != 0) {
+        // The air class is the air around the body whatever its neighbours' votes.
+        for index in region.voxels.iter() {
+            labels[index] = segmenter.summary.region_label;
+        }
     }
     for &(voxel, class) in &segmenter.lassoed {
         if let Some(label) = labels.get_mut(voxel) {
@@ -251,7 +261,7 @@ fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) ->
     });
     if let Some(region) = &segmenter.summary.background_region {
         for index in region.voxels.iter() {
-            labels[index] = 0;
+            labels[index] = segmenter.summary.region_label;
         }
     }
     let classified = labels.iter().filter(|&&label| label != 0).count();

@@ -164,6 +164,17 @@ impl IntensityGate {
         IntensityGate { bands, table, classes }
     }
 
+    /// This gate with class `position` allowed nowhere (its band holds no intensity, and no
+    /// voxel between or beyond bands goes to it); an open gate stays open.
+    pub fn without(&self, position: usize) -> IntensityGate {
+        if self.bands.is_empty() || position >= self.bands.len() {
+            return self.clone();
+        }
+        let mut bands = self.bands.clone();
+        bands[position] = Band { low: f32::INFINITY, high: f32::NEG_INFINITY };
+        IntensityGate::from_bands(bands)
+    }
+
     /// Number of classes.
     pub fn classes(&self) -> usize {
         self.classes
