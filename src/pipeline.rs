@@ -190,6 +190,9 @@ pub struct RunControl<'a> {
     pub progress: &'a (dyn Fn(f32) + Sync),
     /// Set to stop the run.
     pub cancel: &'a AtomicBool,
+    /// Called once with a first, coarse label volume before the exact one is computed
+    /// ([`segmentation::label_volume_with_preview`]): what a screen shows while it waits.
+    pub preview: Option<&'a (dyn Fn(&LabelVolume) + Sync)>,
 }
 
 static NEVER_CANCELLED: AtomicBool = AtomicBool::new(false);
@@ -197,7 +200,7 @@ static NEVER_CANCELLED: AtomicBool = AtomicBool::new(false);
 impl RunControl<'static> {
     /// No progress reports, never cancelled: a batch run.
     pub fn batch() -> RunControl<'static> {
-        RunControl { progress: &|_| {}, cancel: &NEVER_CANCELLED }
+        RunControl { progress: &|_| {}, cancel: &NEVER_CANCELLED, preview: None }
     }
 }
 
@@ -211,7 +214,17 @@ pub fn classify_training(
     control: RunControl<'_>,
 ) -> Result<(Segmenter, LabelVolume), SegmentationError> {
     let segmenter = segmentation::train(volume, training, options)?;
-    let labels = segmentation::label_volume(volume, &segmenter, options.refinement, control.progress, control.cancel)?;
+    let labels = match control.preview {
+        Some(preview) => segmentation::label_volume_with_preview(
+            volume,
+            &segmenter,
+            options.refinement,
+            control.progress,
+            control.cancel,
+            preview,
+        )?,
+        None => segmentation::label_volume(volume, &segmenter, options.refinement, control.progress, control.cancel)?,
+    };
     Ok((segmenter, labels))
 }
 

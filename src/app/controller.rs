@@ -183,20 +183,20 @@ impl Controller {
     /// Collects a finished classification; never blocks.
     pub fn poll(&mut self) -> Changed {
         match self.jobs.poll() {
+            Some(JobOutcome::Preview(classified)) => {
+                let status = Some(format!("First look in {:.2} s; refining...", classified.seconds));
+                self.show_classified(classified, status, true)
+            }
             Some(JobOutcome::Done(classified)) => {
                 let status = Some(format!("Classified in {:.2} s", classified.seconds));
-                let Some(work) = self.work.as_mut() else { return Changed::default() };
-                work.classified = Some(classified);
-                work.failure = None;
-                let labels = work.classified.as_ref().map(|c| c.labels.clone());
-                let view = match (self.display_styles(), labels) {
-                    (Some(styles), Some(labels)) => {
-                        self.renderer.set_labels(labels, styles);
-                        true
-                    }
-                    _ => false,
+                self.show_classified(classified, status, false)
+            }
+            Some(JobOutcome::Guidance(guidance)) => {
+                let Some(classified) = self.work.as_mut().and_then(|work| work.classified.as_mut()) else {
+                    return Changed::default();
                 };
-                Changed { classes: true, view, view_cleared: false, status, failure: Failure::Cleared }
+                classified.guidance = Some(guidance);
+                Changed { classes: true, ..Changed::default() }
             }
             Some(JobOutcome::Failed(reason)) => {
                 log::warn!("classification failed: {reason}");
@@ -213,6 +213,32 @@ impl Controller {
             }
             None => Changed::default(),
         }
+    }
+
+    /// Shows a classification (a first look or the exact one): its labels in the 3-D view, the
+    /// failure banner cleared.
+    fn show_classified(
+        &mut self,
+        classified: super::jobs::Classified,
+        status: Option<String>,
+        first_look: bool,
+    ) -> Changed {
+        let Some(work) = self.work.as_mut() else { return Changed::default() };
+        let labels = classified.labels.clone();
+        work.classified = Some(classified);
+        work.failure = None;
+        let view = match self.display_styles() {
+            Some(styles) if first_look => {
+                self.renderer.set_first_look(labels, styles);
+                true
+            }
+            Some(styles) => {
+                self.renderer.set_labels(labels, styles);
+                true
+            }
+            None => false,
+        };
+        Changed { classes: true, view, view_cleared: false, status, failure: Failure::Cleared }
     }
 
     /// The idle timeout: the work and its saved session are forgotten (on disk before this

@@ -41,13 +41,22 @@ fn define(controller: &mut Controller) -> Changed {
     controller.edit(|session| session.define_class().map(|_| ()))
 }
 
-/// Polls until the classification comes back.
+/// Polls until the classification comes back (a first look before it is passed over).
 fn classified(controller: &mut Controller) -> Changed {
+    classified_after_first_looks(controller).0
+}
+
+/// Polls until the classification comes back; also how many first looks were shown before it.
+fn classified_after_first_looks(controller: &mut Controller) -> (Changed, usize) {
     let started = Instant::now();
+    let mut first_looks = 0;
     while started.elapsed() < Duration::from_secs(120) {
         let changed = controller.poll();
-        if changed != Changed::default() {
-            return changed;
+        if changed.status.as_deref().is_some_and(|status| status.starts_with("First look")) {
+            assert!(changed.view && changed.classes, "a first look is shown: {changed:?}");
+            first_looks += 1;
+        } else if changed != Changed::default() {
+            return (changed, first_looks);
         }
         std::thread::sleep(Duration::from_millis(10));
     }
@@ -83,7 +92,8 @@ fn lassos_become_classes_and_two_classes_are_classified() {
     define(&mut controller);
     assert!(controller.jobs.busy());
 
-    let changed = classified(&mut controller);
+    let (changed, first_looks) = classified_after_first_looks(&mut controller);
+    assert_eq!(first_looks, 1, "a coarse first look is shown before the exact result");
     assert!(changed.classes && changed.view, "{changed:?}");
     assert!(changed.status.as_deref().is_some_and(|status| status.starts_with("Classified in")));
     assert_eq!(controller.display_styles().map(|styles| styles.len()), Some(2));

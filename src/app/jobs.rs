@@ -1,13 +1,17 @@
 //! Classification in the background: the defined classes' lassos train the classifier, the
 //! whole volume is labelled and the classes get their harmonic styles (paper §3.4-3.5), on a
-//! worker thread, so the UI thread never waits. A new job cancels the one running (new input
-//! makes the old result stale); results of cancelled or superseded jobs are never shown.
+//! worker thread, so the UI thread never waits. A job reports three times: a first, coarse
+//! classification as soon as the coarse grid is labelled ([`JobOutcome::Preview`]: what the 3-D
+//! view shows within a fraction of a second), the exact one ([`JobOutcome::Done`]), then the
+//! survey of where the classifier is unsure ([`JobOutcome::Guidance`], which nobody waits
+//! for). A new job cancels the one running (new input makes the old result stale); results of
+//! cancelled or superseded jobs are never shown.
 //!
 //! Never: touches the UI; the app polls [`ClassificationJobs::poll`] from its event loop.
 
 use crate::pipeline::{self, RunControl};
 use crate::segmentation::uncertainty::{self, Survey};
-use crate::segmentation::{SegmentationOptions, Segmenter};
+use crate::segmentation::{LabelVolume, SegmentationOptions, Segmenter};
 use crate::strokes::StrokesFile;
 use crate::transfer::{ClassTable, HueTemplate};
 use crate::volume::Volume;
@@ -42,10 +46,15 @@ impl std::fmt::Debug for Guidance {
     }
 }
 
-/// What a job ended with.
+/// What a job reports.
 #[derive(Debug)]
 pub enum JobOutcome {
+    /// A first look: the coarse grid's labels, the exact ones still to come.
+    Preview(Classified),
+    /// The exact classification (without its guidance, which follows).
     Done(Classified),
+    /// Where the classifier of the last [`JobOutcome::Done`] is unsure.
+    Guidance(Arc<Guidance>),
     Failed(String),
 }
 
@@ -62,6 +71,8 @@ pub struct ClassificationJobs {
     receiver: Receiver<(u64, JobOutcome)>,
     running: Option<RunningJob>,
     generation: u64,
+    /// The generation of the last job that finished: its guidance is still welcome.
+    finished: Option<u64>,
     options: Arc<Mutex<SegmentationOptions>>,
 }
 
@@ -73,6 +84,7 @@ impl Default for ClassificationJobs {
             receiver,
             running: None,
             generation: 0,
+            finished: None,
             options: Arc::new(Mutex::new(SegmentationOptions::default())),
         }
     }
@@ -90,15 +102,23 @@ impl ClassificationJobs {
         let generation = self.generation;
         let options = self.options.lock().map(|o| o.clone()).unwrap_or_default();
         let spawned = std::thread::Builder::new().name("classify".into()).spawn(move || {
-            // A panic is caught here, so the app hears of it instead of "Classifying..." forever.
-            let run = || classify(&volume, &strokes, template, &options, &progress, &cancel);
-            let outcome = match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
-                Ok(Ok(classified)) => JobOutcome::Done(classified),
-                Ok(Err(message)) => JobOutcome::Failed(message),
-                Err(_) => JobOutcome::Failed("the classifier failed (see the log)".to_string()),
+            let report = |outcome: JobOutcome| {
+                if !cancel.load(Ordering::Relaxed) {
+                    let _ = sender.send((generation, outcome));
+                }
             };
-            if !cancel.load(Ordering::Relaxed) {
-                let _ = sender.send((generation, outcome));
+            // A panic is caught here, so the app hears of it instead of "Classifying..." forever.
+            let run = || classify(&volume, &strokes, template, &options, &progress, &cancel, &report);
+            match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
+                Ok(Ok((classified, segmenter))) => {
+                    report(JobOutcome::Done(classified.clone()));
+                    // After the result is shown: the survey is for guidance, not part of it.
+                    if let Some(guidance) = survey(&volume, segmenter, &classified.labels) {
+                        report(JobOutcome::Guidance(guidance));
+                    }
+                }
+                Ok(Err(message)) => report(JobOutcome::Failed(message)),
+                Err(_) => report(JobOutcome::Failed("the classifier failed (see the log)".to_string())),
             }
         });
         match spawned {
@@ -126,22 +146,31 @@ impl ClassificationJobs {
         self.running.as_ref().map(|job| job.progress.load(Ordering::Relaxed) as f32 / 1000.0)
     }
 
-    /// The running job's outcome once it is done; never blocks.
+    /// The next report of the running job (or the guidance of the last one done); never
+    /// blocks. The job stops running at its [`JobOutcome::Done`] or [`JobOutcome::Failed`].
     pub fn poll(&mut self) -> Option<JobOutcome> {
         loop {
-            match self.receiver.try_recv() {
-                Ok((generation, outcome)) => {
-                    if self.running.as_ref().is_some_and(|job| job.generation == generation) {
-                        self.running = None;
-                        return Some(outcome);
-                    }
-                }
+            let (generation, outcome) = match self.receiver.try_recv() {
+                Ok(report) => report,
                 Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
+            };
+            let current = self.running.as_ref().is_some_and(|job| job.generation == generation);
+            match outcome {
+                JobOutcome::Guidance(_) if self.finished == Some(generation) => return Some(outcome),
+                JobOutcome::Preview(_) if current => return Some(outcome),
+                JobOutcome::Done(_) | JobOutcome::Failed(_) if current => {
+                    self.running = None;
+                    self.finished = Some(generation);
+                    return Some(outcome);
+                }
+                _ => {}
             }
         }
     }
 }
 
+/// Trains and labels, reporting the coarse first look through `report`; the exact result and
+/// the trained classifier for the survey.
 fn classify(
     volume: &Volume,
     strokes: &StrokesFile,
@@ -149,18 +178,44 @@ fn classify(
     options: &SegmentationOptions,
     progress: &AtomicU32,
     cancel: &AtomicBool,
-) -> Result<Classified, String> {
+    report: &(dyn Fn(JobOutcome) + Sync),
+) -> Result<(Classified, Segmenter), String> {
     let started = Instant::now();
     // Training is about a tenth of the work; labelling reports the rest.
-    let report = |fraction: f32| progress.store(100 + (900.0 * fraction.clamp(0.0, 1.0)) as u32, Ordering::Relaxed);
-    let control = RunControl { progress: &report, cancel };
+    let progressed = |fraction: f32| progress.store(100 + (900.0 * fraction.clamp(0.0, 1.0)) as u32, Ordering::Relaxed);
+    let class_count = strokes.classes.len();
+    let preview = |coarse: &LabelVolume| match ClassTable::compute(volume, &coarse.labels, class_count, template) {
+        Ok(table) => {
+            log::info!("first look in {:.0} ms", started.elapsed().as_secs_f64() * 1000.0);
+            report(JobOutcome::Preview(Classified {
+                labels: Arc::new(coarse.labels.clone()),
+                table,
+                seconds: started.elapsed().as_secs_f64(),
+                classified_voxels: coarse.classified_voxels,
+                guidance: None,
+            }));
+        }
+        Err(error) => log::warn!("no first look: {error}"),
+    };
+    let control = RunControl { progress: &progressed, cancel, preview: Some(&preview) };
     let classified =
         pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
     let labelled = classified.labels;
-    let seconds = started.elapsed().as_secs_f64();
-    // After the result's time: the survey is for guidance, not part of the classification.
+    let result = Classified {
+        labels: Arc::new(labelled.labels),
+        table: classified.table,
+        seconds: started.elapsed().as_secs_f64(),
+        classified_voxels: labelled.classified_voxels,
+        guidance: None,
+    };
+    Ok((result, classified.segmenter))
+}
+
+/// Where `segmenter` is unsure on `labels` ([`uncertainty::survey`]); `None` when the survey
+/// failed (logged).
+fn survey(volume: &Volume, segmenter: Segmenter, labels: &[u8]) -> Option<Arc<Guidance>> {
     let surveyed = Instant::now();
-    let guidance = match uncertainty::survey(volume, &classified.segmenter, &labelled.labels) {
+    match uncertainty::survey(volume, &segmenter, labels) {
         Ok(survey) => {
             log::info!(
                 "unsure survey: {} of {} voxels (every {}th) unsure below margin {:.3}, {:.0} ms",
@@ -170,20 +225,13 @@ fn classify(
                 survey.threshold,
                 surveyed.elapsed().as_secs_f64() * 1000.0
             );
-            Some(Arc::new(Guidance { segmenter: Arc::new(classified.segmenter), survey }))
+            Some(Arc::new(Guidance { segmenter: Arc::new(segmenter), survey }))
         }
         Err(error) => {
             log::warn!("cannot survey where the classifier is unsure: {error}");
             None
         }
-    };
-    Ok(Classified {
-        labels: Arc::new(labelled.labels),
-        table: classified.table,
-        seconds,
-        classified_voxels: labelled.classified_voxels,
-        guidance,
-    })
+    }
 }
 
 #[cfg(test)]
@@ -192,14 +240,24 @@ mod tests {
     use crate::phantom::{demo_foot_with, lassos_inside};
     use std::time::Duration;
 
-    fn wait(jobs: &mut ClassificationJobs) -> JobOutcome {
+    /// The job's outcomes until it ends (its Done or Failed last).
+    fn wait_for_end(jobs: &mut ClassificationJobs) -> Vec<JobOutcome> {
+        let mut outcomes = Vec::new();
         for _ in 0..6000 {
             if let Some(outcome) = jobs.poll() {
-                return outcome;
+                let ended = matches!(outcome, JobOutcome::Done(_) | JobOutcome::Failed(_));
+                outcomes.push(outcome);
+                if ended {
+                    return outcomes;
+                }
             }
             std::thread::sleep(Duration::from_millis(10));
         }
         panic!("the job did not finish in a minute");
+    }
+
+    fn wait(jobs: &mut ClassificationJobs) -> JobOutcome {
+        wait_for_end(jobs).pop().expect("an outcome")
     }
 
     #[test]
@@ -211,13 +269,34 @@ mod tests {
         jobs.start(volume.clone(), strokes.clone(), HueTemplate::default_for(2));
         jobs.start(volume.clone(), strokes, HueTemplate::default_for(2));
         assert!(jobs.busy());
-        let classified = match wait(&mut jobs) {
-            JobOutcome::Done(classified) => classified,
-            JobOutcome::Failed(message) => panic!("the job failed: {message}"),
+        let mut outcomes = wait_for_end(&mut jobs);
+        let classified = match outcomes.pop() {
+            Some(JobOutcome::Done(classified)) => classified,
+            other => panic!("the job did not end with a result: {other:?}"),
         };
         assert_eq!(classified.labels.len(), volume.voxel_count());
         assert_eq!(classified.table.styles.len(), 2);
         assert!(!jobs.busy());
+        // Before it, one first look of the same size; the cancelled job reported nothing.
+        let [JobOutcome::Preview(first)] = outcomes.as_slice() else { panic!("{outcomes:?}") };
+        assert_eq!(first.labels.len(), volume.voxel_count());
+        assert!(first.seconds <= classified.seconds);
+        let agree = first.labels.iter().zip(classified.labels.iter()).filter(|(a, b)| a == b).count();
+        assert!(agree * 10 > volume.voxel_count() * 9, "the first look agrees on {agree} voxels");
+        // Then the survey of the finished job, and nothing of the cancelled one.
+        let mut guidance = None;
+        for _ in 0..6000 {
+            match jobs.poll() {
+                Some(JobOutcome::Guidance(survey)) => {
+                    guidance = Some(survey);
+                    break;
+                }
+                Some(other) => panic!("only the guidance may follow: {other:?}"),
+                None => std::thread::sleep(Duration::from_millis(10)),
+            }
+        }
+        assert!(guidance.is_some(), "the survey follows the result");
+        std::thread::sleep(Duration::from_millis(50));
         assert!(jobs.poll().is_none(), "the first, cancelled job must not be reported");
     }
 

@@ -6,8 +6,8 @@
 //! axes, e.g. `z,y,x`), `plane-z` / `-y` / `-x` (Axial, Coronal, Sagittal or unknown),
 //! `letters-z` / `-y` / `-x` (top, right, bottom, left, e.g. `A,L,P,R`; empty when unknown),
 //! `window` (e.g. `Brain W80 L40`), `enlarged` (an axis or `none`), `zoom`, `feedback` (the
-//! message on a panel), `camera` (azimuth and elevation in degrees), `label-uploads` (label
-//! volumes sent to the 3-D view: a restyle sends none), `opacity` (each class's opacity in
+//! message on a panel), `camera` (azimuth and elevation in degrees), `label-uploads`
+//! (classifications sent to the 3-D view: a restyle or a first look sends none), `opacity` (each class's opacity in
 //! percent, e.g. `100,40`), `clip` (`off`, or the plane's normal and offset in mm), `results`
 //! (the gallery's cards), `result-problem-N` (why card N, from 1, cannot be opened; empty
 //! when it can), `attract` (the start screen's turntable: off, loading, rendering or

@@ -87,7 +87,7 @@ pub struct ViewRenderer {
     next_id: u64,
     /// The newest frame asked for and not yet received.
     awaited: Option<u64>,
-    /// How many label volumes were sent (a restyle sends none).
+    /// How many classifications were sent (a restyle or a first look counts none).
     label_uploads: usize,
     /// The newest frame asked for has come back whole (or failed): nothing more will come.
     settled: bool,
@@ -138,7 +138,14 @@ impl ViewRenderer {
         let _ = self.requests.send(Request::Labels(labels, styles));
     }
 
-    /// How many label volumes were sent so far.
+    /// A first, coarse classification: sent as [`ViewRenderer::set_labels`] sends one, not
+    /// counted in [`ViewRenderer::label_uploads`] (whether it comes before the exact one
+    /// depends on timing).
+    pub fn set_first_look(&mut self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
+        let _ = self.requests.send(Request::Labels(labels, styles));
+    }
+
+    /// How many classifications were sent so far (first looks not counted).
     pub fn label_uploads(&self) -> usize {
         self.label_uploads
     }

@@ -264,7 +264,7 @@ mod tests {
     #[test]
     fn every_offered_syntax_is_decoded_by_this_build() {
         // A codec feature lost from Cargo.toml would drop its syntaxes here.
-        assert_eq!(accepted_transfer_syntaxes().len(), 12, "{:?}", accepted_transfer_syntaxes());
+        assert_eq!(accepted_transfer_syntaxes().len(), 13, "{:?}", accepted_transfer_syntaxes());
     }
 
     #[test]

@@ -494,5 +494,22 @@ pub fn label_volume(
     cancel: &AtomicBool,
 ) -> Result<LabelVolume, SegmentationError> {
     volume.check_still_mapped()?;
-    refine::label_volume(volume, segmenter, refinement, progress, cancel)
+    refine::label_volume(volume, segmenter, refinement, progress, cancel, None)
+}
+
+/// [`label_volume`], calling `preview` first with a coarse label volume: the classifier's
+/// labels on every second voxel along each axis (the coarse grid coarse-to-fine labelling
+/// computes first), each copied to the voxels nearest it, the air joined to the faces left out.
+/// With [`Refinement::Exact`] or the multi-scale features, which label no coarse grid first,
+/// `preview` is not called.
+pub fn label_volume_with_preview(
+    volume: &Volume,
+    segmenter: &Segmenter,
+    refinement: Refinement,
+    progress: &(dyn Fn(f32) + Sync),
+    cancel: &AtomicBool,
+    preview: &(dyn Fn(&LabelVolume) + Sync),
+) -> Result<LabelVolume, SegmentationError> {
+    volume.check_still_mapped()?;
+    refine::label_volume(volume, segmenter, refinement, progress, cancel, Some(preview))
 }

@@ -122,12 +122,16 @@ impl Job<'_> {
     }
 }
 
+/// A coarse label volume's receiver (see `super::label_volume_with_preview`).
+pub(super) type Preview<'a> = Option<&'a (dyn Fn(&LabelVolume) + Sync)>;
+
 pub(super) fn label_volume(
     volume: &Volume,
     segmenter: &Segmenter,
     refinement: Refinement,
     progress: &(dyn Fn(f32) + Sync),
     cancel: &AtomicBool,
+    preview: Preview,
 ) -> Result<LabelVolume, SegmentationError> {
     let order = match refinement {
         Refinement::CoarseToFine if segmenter.summary.used_per_class.len() <= RowNeighbours::MAX_CLASSES => {
@@ -139,7 +143,7 @@ pub(super) fn label_volume(
     // plane buffer, or the multi-scale blocks' halo), few enough to balance the cores. Even,
     // so that slabs hold whole pairs of planes.
     let slab_depth = segmenter.feature_set.preferred_slab_depth(volume.dims).next_multiple_of(2);
-    label_volume_in(volume, segmenter, order, slab_depth, progress, cancel)
+    label_volume_in(volume, segmenter, order, slab_depth, progress, cancel, preview)
 }
 
 fn label_volume_in(
@@ -149,6 +153,7 @@ fn label_volume_in(
     slab_depth: usize,
     progress: &(dyn Fn(f32) + Sync),
     cancel: &AtomicBool,
+    preview: Preview,
 ) -> Result<LabelVolume, SegmentationError> {
     let size_z = volume.dims[2];
     let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY) as f32;
@@ -183,6 +188,9 @@ fn label_volume_in(
                 job.evaluated.load(Ordering::Relaxed),
                 started.elapsed()
             );
+            if let Some(preview) = preview {
+                preview(&coarse_preview(volume.dims, &grid, segmenter));
+            }
             label_slabs(&job, Some(&grid), &mut labels)?
         }
         Order::OneSweep => label_slabs_in_one_sweep(&job, &mut labels)?,
@@ -226,6 +234,28 @@ fn label_volume_in(
         classified_voxels: classified,
         evaluated_voxels: job.evaluated.into_inner(),
     })
+}
+
+/// The coarse grid's labels copied to every voxel (each takes the label of the coarse voxel at
+/// half its coordinates), the air joined to the faces left out.
+fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) -> LabelVolume {
+    let plane = dims[0] * dims[1];
+    let [coarse_x, coarse_y, _] = grid.dims;
+    let mut labels = vec![0u8; dims[0] * dims[1] * dims[2]];
+    labels.par_chunks_mut(plane.max(1)).enumerate().for_each(|(z, out)| {
+        let coarse_plane = &grid.labels[(z / 2) * coarse_x * coarse_y..][..coarse_x * coarse_y];
+        for (k, label) in out.iter_mut().enumerate() {
+            let (x, y) = (k % dims[0], k / dims[0]);
+            *label = coarse_plane[x / 2 + coarse_x * (y / 2)];
+        }
+    });
+    if let Some(region) = &segmenter.summary.background_region {
+        for index in region.voxels.iter() {
+            labels[index] = 0;
+        }
+    }
+    let classified = labels.iter().filter(|&&label| label != 0).count();
+    LabelVolume { dims, labels, classified_voxels: classified, evaluated_voxels: 0 }
 }
 
 /// Labels every fine plane, slab by slab in parallel, from the whole volume's coarse grid

@@ -18,7 +18,8 @@ fn exact_labels_are_the_classes_of_every_foreground_voxels_features() {
         let options = SegmentationOptions { coherence: crate::segmentation::Coherence::None, ..options };
         let segmenter = train(volume, &training, &options).unwrap();
         let threshold = segmenter.summary.background_threshold.unwrap_or(f64::NEG_INFINITY);
-        let labels = label_volume_in(volume, &segmenter, Order::Exact, 4, &|_| {}, &AtomicBool::new(false)).unwrap();
+        let labels =
+            label_volume_in(volume, &segmenter, Order::Exact, 4, &|_| {}, &AtomicBool::new(false), None).unwrap();
         let foreground: Vec<usize> =
             (0..volume.voxel_count()).filter(|&index| volume.value(index) >= threshold).collect();
         assert!(foreground.len() > 1000 && foreground.len() < volume.voxel_count());
@@ -52,7 +53,7 @@ fn one_sweep_labels_as_two_passes_do() {
     };
     let segmenter = train(&phantom.volume, &training, &options).unwrap();
     let run = |order, slab_depth| {
-        label_volume_in(&phantom.volume, &segmenter, order, slab_depth, &|_| {}, &AtomicBool::new(false)).unwrap()
+        label_volume_in(&phantom.volume, &segmenter, order, slab_depth, &|_| {}, &AtomicBool::new(false), None).unwrap()
     };
     let passes = run(Order::TwoPasses, 32);
     let exact = run(Order::Exact, 32);
