@@ -1,7 +1,7 @@
 #!/usr/bin/env python3
 """An accuracy check volasso's own harness cannot be tuned to.
 
-`volasso accuracy` draws its phantoms (src/phantom) and its user (src/accuracy/user.rs) with
+`volasso accuracy` draws its phantoms (crates/volasso-core/src/phantom) and its user (crates/volasso-core/src/accuracy/user.rs) with
 the same code base that chooses the defaults. This script makes everything again without that
 code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias field and Rician
 noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI, a CT

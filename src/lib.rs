@@ -42,36 +42,26 @@
 //! Programs that hold their scan as an array use [`pipeline::classify_array`] and
 //! [`Volume::stored_view`] (see `examples/classify_array.rs`). The command line and the kiosk
 //! (`cli`, `app`, `kiosk`, `touch`, `display`, `ui/*.slint`) call the pipeline and are not part
-//! of the library's documented surface; the pipeline never knows about them. `accuracy`
-//! measures the pipeline against phantoms with known truth.
+//! of the library's documented surface. The pipeline is a crate of its own,
+//! `crates/volasso-core`, re-exported here module by module: it depends on no UI, input or
+//! network crate, so cargo refuses any import from it into the app. `accuracy` measures the
+//! pipeline against phantoms with known truth.
 
 #![warn(missing_docs)]
 
-pub mod accuracy;
+pub use volasso_core::{
+    Volume, VolumeError, VoxelType, accuracy, atomic_file, classify, cpu, features, input_file, phantom, pipeline,
+    render, rng, segmentation, slices, strokes, transfer, volume,
+};
+
 #[doc(hidden)]
 pub mod app;
-pub mod atomic_file;
-pub mod classify;
 #[doc(hidden)]
 pub mod cli;
-pub mod cpu;
 #[doc(hidden)]
 pub mod display;
-pub mod features;
-pub mod input_file;
 #[doc(hidden)]
 pub mod kiosk;
-pub mod phantom;
-pub mod pipeline;
 pub mod receive;
-pub mod render;
-pub mod rng;
-pub mod segmentation;
-pub mod slices;
-pub mod strokes;
 #[doc(hidden)]
 pub mod touch;
-pub mod transfer;
-pub mod volume;
-
-pub use volume::{Volume, VolumeError, VoxelType};

@@ -389,8 +389,9 @@ pub(super) fn check_decoded_voxels(
 mod tests {
     use super::*;
 
-    const CT_SMALL: &str = "../shared/data/dicom/ct_small.dcm";
-    const PHILIPS_SLICE: &str = "../shared/data/dicom/philips_phantom_5mm/I10";
+    const CT_SMALL: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom/ct_small.dcm");
+    const PHILIPS_SLICE: &str =
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom/philips_phantom_5mm/I10");
 
     fn walk(bytes: &[u8], scope: Scope) -> Step<u64> {
         Walker::new(bytes, bytes.len() as u64, scope).file()

@@ -307,7 +307,7 @@ fn the_gap_depth_is_scaled_by_the_intensity_deviation_not_its_own() {
 #[test]
 fn engine_volume_features_by_parallel_slabs_match_per_voxel_and_report_throughput() {
     use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
-    let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
+    let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/engine_256x256x256_uint8.raw"));
     let bytes = VoxelBytes::map_region(path, 0, 256 * 256 * 256).unwrap();
     let volume =
         Volume::new([256; 3], [1.0; 3], VoxelType::U8, ByteOrder::Little, ValueScale::IDENTITY, bytes, path).unwrap();

@@ -151,7 +151,7 @@ mod tests {
     use crate::volume::{OpenOptions, Volume, VoxelType, open};
     use std::path::Path;
 
-    const DICOM: &str = "../shared/data/dicom";
+    const DICOM: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom");
 
     fn options(cache: &Path) -> OpenOptions {
         OpenOptions { cache_dir: Some(cache.to_path_buf()), ..OpenOptions::default() }

@@ -257,7 +257,8 @@ fn a_single_file_without_position_or_pixel_data() {
 
 #[test]
 fn truncated_files_give_errors_not_panics() {
-    let original = std::fs::read("../shared/data/dicom/ct_small.dcm").unwrap();
+    let original =
+        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom/ct_small.dcm")).unwrap();
     let folder = tempfile::tempdir().unwrap();
     let mut lengths: Vec<usize> = (0..300).chain((300..original.len()).step_by(97)).collect();
     lengths.push(original.len() - 1);
@@ -284,7 +285,8 @@ fn folders_without_image_series_are_errors() {
     let message = error_text(read_series(folder.path(), &DicomOptions::default()));
     assert!(message.contains("no DICOM image series") && message.contains("2 other files"), "{message}");
     // A DICOM header without the rest is skipped with a warning, then nothing is left.
-    let original = std::fs::read("../shared/data/dicom/ct_small.dcm").unwrap();
+    let original =
+        std::fs::read(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom/ct_small.dcm")).unwrap();
     std::fs::write(folder.path().join("cut.dcm"), &original[..400]).unwrap();
     assert!(looks_like_dicom(folder.path()));
     let message = error_text(read_series(folder.path(), &DicomOptions::default()));

@@ -4,7 +4,7 @@
 use super::geometry::dot;
 use super::*;
 
-const DATA: &str = "../shared/data/dicom";
+const DATA: &str = concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom");
 
 fn read(name: &str, options: &DicomOptions) -> Result<DicomImport, VolumeError> {
     let start = std::time::Instant::now();
@@ -65,7 +65,7 @@ fn ct_small_is_one_slice() {
     let range = import.volume.value_range();
     assert!(range.min < -800.0 && range.max > 1000.0, "{range:?}");
     assert!(looks_like_dicom(&Path::new(DATA).join("ct_small.dcm")));
-    assert!(!looks_like_dicom(Path::new("../shared/data/tooth.nrrd")));
+    assert!(!looks_like_dicom(Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/tooth.nrrd"))));
 }
 
 #[test]

@@ -406,7 +406,7 @@ mod tests {
 
     #[test]
     fn engine_volume_is_ranked_in_one_pass_and_agrees_with_slice_by_slice() {
-        let path = Path::new("../shared/data/engine_256x256x256_uint8.raw");
+        let path = Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/engine_256x256x256_uint8.raw"));
         let length = 256 * 256 * 256;
         let bytes = VoxelBytes::map_region(path, 0, length).unwrap();
         let volume =

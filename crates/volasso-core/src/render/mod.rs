@@ -18,11 +18,11 @@
 //! (offscreen rendering to images and PNG files).
 //!
 //! ```no_run
-//! use volasso::render::{self, Camera, RenderSettings, headless::Scene};
+//! use volasso_core::render::{self, Camera, RenderSettings, headless::Scene};
 //! # fn main() -> Result<(), Box<dyn std::error::Error>> {
-//! let volume = volasso::volume::open("engine_256x256x256_uint8.raw".as_ref(), &Default::default())?;
+//! let volume = volasso_core::volume::open("engine_256x256x256_uint8.raw".as_ref(), &Default::default())?;
 //! let labels = vec![1u8; volume.voxel_count()];
-//! let styles: Vec<volasso::transfer::ClassStyle> = Vec::new(); // from the transfer stage
+//! let styles: Vec<volasso_core::transfer::ClassStyle> = Vec::new(); // from the transfer stage
 //! let gpu = render::gpu::acquire()?;
 //! let scene = Scene { volume: &volume, labels: &labels, class_styles: &styles, rgba: None };
 //! render::headless::render_png(

@@ -80,7 +80,8 @@ mod tests {
     use super::*;
     use dicom_dictionary_std::tags;
 
-    const PHILIPS_SLICE: &str = "../shared/data/dicom/philips_phantom_5mm/I10";
+    const PHILIPS_SLICE: &str =
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/dicom/philips_phantom_5mm/I10");
 
     /// The Philips slice as Deflated Explicit VR Little Endian, written by dicom-object.
     fn deflated_copy(folder: &Path) -> std::path::PathBuf {

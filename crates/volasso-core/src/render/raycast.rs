@@ -21,7 +21,7 @@ use crate::volume::Volume;
 use bindings::{BoundViews, create_bind_group, create_bind_group_layout};
 
 /// The ray casting shader, compiled into the binary.
-pub const SHADER_SOURCE: &str = include_str!("../../shaders/raycast.wgsl");
+pub const SHADER_SOURCE: &str = include_str!("../../../../shaders/raycast.wgsl");
 
 /// A rectangle of pixels of a frame, from its top-left corner.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]

@@ -64,19 +64,31 @@ fn render_real(name: &str, path: &str, spacing_mm: Option<[f64; 3]>, thresholds:
 #[ignore = "pictures of real data for a person; set VOLASSO_RENDER_LOOK"]
 fn real_volumes() {
     let camera = Camera::default();
-    render_real("engine", "../shared/data/engine_256x256x256_uint8.raw", None, &[60.0, 140.0], camera);
-    render_real("lobster", "../shared/data/lobster_301x324x56_uint8.raw", Some([1.0, 1.0, 1.4]), &[40.0, 90.0], camera);
+    render_real(
+        "engine",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/engine_256x256x256_uint8.raw"),
+        None,
+        &[60.0, 140.0],
+        camera,
+    );
+    render_real(
+        "lobster",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/lobster_301x324x56_uint8.raw"),
+        Some([1.0, 1.0, 1.4]),
+        &[40.0, 90.0],
+        camera,
+    );
     let face = Camera { azimuth_degrees: 180.0, elevation_degrees: 10.0, ..camera };
     render_real(
         "vismale",
-        "../shared/data/vismale_128x256x256_uint8.raw",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/vismale_128x256x256_uint8.raw"),
         Some([1.578, 0.996, 1.008]),
         &[40.0, 100.0],
         face,
     );
     render_real(
         "cranium",
-        "../shared/data/cranium_ct_256x256x108_int16.raw",
+        concat!(env!("CARGO_MANIFEST_DIR"), "/../../../shared/data/cranium_ct_256x256x108_int16.raw"),
         Some([0.957, 0.957, 1.5]),
         &[-400.0, 250.0],
         face,
