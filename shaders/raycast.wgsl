@@ -61,7 +61,8 @@ struct ClassEntry {
 // The frame's parameters and the class table are read-only storage, not uniform buffers:
 // lavapipe (Mesa's CPU Vulkan driver, the 3-D view on a panel without a GPU) compiles a new
 // shader variant with the values of a uniform buffer inlined whenever they change, i.e. every
-// frame, and keeps each one: about 2 MB of resident memory a frame (benches/README.md).
+// frame, and keeps each one: about 2 MB of resident memory a frame
+// (docs/decisions/0017-render-storage-buffers.md).
 @group(0) @binding(0) var<storage, read> frame: RenderUniforms;
 @group(0) @binding(1) var<storage, read> class_table: array<ClassEntry, CLASS_TABLE_SIZE>;
 @group(0) @binding(2) var scalar_volume: texture_3d<f32>;

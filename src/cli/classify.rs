@@ -16,7 +16,7 @@
 //! classifies the volume, including the features of every voxel it evaluates (they are
 //! computed on the fly, slab by slab, never stored); `total` is their sum (writing the label
 //! file is not timed). With `--repeat N` each is the median over N runs: the classification
-//! benchmark (`benches/README.md`).
+//! benchmark (`benches/RESULTS.md`).
 
 use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};
 use super::{CliError, outputs};

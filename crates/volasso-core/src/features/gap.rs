@@ -8,8 +8,8 @@
 //! look the same to them: an intermediate value on a steep gradient. The closing fills a dark
 //! layer up to `2 GAP_RADIUS` voxels thin with its bright surroundings and leaves a convex edge
 //! as it is, so the gap depth of the first is large and of the second near 0. (In a flat noisy
-//! region it is the noise's local spread; smoothing the volume first was measured and lost
-//! with leaky lassos, benches/README.md.)
+//! region it is the noise's local spread; smoothing the volume first loses with leaky
+//! lassos, `docs/decisions/0011-gap-depth.md`.)
 //!
 //! Windows are cut at the volume's faces (a voxel outside counts as no voxel, which is what
 //! clamping to the edge gives for a maximum or a minimum). Both paths, [`gap_depth_of_voxels`]

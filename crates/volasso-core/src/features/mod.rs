@@ -68,23 +68,20 @@ pub enum FeatureSet {
 /// The gradient magnitude's weight in the SN-SVM's distance between paper5 vectors, against 1
 /// for each of the other four. Every border in a scan has a high gradient, so at full weight a
 /// thin class, whose lassoed voxels are all near its borders, claims the borders of every
-/// other structure (the foot phantom's joint space took 60 % of the bone). Chosen on the
-/// accuracy harness's tuning cases (seeds 1-4; weights 1, 1/2, 1/4, 1/8, 0: mean macro Dice
-/// clean/leaky 0.780/0.770, 0.794/0.779, 0.801/0.792, 0.805/0.790, 0.803/0.788) and checked on
-/// seeds 5-8: 0.789/0.778 -> 0.806/0.804 (benches/README.md).
+/// other structure (the foot phantom's joint space takes 60 % of the bone). Of 1, 1/2, 1/4, 1/8
+/// and 0, 1/4 has the best mean with leaky lassos on the accuracy harness's tuning cases
+/// (`docs/decisions/0004-gradient-weight.md`).
 pub const PAPER5_GRADIENT_WEIGHT: f64 = 0.25;
 
 /// The gap depth's weight in the distance between [`FeatureSet::Paper5Gap`] vectors, against
 /// 1 for the intensity. The gap depth is a difference of intensities and is scaled by the
 /// intensity's deviation ([`FeatureSet::scaling`]), not its own, so at weight 1 a gap of 100 HU
 /// counts as much as 100 HU of intensity. On its own deviation a gap that is only noise (a scan
-/// without joints or clefts) was as loud as the intensity, and a weight high enough for a
-/// knee's joint space let a leaky loop around a thin vessel take a whole organ with it. On the
-/// accuracy harness's tuning cases (seeds 1-4) weights 1, 1/2 and 1/4 on the intensity's scale
-/// give a mean macro Dice clean/leaky of 0.870/0.825, 0.870/0.828 and 0.864/0.829 (0.862/0.826
-/// for 1/4 on the gap's own scale); with the cap's class sizes
-/// ([`crate::strokes::CAP_SIZE_EXPONENT`]) 1 tells `heldout.py`'s knee joint space from the
-/// bones' blurred edges with leaky loops and 1/2 does not (benches/README.md).
+/// without joints or clefts) is as loud as the intensity, and a weight high enough for a
+/// knee's joint space lets a leaky loop around a thin vessel take a whole organ with it. With
+/// the cap's class sizes ([`crate::strokes::CAP_SIZE_EXPONENT`]) weight 1 tells a knee's joint
+/// space from the bones' blurred edges with leaky loops and 1/2 does not
+/// (`docs/decisions/0011-gap-depth.md`).
 pub const GAP_WEIGHT: f64 = 1.0;
 
 impl FeatureSet {

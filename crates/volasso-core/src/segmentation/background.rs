@@ -29,8 +29,8 @@
 //!    around it) lower the face air's level to the darkest of them, never below the top of
 //!    the air on the faces ([`air_top`]) and only where that opens no more than
 //!    [`FACE_AIR_OPENED_SHARE`] of the face air: the tissue the user drew there is classified
-//!    and the air stays background. On the real brain of `scripts/heldout.py` a clean CSF loop
-//!    lost a quarter of its voxels to the background before, and the CSF's Dice was 0.50.
+//!    and the air stays background: a skull-stripped brain's clean CSF loop keeps its outer
+//!    CSF (`docs/decisions/0008-background.md`).
 //!
 //! Dark structures that the volume's faces cut (lungs in a chest cut through them), or that
 //! join the air at a body's edge (a phantom's foam, bedding), are face air at Otsu's level; a
@@ -233,12 +233,12 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 ///   a class in the face air is unlike the air at the faces (its median above the dark face
 ///   voxels' [`upper_reach`]: a dark tissue joined to the air, such as a phantom's foam, whose
 ///   few voxels hardly move the histogram of a scan that is mostly air), not the air's own
-///   noise. A core below the level alone needs the separability: an 8-bit scan's dim rim
-///   between the air and the body (the Visible Male's, its core at 33 against Otsu's 40) split
-///   the air's own noise at 11 (separability 0.65), and a class took 6 % of the face air. And
-///   that core must lie above the split: a finger's loop around a CT's skull that is more
-///   than half air has the air for its core (the cranium's, at -924 HU against a split at
-///   -845), and a class took 10 % of the air around the head;
+///   noise. A core below the level alone needs the separability: otherwise an 8-bit scan's
+///   dim rim between the air and the body (the Visible Male's, its core just below Otsu's
+///   level) splits the air's own noise, and a class takes part of the face air. And that core
+///   must lie above the split: a finger's loop around a CT's skull that is more than half air
+///   has the air for its core (the cranium's), which would give a class the air around the
+///   head (`docs/decisions/0008-background.md`);
 /// * the air at the faces stays below it (at least half of the dark face voxels);
 /// * no class is air by the same share at the new level (the class lies above it).
 ///

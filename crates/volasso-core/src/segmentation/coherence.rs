@@ -32,17 +32,15 @@
 //! their band centres, and there the majority decides however many faces the shell holds. Two
 //! labels merely around it (on its faces at a corner, or diagonal to it) do not make a shell:
 //! the cerebrospinal fluid between a brain's grey matter and the dark layer outside it, two or
-//! three voxels thick, keeps its label at the layer's edges (`scripts/heldout.py`, the real
-//! brain with clean lassos: 0.884 -> 0.891, 0.893 -> 0.900 and 0.877 -> 0.887 on seeds 102,
-//! 202 and 302; benches/README.md).
+//! three voxels thick, keeps its label at the layer's edges
+//! (`docs/decisions/0009-majority-filter.md`).
 //!
 //! A scan cut in thick slices (5 mm slices of 0.5-0.9 mm pixels, as most hospital CT series
 //! and many MRI series are) votes within each slice ([`Neighbourhood::Plane`]): the slices
 //! above and below lie several pixels' widths away and are no neighbours, and whatever is thin
 //! across the slices (a joint space, a layer the slices cut across) is one voxel thick there,
-//! a sheet the 3 x 3 x 3 vote erases. `scripts/heldout.py`'s cases averaged over four slices
-//! (benches/README.md): the knee's joint space came back (macro Dice 0.77 -> 0.94 with clean
-//! lassos), the mean rose 0.776 -> 0.807 clean and 0.708 -> 0.716 leaky.
+//! a sheet the 3 x 3 x 3 vote erases, such as a knee's joint space one slice thick
+//! (`docs/decisions/0010-thick-slices.md`).
 //!
 //! Never: changes background voxels (label 0) or counts them as votes, so it never grows a
 //! class into the air or erodes it there.
@@ -53,19 +51,15 @@ use rayon::prelude::*;
 use rows::{ROW_COUNT_SHARE, classified_span, disagreeing_voxels, unflag_unbeatable, unopposed};
 
 /// How far past its drawn band a label's intensities may reach for a voxel to take that label,
-/// as a share of the band's width. Chosen with `volasso accuracy` (seeds 1-8) and
-/// `scripts/heldout.py` (seeds 101-103 and 201-203) among 0, 1/4, 1/2 and 1: at 0 the bands are
-/// too narrow for noise and the own harness lost 0.01 on every mean; 1/2 was the only value
-/// that did not lose on any mean of either (benches/README.md).
+/// as a share of the band's width. At 0 the bands are too narrow for noise; of 0, 1/4, 1/2 and
+/// 1, 1/2 is the only reach that loses on no mean of `volasso accuracy` or `scripts/heldout.py`
+/// (`docs/decisions/0009-majority-filter.md`).
 pub const PARTIAL_VOLUME_REACH: f32 = 0.5;
 
 /// Face neighbours of its own label that anchor a voxel whose intensity speaks for its label
-/// (module doc). Chosen with `scripts/heldout.py` (the phantoms and the real brain) among 1, 2
-/// and 3 (benches/README.md): 2 keeps a one-voxel line as well as a sheet; 1 also the real
-/// brain's speckled sulcal CSF (clean lassos: 0.795 -> 0.811 and 0.836 -> 0.843 on seeds 101
-/// and 201; the mean 0.849 -> 0.853 and 0.830 -> 0.835, no case left more than 0.02 below the
-/// forest), at a cost of 0.003-0.004 on each mean of `volasso accuracy` seeds 1-8, whose
-/// phantoms' noise leaves more two-voxel specks.
+/// (module doc): 3 keeps a sheet, 2 a one-voxel line as well, 1 also a pair of voxels, as the
+/// speckled sulcal CSF of a real brain at 1 mm is; `volasso accuracy`'s phantoms, whose noise
+/// leaves more two-voxel specks, lose a little to it (`docs/decisions/0009-majority-filter.md`).
 pub const FACE_ANCHOR: usize = 1;
 
 /// Each label's band of intensities and each voxel's intensity, for the filter's rule that a
@@ -148,9 +142,8 @@ impl<'a> LabelBands<'a> {
 }
 
 /// Passes of the filter the default runs ([`super::Coherence::Majority`]). A second pass
-/// settles what the first left ragged (a voxel whose neighbours changed); measured with
-/// `volasso accuracy` on the check cases (seeds 5-8, benches/README.md), mean macro Dice went
-/// from 0.781 to 0.789 with clean lassos and from 0.772 to 0.778 with leaky ones.
+/// settles what the first left ragged (a voxel whose neighbours changed); a third adds next to
+/// nothing (`docs/decisions/0009-majority-filter.md`).
 pub const DEFAULT_PASSES: usize = 2;
 
 /// Which voxels around a voxel vote ([`majority_passes`]).
@@ -165,10 +158,9 @@ pub enum Neighbourhood {
 
 /// How many times the in-plane voxel size the slice spacing (z) may be for the planes above
 /// and below to vote ([`Neighbourhood::for_spacing`]). Scans are thin-sliced (a ratio up to
-/// about 2) or thick-sliced (5 and more); between, `scripts/heldout.py`'s phantoms were mixed
-/// (averaged over three slices, ratios 3 to 9: the mean 0.830 -> 0.842 clean, but the abdomen
-/// at 3.1 and the vessels at 4.3 lost up to 0.02 and 0.04); at 3.5 every case of its own
-/// spacings, the thickest 3.1, votes in the cube.
+/// about 2) or thick-sliced (5 and more); between, the phantoms disagree on which vote is
+/// better, and at 3.5 every case of `scripts/heldout.py` at its own spacing (the thickest 3.1)
+/// votes in the cube (`docs/decisions/0010-thick-slices.md`).
 pub const THICK_SLICE_RATIO: f64 = 3.5;
 
 impl Neighbourhood {

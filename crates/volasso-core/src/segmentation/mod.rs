@@ -48,10 +48,9 @@ use std::time::Instant;
 /// voxels in all.
 pub const DEFAULT_TRAINING_CAP: usize = 256;
 
-/// Default pruning of SN-SVM's expansion ([`Model::pruned`]). Measured with the benchmark lassos
-/// (`benches/README.md`): prediction 113 -> 84 ms on the engine, 329 -> 238 ms on the Visible
-/// Male head; labels differing from exact evaluation 0.06 -> 0.14 % and 0.65 -> 0.77 % of the
-/// classified voxels (coarse-to-fine included).
+/// Default pruning of SN-SVM's expansion ([`Model::pruned`]): with the benchmark lassos it makes
+/// prediction about a quarter faster and changes about a tenth of a percent of the labels
+/// (`docs/decisions/0015-pruning.md`).
 pub const DEFAULT_PRUNE_RELATIVE: f64 = 0.01;
 
 /// Which classifier [`train`] fits.
@@ -69,7 +68,7 @@ pub enum ClassifierKind {
 pub struct SegmentationOptions {
     /// The features each voxel is classified on.
     pub feature_set: FeatureSet,
-    /// Which classifier to train; the default is the measured best (`volasso accuracy`).
+    /// Which classifier to train; the default is `docs/decisions/0001-default-classifier.md`'s.
     pub classifier_kind: ClassifierKind,
     /// The SN-SVM's parameters (used when `classifier_kind` is [`ClassifierKind::SnSvm`]); its
     /// RBF width is replaced by the data's when `kernel_width` is [`KernelWidth::Automatic`].
@@ -115,10 +114,10 @@ impl SegmentationOptions {
 
 impl Default for SegmentationOptions {
     fn default() -> Self {
-        // The paper's SN-SVM on its 5-D features and the gap depth. `volasso accuracy` and
-        // benches/README.md give the figures: on phantoms nobody tuned for it generalises better
-        // than the forest on the multi-scale features, which had been chosen on the project's
-        // own phantoms; the gap depth tells a joint space from a bone's blurred edge.
+        // The paper's SN-SVM on its 5-D features and the gap depth: on phantoms nobody tuned it
+        // for it generalises better than the forest on the multi-scale features, and the gap
+        // depth tells a joint space from a bone's blurred edge
+        // (docs/decisions/0001-default-classifier.md, docs/decisions/0011-gap-depth.md).
         SegmentationOptions {
             feature_set: FeatureSet::Paper5Gap,
             classifier_kind: ClassifierKind::SnSvm,
@@ -140,8 +139,8 @@ impl Default for SegmentationOptions {
 pub enum KernelWidth {
     /// The median heuristic: sigma^2 = median |x_i - x_j|^2 over training pairs and
     /// g = 1 / (2 sigma^2), so the kernel is neither flat nor a spike on whatever the lassos
-    /// sampled (CT or MRI, 8 or 16 bit). On the demo phantom it gives g = 0.105 and Dice
-    /// 0.98 / 0.94 (soft tissue / bone), against 0.94 / 0.85 at snsvm.md's fixed g = 0.5.
+    /// sampled (CT or MRI, 8 or 16 bit), where a fixed width suits one scale of data only
+    /// (`docs/decisions/0003-kernel-width.md`).
     Automatic,
     /// The width in `SegmentationOptions::classifier` as given.
     AsGiven,

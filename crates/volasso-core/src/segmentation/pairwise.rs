@@ -3,10 +3,10 @@
 //!
 //! One standardisation for all classes fails on scans with a wide range of values: in a CT
 //! with air (-1000 HU) and bone (1000 HU) lassoed, the 50 HU between muscle and liver shrink to
-//! a twentieth of a deviation, and one RBF width cannot tell them apart (Dice 0.4 for both on
-//! the torso phantom). Each pair z-scored on its own two classes sees them at their own scale;
-//! the automatic RBF width then comes from the pair's own distances
-//! ([`super::median_heuristic_width`]).
+//! a twentieth of a deviation, and one RBF width cannot tell them apart
+//! (`docs/decisions/0002-per-pair-standardisation.md`). Each pair z-scored on its own two
+//! classes sees them at their own scale; the automatic RBF width then comes from the pair's own
+//! distances ([`super::median_heuristic_width`]).
 //!
 //! Two classes are one pair: the model is exactly the single SN-SVM on the two classes'
 //! standardisation. With more, a voxel's features are standardised once per pair, each pair's

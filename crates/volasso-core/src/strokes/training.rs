@@ -25,11 +25,11 @@ use std::hash::{Hash, Hasher};
 /// its classes by their training voxels, so where classes overlap in features (a bone's
 /// blurred edge, a joint space's partial volume) the larger class should keep the larger say:
 /// with the same number of voxels for every class (exponent 0) a thin class the user drew with
-/// a few hundred voxels claimed the blurred edges of the structures around it (a knee's joint
-/// space); in proportion to the drawn voxels (exponent 1) a small class lost its own blurred
-/// edge to its surroundings (an aorta, cell nuclei and granules in a noisy MRI). Measured on
-/// `scripts/heldout.py` among 0, 1/5, 1/4, 1/3, 1/2 and 1 (benches/README.md); the accuracy
-/// harness's lassos stay under the cap and do not tell them apart.
+/// a few hundred voxels claims the blurred edges of the structures around it (a knee's joint
+/// space); in proportion to the drawn voxels (exponent 1) a small class loses its own blurred
+/// edge to its surroundings (an aorta, cell nuclei and granules in a noisy MRI). Chosen on
+/// `scripts/heldout.py`, whose loops the cap bites; the accuracy harness's stay under it
+/// (`docs/decisions/0012-training-cap.md`).
 pub const CAP_SIZE_EXPONENT: f64 = 0.25;
 
 /// The (edge, row) crossings a strokes file's distinct lassos may cost to rasterise

@@ -7,12 +7,12 @@
 //! path contradicts no test). The tests are independent of each other, so [`LANES`] vectors
 //! are tested side by side, four per SSE2 instruction. A walk, by contrast, branches on every
 //! node, unpredictably: on the small trees of the forests here (about 10 to 25 nodes) the
-//! masks took 26 ms where walks took 61-63 ms (400k head feature vectors).
+//! masks take less than half a walk's time (`docs/decisions/0016-random-forest.md`).
 //!
 //! The leaves' class frequencies are then added tree by tree, eight vectors side by side so
-//! that their sums do not wait on each other (with it the forest's share of a one-thread
-//! engine run fell from 12 % to 8 %). Trees with more leaves than a mask holds are walked node
-//! by node, and a forest with any of them adds its votes one vector and tree at a time.
+//! that their sums do not wait on each other. Trees with more leaves than a mask holds are
+//! walked node by node, and a forest with any of them adds its votes one vector and tree at a
+//! time.
 
 use super::tree::{SplitMask, Tree};
 

@@ -52,9 +52,8 @@ pub struct ForestParams {
 impl Default for ForestParams {
     fn default() -> Self {
         ForestParams {
-            // Measured with `volasso accuracy` (tuning cases): 16 trees of depth 10 score as
-            // 32, 48 or 100 trees of depth 16 (within 0.005 macro Dice) and predict 1.4-3x
-            // faster.
+            // 16 trees of depth 10 score as more and deeper trees on the accuracy harness's
+            // tuning cases and predict faster (docs/decisions/0016-random-forest.md).
             tree_count: 16,
             max_depth: 10,
             min_samples_split: 2,

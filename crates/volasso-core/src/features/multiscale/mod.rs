@@ -111,9 +111,8 @@ pub const BLOCK_BUDGET_BYTES: usize = 64 << 20;
 const MIN_BLOCK_DEPTH: usize = 4;
 const MAX_BLOCK_DEPTH: usize = 32;
 /// A whole-volume pass is one parallel task per block, and the last task to start keeps one
-/// core busy while the others wait: with at least this many blocks that tail is short.
-/// Measured on 2 cores with forest-fine: engine 256 planes, blocks of 28 -> 20
-/// planes, 155 -> 137 ms; the head (blocks of 32 or 16) within noise.
+/// core busy while the others wait: with at least this many blocks that tail is short
+/// (`docs/decisions/0016-random-forest.md`).
 const MIN_BLOCKS: usize = 12;
 /// Thinner blocks than this smooth more halo than core (lobster: 8 planes scored as well as
 /// 14, 4 planes worse).

@@ -53,10 +53,8 @@ pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], fla
 
 /// A row's flagged voxels are first cleared of unbeatable ones ([`unflag_unbeatable`]) when
 /// at least one in this many of its span is flagged: the row-wise count costs about as much
-/// as counting a few voxels label by label. Measured with `RUST_LOG=volasso_core::segmentation::refine=debug`
-/// (median filter time over `classify --repeat 21`): 1 in 8 took the Visible Male head's
-/// filter from 53.6 to 37.7 ms and the lobster's from 3.2 to 3.3 ms; 1 in 4, 16 and 32 were no
-/// better on either.
+/// as counting a few voxels label by label; of 1 in 4, 8, 16 and 32, 1 in 8 is the fastest on
+/// the Visible Male head and the lobster (`docs/decisions/0009-majority-filter.md`).
 pub(super) const ROW_COUNT_SHARE: usize = 8;
 
 /// Clears the flag of every voxel of `row` (flags and `votes` from position `first` on) whose

@@ -10,12 +10,9 @@
 //! mean lies within that class's core band and past [`ENCLOSED_REACH`] of the way from its own
 //! class's median mean to that class's: the mean speaks for a structure several voxels across
 //! rather than for noise, the intensity keeps in its class a voxel whose neighbours only mix
-//! (a grey-matter voxel beside white matter). On `scripts/heldout.py` the mean macro Dice with
-//! clean lassos rose from 0.839 to 0.849 and from 0.822 to 0.830 on its two seed sets (the
-//! cells, whose loops take in a fifth of a nucleus: +0.065 and +0.048; one seed's nucleus Dice
-//! 0.09 to 0.45), with leaky ones it fell by 0.003 and 0.001 (the real brain's seed 101: 0.820
-//! to 0.780, where a leaked ventricle loop's grey matter was set aside); `volasso accuracy`
-//! gave the same means (benches/README.md).
+//! (a grey-matter voxel beside white matter). A cell's clean loop takes in a fifth of a
+//! nucleus; set aside, those voxels no longer teach the cell
+//! (`docs/decisions/0007-enclosed-voxels.md`).
 //!
 //! The voxels set aside still keep the class where they were lassoed (the user said what they
 //! are; [`super::DrawnLassos::decided_voxels`]): a loop around a skull that takes in the brain
@@ -33,10 +30,9 @@ use crate::volume::Volume;
 
 /// How far from its own class's median mean towards another class's a core voxel's 3 x 3 x 3
 /// mean must lie to be set aside as enclosed (with its intensity nearer the other class).
-/// Measured on `scripts/heldout.py`: with the mean's test alone, the brain's grey-matter voxels
-/// beside white matter left a leaky grey loop (seed 103: 465 of the 577 voxels set aside were
-/// grey matter; -0.024); with a mean twice as near the other class's median as its own (two
-/// thirds of the way) the cells gained a third as much and the leaky head phantom lost 0.01.
+/// Two thirds (a mean twice as near the other class's median as its own) sets aside too few of
+/// a cell's nucleus; the intensity's test, not a farther reach, keeps grey matter beside white
+/// matter in its class (`docs/decisions/0007-enclosed-voxels.md`).
 pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 
 /// Sets aside, for each class that qualifies (module doc), the voxels its loops enclose of

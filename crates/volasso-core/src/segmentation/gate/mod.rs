@@ -5,18 +5,17 @@
 //! The one-vs-one vote (§3.4) lets every pair of classes vote on every voxel, also pairs of
 //! which neither class is anything like the voxel; their decision values far from the training
 //! data are little more than each pair's bias, and they can outvote the pair that matters. On
-//! the foot phantom, air next to the skin (about -900 HU, a steep gradient) lost to the thin
-//! joint space (a class of steep gradients) in three pairs and came out soft tissue; on the
-//! shells phantom the small seed took half the rind. An intensity the user drew for one class
+//! the foot phantom, air next to the skin (about -900 HU, a steep gradient) loses to the thin
+//! joint space (a class of steep gradients) in three pairs and comes out soft tissue; on the
+//! shells phantom the small seed takes half the rind. An intensity the user drew for one class
 //! only is that class; a voxel that several bands hold is left to the vote among those classes;
 //! one between bands to the vote between the band below and the band above, and the bands
 //! that end near those ([`BETWEEN_REACH`]); one beyond every
 //! band to the vote among the classes whose bands end near the outermost band's end
 //! ([`BEYOND_REACH`]), taken as if it lay at that end (its intensities moved there, its
 //! gradient kept), since far from every drawn voxel the vote is little more than each pair's
-//! bias. Measured with `volasso accuracy`
-//! (benches/README.md): on the check cases the mean macro Dice rose from 0.806 to 0.848 with
-//! clean lassos and from 0.804 to 0.811 with leaky ones.
+//! bias. What chose the bands, their ends and their reaches:
+//! `docs/decisions/0005-intensity-gate.md`.
 //!
 //! A band is the class's drawn intensities from the [`BAND_TRIM`] to the 1 - [`BAND_TRIM`]
 //! quantile (a few stray voxels at a lasso's edge do not widen it), widened on each side by
@@ -31,14 +30,13 @@
 //! it outside its own core's band and inside another class's, takes its band from the core
 //! alone. A rim that differs from the core but is nobody else's (a bone's bright cortex around
 //! its marrow, drawn cleanly) stays in the band, and a lasso too small to have a core of
-//! [`MIN_CORE_VOXELS`] keeps every voxel. On the check cases this moved the mean macro Dice
-//! with leaky lassos from 0.811 to 0.838, and left the clean ones at 0.848. A rim voxel counts
+//! [`MIN_CORE_VOXELS`] keeps every voxel (`docs/decisions/0006-leaked-rim.md`). A rim voxel counts
 //! as another class's only when its value is also nearer that class's core median than its
 //! own core's: a thin layer's clean loop has a rim the scan blurred toward its neighbours, and
 //! a class drawn over a wide range (a thin bone with its partial-volume edge) has a band that
 //! holds it, but a finger's leak has the neighbour's own values. Without that test a head
-//! MRI's CSF, drawn cleanly, lost its band's lower half to the skull and its Dice fell to 0.03
-//! (`scripts/heldout.py`, benches/README.md). Where the class's own core median lies between
+//! MRI's CSF, drawn cleanly in a ventricle, loses its band's lower half to a thin skull whose
+//! loop is mostly partial volume. Where the class's own core median lies between
 //! the other class's core quartiles, its core is over that class (a joint's loop whose middle
 //! holds the bone's marrow) and cannot speak for it: there the band test alone decides.
 //!
@@ -46,9 +44,7 @@
 //! ([`DrawnLassos::training_voxels`]): a leaked rim's voxels are as much the neighbours' as
 //! the class's, so where the core holds at least [`CORE_TRAINING_SHARE`] of the drawn voxels
 //! the class is trained on the core (and only the core's voxels keep the class whatever the
-//! classifier says). On `scripts/heldout.py` the mean macro Dice with leaky lassos rose by
-//! 0.014 and 0.008 on its two seed sets (worst case -0.022, best +0.058), with clean ones it
-//! stayed.
+//! classifier says).
 //!
 //! A clean loop can enclose another class's structure (a cell's loop its nucleus): those
 //! voxels of its core are set aside (`enclosed`); the class neither trains on them nor takes
@@ -71,7 +67,7 @@ pub const BAND_TRIM: f64 = 0.02;
 /// How far a band reaches past its trimmed ends, in robust deviations of the class (the 5 to
 /// 95 % quantile distance over 3.29, which is one deviation for a normal class). Chosen on the
 /// tuning cases among 0, 1/4, 1 and 2: the narrower the band, the better with clean lassos;
-/// 1/4 had the best worst case with leaky ones.
+/// 1/4 has the best worst case with leaky ones (`docs/decisions/0005-intensity-gate.md`).
 pub const BAND_MARGIN: f64 = 0.25;
 
 /// How deep a lasso's rim is, in voxels: a finger's loop reaches about two voxels past the
@@ -79,39 +75,37 @@ pub const BAND_MARGIN: f64 = 0.25;
 pub const CORE_DEPTH: usize = 2;
 
 /// Fewest voxels a lasso's core needs for its band to stand for the class (else the class keeps
-/// its whole band). Chosen on the tuning cases among 16, 24, 32 and 40: below 32, a small
-/// class's cleanly drawn lasso (the shells' seed) lost its rim and the clean Dice fell.
+/// its whole band). Below 32 a small class's cleanly drawn lasso (the shells' seed) loses its
+/// rim (`docs/decisions/0006-leaked-rim.md`).
 pub const MIN_CORE_VOXELS: usize = 32;
 
 /// Beyond every band, the classes whose band ends within this share of the outermost band's
 /// width of that band's outer end are left to the vote. There intensity no longer tells apart
 /// classes whose bands end near each other: a thin class's few partial-volume voxels can carry
 /// its band past a larger class's (the foot's joint space past a bone drawn over its marrow,
-/// which then lost its cortex to the joint). Chosen on the tuning cases: 0.25, 0.5 and 0.75
-/// scored alike; 1 (any band overlapping the outermost) let a leaky soft-tissue band vote on
-/// a bone's cortex.
+/// which then loses its cortex to the joint). At 1 (any band overlapping the outermost) a
+/// leaky soft-tissue band votes on a bone's cortex; 0.25 to 0.75 score alike on the tuning
+/// cases (`docs/decisions/0005-intensity-gate.md`).
 pub const BEYOND_REACH: f32 = 0.5;
 
 /// Between bands, the classes whose bands end within this share of the nearest band's width
 /// (below the voxel and above it) of that band's end are left to the vote, for the same
-/// reason as [`BEYOND_REACH`]: a bone's leaky loop carried its band's low end a few units past
-/// the soft tissue's, and the fat below both went to the bone alone. Chosen on the tuning
-/// cases: 0.25 scored best with leaky lassos (+0.0005 on the mean, worst case -0.004), 0.5
-/// cost the shells -0.017 on one; clean lassos alike.
+/// reason as [`BEYOND_REACH`]: a bone's leaky loop carries its band's low end a few units past
+/// the soft tissue's, and the fat below both would go to the bone alone. 0.25 has the best
+/// worst case with leaky lassos (`docs/decisions/0005-intensity-gate.md`).
 pub const BETWEEN_REACH: f32 = 0.25;
 
 /// Least share of a class's drawn voxels its lassos' core must hold for the class to train on
 /// the core alone when its rim leaked ([`DrawnLassos::training_voxels`]): a loop one
 /// finger-width past a structure several widths across. A thinner structure's core (a vessel,
-/// a joint gap) stands for too little of it. Chosen on the tuning cases (`volasso accuracy`):
-/// a core of any size cost a thin vessel drawn cleanly 0.28; at 0.34 the tuning and check
-/// means with leaky lassos rose (0.822 -> 0.829, 0.842 -> 0.843) and the clean ones stayed, at
-/// 0.5 all four stayed.
+/// a joint gap) stands for too little of it: a thin vessel whose clean rim is taken for a leak
+/// would be trained on a core that misses its edge (`docs/decisions/0006-leaked-rim.md`).
 pub const CORE_TRAINING_SHARE: f64 = 0.34;
 
 /// Share of a lasso's rim that, outside its own core's band and inside another class's core
 /// band, makes the rim leaked. Chosen on the tuning cases among 0.1, 0.15, 0.2 and 0.3: the
-/// best mean and worst case with leaky lassos, the clean ones unchanged.
+/// best mean and worst case with leaky lassos, the clean ones unchanged
+/// (`docs/decisions/0006-leaked-rim.md`).
 pub const LEAKED_RIM_SHARE: f64 = 0.15;
 
 /// Classes a gate can tell apart (one bit each in a [`ClassSet`], in the model's class order).
