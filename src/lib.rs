@@ -55,6 +55,7 @@ pub mod classify;
 #[doc(hidden)]
 pub mod cli;
 pub mod cpu;
+pub mod dicom_out;
 #[doc(hidden)]
 pub mod display;
 pub mod features;

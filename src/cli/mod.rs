@@ -6,6 +6,7 @@
 mod accuracy;
 mod args;
 mod classify;
+mod export;
 mod import;
 mod info;
 mod memory;
@@ -66,6 +67,9 @@ pub enum CliError {
     /// A replay ran, and this many of its expectations did not hold (each printed before).
     #[error("{failed} expectation(s) failed")]
     ExpectationsFailed { failed: usize },
+    /// A classification cannot be exported as DICOM.
+    #[error(transparent)]
+    Export(#[from] crate::dicom_out::ExportError),
 }
 
 /// Runs the command line with the process's arguments.
@@ -106,6 +110,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Record(args)) => record::run(&args),
         Some(Command::Accuracy(args)) => accuracy::run(&args),
         Some(Command::Receive(args)) => receive::run(&args),
+        Some(Command::Export(args)) => export::run(&args),
         None => ui::run(&ui::UiArgs::from_environment()),
     }
 }
