@@ -62,6 +62,7 @@ pub mod features;
 pub mod input_file;
 #[doc(hidden)]
 pub mod kiosk;
+pub mod pacs;
 pub mod phantom;
 pub mod pipeline;
 pub mod receive;

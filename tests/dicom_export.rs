@@ -27,6 +27,12 @@ pub const PHILIPS_STROKES: &str = r#"{"format": "volasso-strokes/1", "classes": 
 
 /// Classifies the Philips series into `folder/labels.nrrd` (and its class table).
 pub fn classify_philips(folder: &Path) -> PathBuf {
+    classify_series(folder, &philips())
+}
+
+/// Classifies `series` (a copy of the Philips series) with [`PHILIPS_STROKES`] into
+/// `folder/labels.nrrd`.
+pub fn classify_series(folder: &Path, series: &Path) -> PathBuf {
     let strokes = folder.join("strokes.json");
     std::fs::write(&strokes, PHILIPS_STROKES).unwrap();
     let labels = folder.join("labels.nrrd");
@@ -34,7 +40,7 @@ pub fn classify_philips(folder: &Path) -> PathBuf {
     let output = volasso(
         &[
             "classify",
-            philips().to_str().unwrap(),
+            series.to_str().unwrap(),
             "--strokes",
             strokes.to_str().unwrap(),
             "--out",

@@ -42,6 +42,9 @@ pub enum Command {
     /// A classification of a DICOM series as a DICOM Segmentation (and the 3-D view as a
     /// Secondary Capture), new series of the series' study.
     Export(super::export::ExportArgs),
+    /// Query, retrieve from and store to a PACS (DICOM C-FIND, C-GET, C-STORE as SCU).
+    #[command(subcommand)]
+    Pacs(super::pacs::PacsCommand),
 }
 
 #[derive(Debug, Args)]

@@ -12,6 +12,7 @@ mod info;
 mod memory;
 mod npy;
 mod outputs;
+mod pacs;
 mod receive;
 mod record;
 mod render;
@@ -70,6 +71,9 @@ pub enum CliError {
     /// A classification cannot be exported as DICOM.
     #[error(transparent)]
     Export(#[from] crate::dicom_out::ExportError),
+    /// A PACS could not be queried, retrieved from or stored to.
+    #[error(transparent)]
+    Pacs(#[from] crate::pacs::PacsError),
 }
 
 /// Runs the command line with the process's arguments.
@@ -111,6 +115,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Accuracy(args)) => accuracy::run(&args),
         Some(Command::Receive(args)) => receive::run(&args),
         Some(Command::Export(args)) => export::run(&args),
+        Some(Command::Pacs(command)) => pacs::run(&command),
         None => ui::run(&ui::UiArgs::from_environment()),
     }
 }

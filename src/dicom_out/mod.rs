@@ -37,10 +37,6 @@ pub const EXPLICIT_VR_LITTLE_ENDIAN: &str = "1.2.840.10008.1.2.1";
 pub const SEGMENTATION_STORAGE: &str = "1.2.840.10008.5.1.4.1.1.66.4";
 /// Secondary Capture Image Storage.
 pub const SECONDARY_CAPTURE_STORAGE: &str = "1.2.840.10008.5.1.4.1.1.7";
-/// This implementation's class UID (under the UUID-derived root 2.25) and version name.
-pub const IMPLEMENTATION_CLASS_UID: &str = "2.25.241196340316655958496117406232207616137";
-/// The implementation version name in the file meta and the A-ASSOCIATE-RQ.
-pub const IMPLEMENTATION_VERSION_NAME: &str = "VOLASSO_010";
 
 /// Why an export cannot be written.
 #[derive(Debug, thiserror::Error)]
@@ -380,18 +376,14 @@ pub(crate) fn put_equipment(object: &mut InMemDicomObject) {
     object.put(text(tags::SOFTWARE_VERSIONS, VR::LO, env!("CARGO_PKG_VERSION")));
 }
 
-/// `object` with its file meta (Explicit VR Little Endian).
+/// `object` with its file meta (Explicit VR Little Endian; the implementation class UID and
+/// version name are dicom-rs's, as in every file and association of volasso).
 pub(crate) fn with_meta(
     object: InMemDicomObject,
     what: &'static str,
 ) -> Result<FileDicomObject<InMemDicomObject>, ExportError> {
     object
-        .with_meta(
-            FileMetaTableBuilder::new()
-                .transfer_syntax(EXPLICIT_VR_LITTLE_ENDIAN)
-                .implementation_class_uid(IMPLEMENTATION_CLASS_UID)
-                .implementation_version_name(IMPLEMENTATION_VERSION_NAME),
-        )
+        .with_meta(FileMetaTableBuilder::new().transfer_syntax(EXPLICIT_VR_LITTLE_ENDIAN))
         .map_err(|error| ExportError::Build { what, problem: error.to_string() })
 }
 
