@@ -267,6 +267,54 @@ fn frame_item(source: &SourceSeries, segment: u16, z: usize) -> InMemDicomObject
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::dicom_out::SourceImage;
+    use std::path::PathBuf;
+
+    /// A series of 2 slices of 3 x 2 pixels, without a file behind it.
+    fn tiny_series() -> SourceSeries {
+        let first = InMemDicomObject::from_element_iter([
+            text(tags::STUDY_INSTANCE_UID, VR::UI, "1.2.3"),
+            text(tags::FRAME_OF_REFERENCE_UID, VR::UI, "1.2.3.4"),
+            text(tags::PIXEL_SPACING, VR::DS, "0.5\\0.5"),
+            text(tags::IMAGE_ORIENTATION_PATIENT, VR::DS, "1\\0\\0\\0\\1\\0"),
+        ]);
+        let image = |z: usize| SourceImage {
+            path: PathBuf::from(format!("slice{z}")),
+            sop_class_uid: "1.2.840.10008.5.1.4.1.1.2".into(),
+            sop_instance_uid: format!("1.2.3.5.{z}"),
+            position: vec!["0".into(), "0".into(), format!("{}", z * 2)],
+        };
+        SourceSeries {
+            dims: [3, 2, 2],
+            images: vec![image(0), image(1)],
+            series_uid: "1.2.3.6".into(),
+            first,
+            slice_spacing_mm: 2.0,
+        }
+    }
+
+    #[test]
+    fn frames_hold_each_segments_slices_bit_packed_least_significant_first() {
+        // Slice 0: class 1 at x = 0 and 2 of row 0; slice 1: class 2 at (1, 1). Class 3 has none.
+        let labels = [1, 0, 1, 0, 0, 0, 0, 0, 0, 0, 2, 0];
+        let segments: Vec<Segment> =
+            ["a", "b", "c"].iter().map(|name| Segment { label: name.to_string(), rgb: [1.0, 0.0, 0.0] }).collect();
+        let object = segmentation(&tiny_series(), &labels, &segments).unwrap();
+        // Class 1 on slice 0, class 2 on slice 1, class 3 (empty) on slice 0.
+        assert_eq!(object.element(tags::NUMBER_OF_FRAMES).unwrap().to_str().unwrap(), "3");
+        let pixels = object.element(tags::PIXEL_DATA).unwrap().to_bytes().unwrap();
+        // 3 frames of 6 bits: bits 0 and 2 (frame 1), bit 6 + 4 = 10 (frame 2), none (frame 3).
+        assert_eq!(&pixels[..], &[0b0000_0101, 0b0000_0100, 0, 0]);
+        let frames = object.element(tags::PER_FRAME_FUNCTIONAL_GROUPS_SEQUENCE).unwrap().items().unwrap();
+        let source_of = |frame: &InMemDicomObject| {
+            let derivation = &frame.element(tags::DERIVATION_IMAGE_SEQUENCE).unwrap().items().unwrap()[0];
+            let source = &derivation.element(tags::SOURCE_IMAGE_SEQUENCE).unwrap().items().unwrap()[0];
+            source.element(tags::REFERENCED_SOP_INSTANCE_UID).unwrap().to_str().unwrap().into_owned()
+        };
+        let sources: Vec<String> = frames.iter().map(source_of).collect();
+        assert_eq!(sources, ["1.2.3.5.0", "1.2.3.5.1", "1.2.3.5.0"]);
+        assert!(segmentation(&tiny_series(), &labels[..11], &segments).is_err(), "labels of another size");
+    }
 
     #[test]
     fn cielab_of_white_black_and_red() {

@@ -10,6 +10,9 @@
 //! nothing: its images stay in the receiver's pending folder (a running or later receiver
 //! publishes them once stable).
 //!
+//! Images are refused (A700H) while the data partition is more than 90 % full, as the receiver
+//! refuses them by default.
+//!
 //! Never: publishes a series that does not import cleanly, or acknowledges an image before it
 //! is durable.
 
@@ -17,7 +20,7 @@ use super::{
     PacsError, Peer, command, encode, is_pending, native_syntaxes, receive_command, receive_data, release, send_message,
 };
 use crate::receive::dimse::{self, Command, status};
-use crate::receive::store::{Published, Store, remove_path};
+use crate::receive::store::{Published, Store, remove_path, used_fraction};
 use crate::receive::{STORAGE_SOP_CLASSES, SeriesReport, accepted_transfer_syntaxes};
 use crate::volume::dicom;
 use crate::volume::limits::ReadLimits;
@@ -35,6 +38,9 @@ use std::path::{Path, PathBuf};
 const GET: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_GET;
 /// The most bytes of one retrieved image.
 const MOST_IMAGE_BYTES: u64 = 4 << 30;
+/// Above this fraction of the data partition in use, retrieved images are refused (A700H), as
+/// `volasso receive` refuses them by default.
+const MOST_DISK_USE: f64 = 0.9;
 
 /// Retrieves `study_uid` (or its series `series_uid`) from `peer` into `data_dir`; one report
 /// per series published or held back.
@@ -212,6 +218,16 @@ impl Retrieval<'_> {
         };
         if !request.has_data_set {
             return Ok((status::CANNOT_UNDERSTAND, Some("a C-STORE request without a data set".into())));
+        }
+        let full = match used_fraction(self.store.data_dir()) {
+            Ok(fraction) if fraction <= MOST_DISK_USE => None,
+            Ok(fraction) => Some(format!("the kiosk's disk is {:.0} % full", fraction * 100.0)),
+            Err(_) => Some("cannot tell how full the kiosk's disk is".to_string()),
+        };
+        if let Some(problem) = full {
+            log::warn!("refusing a retrieved image: {problem}");
+            receive_data(association, MOST_IMAGE_BYTES, |_| Ok(()))?;
+            return Ok((status::OUT_OF_RESOURCES, Some(problem)));
         }
         let path = self.folder.join(format!("{}.dcm", self.next_file));
         self.next_file += 1;
