@@ -343,3 +343,22 @@ fn a_pacs_that_is_down_refuses_or_fails_a_store_gives_one_error_and_nothing_half
     let output = pacs(&["send", "--pacs", &orthanc.address(), labels.to_str().unwrap()], &cache);
     assert_clean_error(&output, "not a DICOM file", "a NRRD sent");
 }
+
+#[test]
+fn a_peer_that_accepts_the_connection_and_never_answers_is_given_up_after_the_timeout() {
+    let listener = std::net::TcpListener::bind("127.0.0.1:0").unwrap();
+    let port = listener.local_addr().unwrap().port();
+    // Holds every connection open without a byte, until the test ends.
+    std::thread::spawn(move || {
+        let mut held = Vec::new();
+        for stream in listener.incoming().take(4) {
+            held.push(stream);
+        }
+    });
+    let folder = tempfile::tempdir().unwrap();
+    let silent = format!("SILENT@127.0.0.1:{port}");
+    let started = Instant::now();
+    let output = pacs(&["find", "--pacs", &silent, "--timeout", "1"], folder.path());
+    assert_clean_error(&output, "did not answer the association request within 1 s", "a silent peer");
+    assert!(started.elapsed() < Duration::from_secs(10), "{:?}", started.elapsed());
+}

@@ -103,9 +103,12 @@ impl Peer {
         for sop_class in scp_roles {
             options = options.with_role_selection(*sop_class, false, true);
         }
-        options
-            .establish((self.host.as_str(), self.port))
-            .map_err(|error| PacsError::Association { peer: self.describe(), problem: chain(&error) })
+        let started = std::time::Instant::now();
+        options.establish((self.host.as_str(), self.port)).map_err(|error| PacsError::Association {
+            peer: self.describe(),
+            problem: timed_out(started, Some(self.timeout), "answer the association request")
+                .unwrap_or_else(|| chain(&error)),
+        })
     }
 }
 
@@ -211,6 +214,14 @@ fn chain(error: &dyn std::error::Error) -> String {
     text
 }
 
+/// "it did not WHAT within N s" when a call that started at `started` failed after the
+/// timeout: dicom-ul reports a read timed out as other errors (data that look like TLS, say).
+fn timed_out(started: std::time::Instant, timeout: Option<Duration>, what: &str) -> Option<String> {
+    let timeout = timeout?;
+    (started.elapsed() + Duration::from_millis(20) >= timeout)
+        .then(|| format!("it did not {what} within {} s", timeout.as_secs_f64()))
+}
+
 /// Explicit and Implicit VR Little Endian: what command identifiers are proposed in.
 fn native_syntaxes() -> Vec<String> {
     vec!["1.2.840.10008.1.2.1".to_string(), "1.2.840.10008.1.2".to_string()]
@@ -299,7 +310,11 @@ struct Received {
 fn receive_command(association: &mut ClientAssociation<TcpStream>) -> Result<Received, String> {
     let mut bytes = Vec::new();
     loop {
-        match association.receive().map_err(|error| chain(&error))? {
+        let started = std::time::Instant::now();
+        let pdu = association.receive().map_err(|error| {
+            timed_out(started, association.read_timeout(), "answer").unwrap_or_else(|| chain(&error))
+        })?;
+        match pdu {
             Pdu::PData { data } => {
                 for value in data {
                     if value.value_type != PDataValueType::Command {
@@ -352,7 +367,12 @@ fn receive_data(
 ) -> Result<(), String> {
     let mut total = 0u64;
     loop {
-        match association.receive().map_err(|error| chain(&error))? {
+        let started = std::time::Instant::now();
+        let pdu = association.receive().map_err(|error| {
+            timed_out(started, association.read_timeout(), "send the rest of a data set")
+                .unwrap_or_else(|| chain(&error))
+        })?;
+        match pdu {
             Pdu::PData { data } => {
                 for value in data {
                     if value.value_type != PDataValueType::Data {
