@@ -58,10 +58,12 @@ pub use volasso_core::{
 pub mod app;
 #[doc(hidden)]
 pub mod cli;
+pub mod dicom_out;
 #[doc(hidden)]
 pub mod display;
 #[doc(hidden)]
 pub mod kiosk;
+pub mod pacs;
 pub mod receive;
 #[doc(hidden)]
 pub mod touch;

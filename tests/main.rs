@@ -34,6 +34,12 @@
 //!   several series, a killed association, refusals); a series published whole or not at all,
 //!   also across kills of the receiver; failures told to the sender; limits and timeouts
 //!   against hostile peers; TLS.
+//! * `dicom_export`: `volasso export` writes a DICOM Segmentation and a Secondary Capture of the
+//!   classified Philips series that dciodvfy validates and highdicom reads back voxel for voxel;
+//!   labels that do not belong to the series are refused.
+//! * `pacs`: `volasso pacs find|get|send` against Orthanc started on loopback: the Philips
+//!   series found, retrieved voxel for voxel, classified, exported and sent back into its study;
+//!   a PACS that is down, rejects the association or fails a C-STORE.
 //! * `library`: the array entry of the pipeline labels as `volasso classify` does.
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
@@ -42,6 +48,7 @@ mod classification;
 mod cli;
 mod deploy;
 mod dicom_codecs;
+mod dicom_export;
 mod dicom_jpeg2000;
 mod dicom_receive;
 mod formats;
@@ -51,6 +58,7 @@ mod hostile_values;
 mod library;
 mod malformed;
 mod mutations;
+mod pacs;
 mod rendering;
 mod replay;
 mod replay_gallery;

@@ -39,6 +39,12 @@ pub enum Command {
     Accuracy(super::accuracy::AccuracyArgs),
     /// A DICOM storage SCP: a PACS pushes CT/MR series, each stored in --data-dir once complete.
     Receive(super::receive::ReceiveArgs),
+    /// A classification of a DICOM series as a DICOM Segmentation (and the 3-D view as a
+    /// Secondary Capture), new series of the series' study.
+    Export(super::export::ExportArgs),
+    /// Query, retrieve from and store to a PACS (DICOM C-FIND, C-GET, C-STORE as SCU).
+    #[command(subcommand)]
+    Pacs(super::pacs::PacsCommand),
 }
 
 #[derive(Debug, Args)]
@@ -321,7 +327,7 @@ pub(super) fn parse_size(text: &str) -> Result<[u32; 2], String> {
 /// downlevel limits (`render::gpu::required_limits`), whose 2-D textures stop at 2048.
 pub const MAX_RENDER_SIDE: u32 = 2048;
 
-fn parse_render_size(text: &str) -> Result<[u32; 2], String> {
+pub(super) fn parse_render_size(text: &str) -> Result<[u32; 2], String> {
     size_within(text, MAX_RENDER_SIDE)
 }
 

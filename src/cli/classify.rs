@@ -130,7 +130,8 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         file.write_all(&labels.labels)
     })
     .map_err(output(&args.out))?;
-    let table_text = serde_json::to_string_pretty(&TableOfRun { table: &table, run: &run })
+    let class_names: Vec<&str> = strokes.classes.iter().map(|class| class.name.as_str()).collect();
+    let table_text = serde_json::to_string_pretty(&TableOfRun { table: &table, classes: &class_names, run: &run })
         .map_err(|source| TransferError::TableJson { source, path: table_path.clone() })?;
     let staged_table = stage(&table_path, |file| file.write_all(table_text.as_bytes())).map_err(output(&table_path))?;
     let mut staged = Vec::new();
@@ -186,11 +187,13 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
 const EXPORTED: [&str; 5] =
     ["train_features.npy", "train_labels.npy", "predict_features.npy", "volasso_labels.npy", "volasso.json"];
 
-/// The class table as written beside the labels: its fields, then the run that wrote it.
+/// The class table as written beside the labels: its fields, the class names (in id order:
+/// `volasso export` names the segments after them), then the run that wrote it.
 #[derive(serde::Serialize)]
 struct TableOfRun<'a> {
     #[serde(flatten)]
     table: &'a ClassTable,
+    classes: &'a [&'a str],
     run: &'a str,
 }
 

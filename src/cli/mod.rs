@@ -6,11 +6,13 @@
 mod accuracy;
 mod args;
 mod classify;
+mod export;
 mod import;
 mod info;
 mod memory;
 mod npy;
 mod outputs;
+mod pacs;
 mod receive;
 mod record;
 mod render;
@@ -66,6 +68,12 @@ pub enum CliError {
     /// A replay ran, and this many of its expectations did not hold (each printed before).
     #[error("{failed} expectation(s) failed")]
     ExpectationsFailed { failed: usize },
+    /// A classification cannot be exported as DICOM.
+    #[error(transparent)]
+    Export(#[from] crate::dicom_out::ExportError),
+    /// A PACS could not be queried, retrieved from or stored to.
+    #[error(transparent)]
+    Pacs(#[from] crate::pacs::PacsError),
 }
 
 /// Runs the command line with the process's arguments.
@@ -106,6 +114,8 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Record(args)) => record::run(&args),
         Some(Command::Accuracy(args)) => accuracy::run(&args),
         Some(Command::Receive(args)) => receive::run(&args),
+        Some(Command::Export(args)) => export::run(&args),
+        Some(Command::Pacs(command)) => pacs::run(&command),
         None => ui::run(&ui::UiArgs::from_environment()),
     }
 }

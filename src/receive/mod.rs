@@ -27,9 +27,9 @@
 
 mod admission;
 mod association;
-mod dimse;
+pub(crate) mod dimse;
 mod stable;
-mod store;
+pub(crate) mod store;
 mod tls;
 mod watchdog;
 

@@ -210,6 +210,25 @@ impl Store {
         Ok((store, pending))
     }
 
+    /// Joins the data folder beside a receiver that may be running on it (`volasso pacs get`):
+    /// creates the staging folders when missing and recovers nothing, so no other process's
+    /// incoming file or publish is touched. Files are named per process, as in [`Store::open`].
+    pub fn join(data_dir: &Path) -> std::io::Result<Store> {
+        let staging = data_dir.join(STAGING_FOLDER);
+        for folder in [INCOMING_FOLDER, PENDING_FOLDER, CANDIDATE_FOLDER] {
+            std::fs::create_dir_all(staging.join(folder))?;
+        }
+        Ok(Store {
+            data_dir: data_dir.to_path_buf(),
+            staging,
+            filing: Mutex::new(()),
+            next_association: AtomicU64::new(0),
+            limits: ReadLimits::default(),
+            kill_at_step: None,
+            steps: AtomicU64::new(0),
+        })
+    }
+
     pub fn data_dir(&self) -> &Path {
         &self.data_dir
     }

@@ -1,0 +1,139 @@
+//! `volasso pacs find|get|send`: the kiosk as a DICOM client of a PACS ([`crate::pacs`]). Each
+//! prints one JSON line per study found, series retrieved or file sent, and exits non-zero with
+//! one sentence when the PACS is down, refuses the association or answers a failure.
+
+use super::CliError;
+use crate::pacs::{FindQuery, PacsError, Peer};
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+use std::time::Duration;
+
+#[derive(Debug, Subcommand)]
+pub enum PacsCommand {
+    /// C-FIND: one JSON line per matching study, with its series.
+    Find(FindArgs),
+    /// C-GET: retrieve a study or series into the data folder, published as a received series.
+    Get(GetArgs),
+    /// C-STORE: store DICOM files (e.g. what `volasso export` wrote).
+    Send(SendArgs),
+}
+
+#[derive(Debug, Args)]
+pub struct PeerArgs {
+    /// The PACS, as AE@host:port.
+    #[arg(long, env = "VOLASSO_PACS", value_name = "AE@HOST:PORT")]
+    pub pacs: String,
+    /// This kiosk's AE title (the calling AE title).
+    #[arg(long, env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE")]
+    pub ae_title: String,
+    /// Bounds the connection and each read and write, in seconds.
+    #[arg(long, default_value_t = 30.0, value_name = "SECONDS", value_parser = parse_timeout)]
+    pub timeout: f64,
+}
+
+impl PeerArgs {
+    fn peer(&self) -> Result<Peer, PacsError> {
+        Peer::parse(&self.pacs, &self.ae_title, Duration::from_secs_f64(self.timeout))
+    }
+}
+
+fn parse_timeout(text: &str) -> Result<f64, String> {
+    text.parse::<f64>()
+        .ok()
+        .filter(|seconds| seconds.is_finite() && *seconds > 0.0 && *seconds <= 86_400.0)
+        .ok_or_else(|| format!("'{text}' is not a number of seconds above 0 and at most 86400"))
+}
+
+#[derive(Debug, Args)]
+pub struct FindArgs {
+    #[command(flatten)]
+    pub peer: PeerArgs,
+    /// Only this PatientID.
+    #[arg(long, value_name = "ID")]
+    pub patient_id: Option<String>,
+    /// Only this AccessionNumber.
+    #[arg(long, value_name = "N")]
+    pub accession: Option<String>,
+    /// Only studies with this modality (CT, MR...).
+    #[arg(long, value_name = "MODALITY")]
+    pub modality: Option<String>,
+    /// Only studies on or after this date.
+    #[arg(long, value_name = "YYYYMMDD", value_parser = parse_date)]
+    pub since: Option<String>,
+}
+
+fn parse_date(text: &str) -> Result<String, String> {
+    let valid = text.len() == 8
+        && text.bytes().all(|byte| byte.is_ascii_digit())
+        && (1..=12).contains(&text[4..6].parse::<u32>().unwrap_or(0))
+        && (1..=31).contains(&text[6..8].parse::<u32>().unwrap_or(0));
+    if valid { Ok(text.to_string()) } else { Err(format!("'{text}' is not a date YYYYMMDD")) }
+}
+
+#[derive(Debug, Args)]
+pub struct GetArgs {
+    #[command(flatten)]
+    pub peer: PeerArgs,
+    /// The folder series are published in (as `volasso receive --data-dir`).
+    #[arg(long, env = "VOLASSO_DATA_DIR", value_name = "DIR")]
+    pub data_dir: PathBuf,
+    /// The study to retrieve.
+    pub study_uid: String,
+    /// Only this series of it.
+    pub series_uid: Option<String>,
+}
+
+#[derive(Debug, Args)]
+pub struct SendArgs {
+    #[command(flatten)]
+    pub peer: PeerArgs,
+    /// The DICOM files to store.
+    #[arg(required = true)]
+    pub files: Vec<PathBuf>,
+}
+
+pub fn run(command: &PacsCommand) -> Result<(), CliError> {
+    match command {
+        PacsCommand::Find(args) => {
+            let query = FindQuery {
+                patient_id: args.patient_id.clone(),
+                accession_number: args.accession.clone(),
+                modality: args.modality.clone(),
+                since: args.since.clone(),
+            };
+            for study in crate::pacs::find(&args.peer.peer()?, &query)? {
+                println!("{}", serde_json::to_string(&study).unwrap_or_default());
+            }
+            Ok(())
+        }
+        PacsCommand::Get(args) => {
+            let reports =
+                crate::pacs::get(&args.peer.peer()?, &args.data_dir, &args.study_uid, args.series_uid.as_deref())?;
+            let mut failed = 0;
+            for report in &reports {
+                failed += usize::from(matches!(report, crate::receive::SeriesReport::Incomplete { .. }));
+                println!("{}", serde_json::to_string(report).unwrap_or_default());
+            }
+            if failed > 0 {
+                return Err(PacsError::NotAllPublished { failed }.into());
+            }
+            if reports.is_empty() {
+                let uid = args.series_uid.clone().unwrap_or_else(|| args.study_uid.clone());
+                return Err(PacsError::NothingRetrieved { uid, peer: args.peer.pacs.clone() }.into());
+            }
+            Ok(())
+        }
+        PacsCommand::Send(args) => {
+            let peer = args.peer.peer()?;
+            let reports = crate::pacs::send(&peer, &args.files)?;
+            for report in &reports {
+                println!("{}", serde_json::to_string(report).unwrap_or_default());
+            }
+            let failed = reports.iter().filter(|report| !report.stored).count();
+            if failed > 0 {
+                return Err(PacsError::NotAllStored { failed, total: reports.len(), peer: peer.describe() }.into());
+            }
+            Ok(())
+        }
+    }
+}
