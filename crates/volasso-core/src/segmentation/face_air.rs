@@ -2,26 +2,20 @@
 //!
 //! A voxel is *dark* when it lies outside the scanned body at a level (the volume's Otsu
 //! threshold, see `super::background`; [`Volume::body_at`]): below the level, and not ringed
-//! by the body in its own slice along any axis. The face region is every dark voxel that a path
-//! of dark voxels (6-neighbours) joins to a voxel on one of the volume's six faces. Dark voxels
-//! inside a body (lungs, sinuses, bowel gas) are not in it, also where they reach a face: a
-//! chest CT's lungs leave the volume through its top face by the trachea and their apices, and
-//! a windowed scan makes them as dark as the air, but the chest wall rings them in every axial
-//! slice.
+//! by the body in its own axial slice. The face region is every dark voxel that a path of dark
+//! voxels joins to one of the volume's six faces. Dark voxels inside a body (lungs, sinuses,
+//! bowel gas) are not in it, also where they reach a face: a chest CT's lungs leave the volume
+//! through its top face by the trachea and their apices, and a windowed scan makes them as dark
+//! as the air, but the chest wall rings them in every axial slice.
 //!
-//! Both searches fill whole runs along x at a time (a scanline flood fill), so their stacks hold
-//! row segments, not voxels:
-//! * [`FaceRegion::find`] fills the whole face region from every dark face voxel (one pass that
-//!   first marks the dark voxels plane by plane in parallel);
-//! * [`reaches_face`] answers for a few voxels (a lasso's dark ones) by filling from them only
-//!   until a face is touched, so that a lasso in the air around a body costs a small
-//!   neighbourhood, not the whole volume.
+//! No search is needed: the body's outline fills every dark voxel of an axial slice that no
+//! 4-connected path of dark voxels joins to the slice's edge, and the slice's edge lies on the
+//! volume's faces, so every dark voxel left is joined to a face within its own slice. The face
+//! region is the outside of the body, and a voxel reaches a face exactly when it is dark.
 //!
 //! Never: decides what is background (that is `super::background`'s rule), or reads files.
 
 use crate::volume::Volume;
-use std::cmp::Reverse;
-use std::collections::BinaryHeap;
 
 /// A set of voxels as one bit per voxel (x fastest).
 #[derive(Clone, Debug, PartialEq, Eq)]
@@ -79,26 +73,10 @@ pub struct FaceRegion {
 }
 
 impl FaceRegion {
-    /// Fills the face region of `volume` below `level`.
+    /// The face region of `volume` below `level`: the outside of its body at that level.
     pub fn find(volume: &Volume, level: f64) -> FaceRegion {
-        let dims = volume.dims;
         let body = volume.body_at(level);
-        let mut fill = Fill::new(dims, |index| !body.contains(index));
-        let [size_x, size_y, size_z] = dims;
-        // Seeds: every voxel of the six faces (a filled run is skipped when met again).
-        for z in 0..size_z {
-            for y in 0..size_y {
-                if z == 0 || y == 0 || z + 1 == size_z || y + 1 == size_y {
-                    for x in 0..size_x {
-                        fill.fill_from(x, y, z);
-                    }
-                } else {
-                    fill.fill_from(0, y, z);
-                    fill.fill_from(size_x - 1, y, z);
-                }
-            }
-        }
-        FaceRegion { dims, level, voxels: fill.visited }
+        FaceRegion { dims: volume.dims, level, voxels: VoxelBits { words: body.outside_words() } }
     }
 
     /// Whether voxel `index` (x fastest) is in the region.
@@ -107,143 +85,11 @@ impl FaceRegion {
     }
 }
 
-/// For each of `voxels`: true when it is dark (below `level`) and joined to a face through
-/// dark voxels. Fills from the dark ones only, each fill stopping at the first face it touches.
+/// For each of `voxels`: true when it is dark (below `level`, outside the body) and so joined
+/// to a face (see the module doc).
 pub fn reaches_face(volume: &Volume, level: f64, voxels: &[usize]) -> Vec<bool> {
-    let dims = volume.dims;
     let body = volume.body_at(level);
-    let dark = |index: usize| !body.contains(index);
-    let mut fill = Fill::new(dims, dark);
-    // Voxels whose fill touched a face, and voxels whose fill was exhausted without one.
-    let mut face = VoxelBits::new(volume.voxel_count());
-    let mut inside = VoxelBits::new(volume.voxel_count());
-    voxels
-        .iter()
-        .map(|&index| {
-            if !(fill.dark)(index) {
-                return false;
-            }
-            if face.contains(index) {
-                return true;
-            }
-            if inside.contains(index) {
-                return false;
-            }
-            let [x, y, z] = coordinates(index, dims);
-            let touched = fill.fill_from_until_face(x, y, z, &face);
-            let verdict = if touched { &mut face } else { &mut inside };
-            for &(start, length) in &fill.runs {
-                for index in start..start + length {
-                    verdict.insert(index);
-                }
-            }
-            touched
-        })
-        .collect()
-}
-
-fn coordinates(index: usize, dims: [usize; 3]) -> [usize; 3] {
-    [index % dims[0], index / dims[0] % dims[1], index / (dims[0] * dims[1])]
-}
-
-/// A scanline flood fill over the voxels where `dark` holds.
-struct Fill<D: Fn(usize) -> bool> {
-    dims: [usize; 3],
-    dark: D,
-    visited: VoxelBits,
-    /// Row segments still to extend: (x, y, z) of a dark voxel, nearest a face first (a
-    /// search that stops at the first face goes straight for it; a whole fill visits every
-    /// segment anyway).
-    stack: BinaryHeap<(Reverse<usize>, [usize; 3])>,
-    /// Runs filled by the latest fill: (first index, length).
-    runs: Vec<(usize, usize)>,
-}
-
-impl<D: Fn(usize) -> bool> Fill<D> {
-    fn new(dims: [usize; 3], dark: D) -> Fill<D> {
-        Fill {
-            dims,
-            dark,
-            visited: VoxelBits::new(dims[0] * dims[1] * dims[2]),
-            stack: BinaryHeap::new(),
-            runs: Vec::new(),
-        }
-    }
-
-    fn index(&self, [x, y, z]: [usize; 3]) -> usize {
-        x + self.dims[0] * (y + self.dims[1] * z)
-    }
-
-    /// Fills the dark region around (x, y, z), if that voxel is dark and not yet filled.
-    fn fill_from(&mut self, x: usize, y: usize, z: usize) {
-        let never = VoxelBits { words: Vec::new() };
-        self.fill(x, y, z, &never, false);
-    }
-
-    /// Fills from (x, y, z) until a run touches a face or a voxel of `face`; true when one did.
-    /// The runs filled are left in `runs`.
-    fn fill_from_until_face(&mut self, x: usize, y: usize, z: usize, face: &VoxelBits) -> bool {
-        self.fill(x, y, z, face, true)
-    }
-
-    fn fill(&mut self, x: usize, y: usize, z: usize, face: &VoxelBits, stop_at_face: bool) -> bool {
-        self.runs.clear();
-        self.stack.clear();
-        self.stack.push((Reverse(0), [x, y, z]));
-        let [size_x, size_y, size_z] = self.dims;
-        while let Some((_, [x, y, z])) = self.stack.pop() {
-            let row_start = self.index([0, y, z]);
-            if self.visited.contains(row_start + x) || !(self.dark)(row_start + x) {
-                continue;
-            }
-            let mut first = x;
-            while first > 0 && !self.visited.contains(row_start + first - 1) && (self.dark)(row_start + first - 1) {
-                first -= 1;
-            }
-            let mut last = x;
-            while last + 1 < size_x && !self.visited.contains(row_start + last + 1) && (self.dark)(row_start + last + 1)
-            {
-                last += 1;
-            }
-            for index in row_start + first..=row_start + last {
-                self.visited.insert(index);
-            }
-            if stop_at_face {
-                self.runs.push((row_start + first, last - first + 1));
-                let on_face =
-                    first == 0 || last + 1 == size_x || y == 0 || y + 1 == size_y || z == 0 || z + 1 == size_z;
-                let meets_face = !face.words.is_empty()
-                    && (first > 0 && face.contains(row_start + first - 1)
-                        || last + 1 < size_x && face.contains(row_start + last + 1));
-                if on_face || meets_face {
-                    return true;
-                }
-            }
-            let neighbours = [(y.wrapping_sub(1), z), (y + 1, z), (y, z.wrapping_sub(1)), (y, z + 1)];
-            for (ny, nz) in neighbours {
-                if ny >= size_y || nz >= size_z {
-                    continue;
-                }
-                let neighbour_row = self.index([0, ny, nz]);
-                // One seed per dark, unfilled segment of the neighbour row under this run.
-                let mut in_segment = false;
-                for nx in first..=last {
-                    let index = neighbour_row + nx;
-                    if stop_at_face && !face.words.is_empty() && face.contains(index) {
-                        return true;
-                    }
-                    let open = !self.visited.contains(index) && (self.dark)(index);
-                    if open && !in_segment {
-                        let to_face = [nx, size_x - 1 - nx, ny, size_y - 1 - ny, nz, size_z - 1 - nz];
-                        let priority = if stop_at_face { to_face.into_iter().min().unwrap_or(0) } else { 0 };
-                        self.stack.push((Reverse(priority), [nx, ny, nz]));
-                    }
-                    in_segment = open;
-                }
-            }
-        }
-        false
-    }
+    voxels.iter().map(|&index| !body.contains(index)).collect()
 }
 
 #[cfg(test)]

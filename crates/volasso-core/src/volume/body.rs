@@ -94,6 +94,18 @@ impl Body {
         self.words[index / 64] >> (index % 64) & 1 == 1
     }
 
+    /// One bit per voxel (x fastest), set outside the body; the bits past the last voxel clear.
+    pub fn outside_words(&self) -> Vec<u64> {
+        let voxels = self.dims[0] * self.dims[1] * self.dims[2];
+        let mut words: Vec<u64> = self.words.iter().map(|word| !word).collect();
+        if let Some(last) = words.last_mut()
+            && voxels % 64 != 0
+        {
+            *last &= (1u64 << (voxels % 64)) - 1;
+        }
+        words
+    }
+
     /// Voxels inside the body.
     pub fn voxel_count(&self) -> usize {
         self.count
