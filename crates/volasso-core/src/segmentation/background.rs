@@ -187,7 +187,7 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
         // Every voxel is classified; the air around the body is the air class's, up to midway
         // between the air's drawn intensities and the darkest other class's brighter than it (a
         // windowed CT's fat under the skin lies below the dark level, joined to the air, and is
-        // not air).
+        // not air), and at least up to the top of the air as drawn.
         let median = |values: &[f64]| {
             let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
             sorted.sort_by(f64::total_cmp);
@@ -201,7 +201,12 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
             .filter(|&other| air_median.is_some_and(|air| other > air))
             .fold(f64::INFINITY, f64::min);
         let air_level = match air_median {
-            Some(air) if darkest_other.is_finite() && air < darkest_other => level.min((air + darkest_other) / 2.0),
+            Some(air) if darkest_other.is_finite() && air < darkest_other => {
+                // Never below the top of the air as drawn: an MRI's noisy air reaches far above
+                // its median.
+                let top = air_class.map_or(f64::NEG_INFINITY, |position| drawn_top(&values[position]));
+                level.min(((air + darkest_other) / 2.0).max(top))
+            }
             _ => level,
         };
         let face_air = Some(Arc::new(FaceRegion::find(volume, air_level)));
@@ -367,6 +372,18 @@ fn air_top(mut face_dark: Vec<f64>) -> Option<f64> {
     let reach = upper_reach(face_dark.clone())?;
     let rank = ((face_dark.len() - 1) as f64 * AIR_TOP_QUANTILE).round() as usize;
     Some(reach.max(*face_dark.select_nth_unstable_by(rank, f64::total_cmp).1))
+}
+
+/// The top of the air an air class drew: the [`AIR_CLASS_SHARE`] quantile of its values (the
+/// share of them that lies in the air; the rest may be the body its loop touched); minus
+/// infinity without one.
+fn drawn_top(values: &[f64]) -> f64 {
+    let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+    if finite.is_empty() {
+        return f64::NEG_INFINITY;
+    }
+    let rank = ((finite.len() - 1) as f64 * AIR_CLASS_SHARE).round() as usize;
+    *finite.select_nth_unstable_by(rank, f64::total_cmp).1
 }
 
 /// The values of the voxels on the volume's six faces (edges and corners more than once).
