@@ -21,7 +21,9 @@
 //! 3. When air is a class, the air around the body (the dark region joined to the faces, up
 //!    to midway between the air's drawn intensities and the darkest class brighter than it) is
 //!    that class by construction, and the classifier never gives it to a voxel inside the body:
-//!    a windowed chest's lungs, as dark as the air, stay the lungs. Otherwise the threshold is the dark
+//!    a windowed chest's lungs, as dark as the air, stay the lungs. Voxels darker than every
+//!    other class's are background (nor evaluated: the air costs the classifier nothing).
+//!    Otherwise the threshold is the dark
 //!    level, lowered to the darkest kept voxel inside the body, so that no such training
 //!    voxel falls into the background (a lasso in the lungs or the sinuses); the face air
 //!    stays background all the same. Kept voxels in the face air (a dim edge that continues a
@@ -210,7 +212,19 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
             _ => level,
         };
         let face_air = Some(Arc::new(FaceRegion::find(volume, air_level)));
-        BackgroundPlan { threshold: None, face_air, dropped_per_class, air_is_a_class, air_class }
+        // Inside the body, voxels darker than every other class's kept voxels are background,
+        // as without an air class; below that nothing is evaluated, and the air around the
+        // body (most of a scan's voxels) costs the classifier nothing.
+        let lowest_other = cleaned
+            .classes
+            .iter()
+            .enumerate()
+            .filter(|&(position, _)| Some(position) != air_class)
+            .flat_map(|(_, class)| class.voxels.iter().map(|&voxel| volume.value(voxel)))
+            .filter(|value| value.is_finite())
+            .fold(f64::INFINITY, f64::min);
+        let threshold = lowest_other.is_finite().then_some(lowest_other.min(air_level));
+        BackgroundPlan { threshold, face_air, dropped_per_class, air_is_a_class, air_class }
     } else {
         // A class reaches into the dark inside the body: everything is classified down to its
         // darkest voxel, except the face air (below its own level, lowered to a class's dim
@@ -422,6 +436,19 @@ pub(super) fn median_in_place(values: &mut [f64]) -> f64 {
     }
     let middle = values.len() / 2;
     *values.select_nth_unstable_by(middle, f64::total_cmp).1
+}
+
+/// Whether a plan with air as a class keeps every other class's training voxels above its
+/// threshold (the air class is its region; nothing else it drew falls into the background).
+#[cfg(test)]
+fn keeps_every_other_class(volume: &Volume, cleaned: &TrainingSet, plan: &BackgroundPlan) -> bool {
+    let Some(threshold) = plan.threshold else { return true };
+    cleaned
+        .classes
+        .iter()
+        .enumerate()
+        .filter(|&(position, _)| Some(position) != plan.air_class)
+        .all(|(_, class)| class.voxels.iter().all(|&voxel| volume.value(voxel) >= threshold))
 }
 
 #[cfg(test)]
