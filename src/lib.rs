@@ -56,6 +56,7 @@ pub use volasso_core::{
 
 #[doc(hidden)]
 pub mod app;
+pub mod calendar;
 #[doc(hidden)]
 pub mod cli;
 pub mod dicom_out;

@@ -295,18 +295,8 @@ fn read_thumbnail(path: &Path) -> Result<Option<image::RgbaImage>, GalleryError>
 
 /// `YYYY-MM-DD HH:MM` (UTC) of seconds since 1970, for a card.
 pub fn date_text(unix_seconds: u64) -> String {
-    let days = (unix_seconds / 86_400) as i64;
     let minutes = unix_seconds % 86_400 / 60;
-    // Howard Hinnant's days-to-civil.
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let day_of_era = z - era * 146_097;
-    let year_of_era = (day_of_era - day_of_era / 1460 + day_of_era / 36_524 - day_of_era / 146_096) / 365;
-    let day_of_year = day_of_era - (365 * year_of_era + year_of_era / 4 - year_of_era / 100);
-    let mp = (5 * day_of_year + 2) / 153;
-    let day = day_of_year - (153 * mp + 2) / 5 + 1;
-    let month = if mp < 10 { mp + 3 } else { mp - 9 };
-    let year = year_of_era + era * 400 + i64::from(month <= 2);
+    let [year, month, day] = crate::calendar::civil_from_days((unix_seconds / 86_400) as i64);
     format!("{year:04}-{month:02}-{day:02} {:02}:{:02}", minutes / 60, minutes % 60)
 }
 

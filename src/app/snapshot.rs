@@ -73,7 +73,7 @@ pub struct Places {
 pub fn file_stem(volume: &str, time: SystemTime) -> String {
     let seconds = time.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let (days, rest) = (seconds / 86_400, seconds % 86_400);
-    let [year, month, day] = civil_from_days(days as i64);
+    let [year, month, day] = crate::calendar::civil_from_days(days as i64);
     let name: String =
         volume.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' }).take(80).collect();
     let name = name.trim_start_matches('.');
@@ -84,20 +84,6 @@ pub fn file_stem(volume: &str, time: SystemTime) -> String {
         rest % 60,
         if name.is_empty() { "volume" } else { name }
     )
-}
-
-/// Year, month, day of the day `days` after 1970-01-01 (proleptic Gregorian; H. Hinnant's
-/// `civil_from_days`).
-fn civil_from_days(days: i64) -> [i64; 3] {
-    let z = days + 719_468;
-    let era = z.div_euclid(146_097);
-    let day_of_era = z.rem_euclid(146_097);
-    let year_of_era = (day_of_era - day_of_era / 1460 + day_of_era / 36_524 - day_of_era / 146_096) / 365;
-    let day_of_year = day_of_era - (365 * year_of_era + year_of_era / 4 - year_of_era / 100);
-    let shifted_month = (5 * day_of_year + 2) / 153;
-    let day = day_of_year - (153 * shifted_month + 2) / 5 + 1;
-    let month = if shifted_month < 10 { shifted_month + 3 } else { shifted_month - 9 };
-    [year_of_era + era * 400 + i64::from(month <= 2), month, day]
 }
 
 /// Writes `png` as `folder/STEM.png` (or `STEM-2.png`, ... when taken), creating `folder`;
