@@ -234,17 +234,13 @@ impl Controller {
         let labels = classified.labels.clone();
         work.classified = Some(classified);
         work.failure = None;
-        let view = match self.display_styles() {
-            Some(styles) if first_look => {
-                self.renderer.set_first_look(labels, styles);
-                true
-            }
-            Some(styles) => {
-                self.renderer.set_labels(labels, styles);
-                true
-            }
-            None => false,
-        };
+        let styles = self.display_styles();
+        let view = styles.is_some();
+        match styles {
+            Some(styles) if first_look => self.renderer.set_first_look(labels, styles),
+            Some(styles) => self.renderer.set_labels(labels, styles),
+            None => {}
+        }
         Changed { classes: true, view, view_cleared: false, status, failure: Failure::Cleared }
     }
 

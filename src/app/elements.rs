@@ -12,26 +12,23 @@ impl App {
     /// Where the element with accessible label `label` is on screen (the first with a
     /// size), in logical pixels (the kiosk's scale factor is 1, so also screen pixels).
     pub fn element_rect(&self, label: &str) -> Option<Rect> {
-        ElementHandle::find_by_accessible_label(self.window(), label).find_map(|element| {
-            let (position, size) = (element.absolute_position(), element.size());
-            (size.width > 0.0 && size.height > 0.0).then_some(Rect {
-                x: position.x,
-                y: position.y,
-                width: size.width,
-                height: size.height,
-            })
-        })
+        self.visible_element(label).map(|(_, rect)| rect)
     }
 
     /// The accessible value of the element with accessible label `label` (the first with
     /// a size), with where it is on screen: e.g. the letter at a slice's edge.
     pub fn element_value(&self, label: &str) -> Option<(Rect, String)> {
+        self.visible_element(label).map(|(element, rect)| {
+            (rect, element.accessible_value().map(|value| value.to_string()).unwrap_or_default())
+        })
+    }
+
+    /// The first element with accessible label `label` that has a size, and where it is.
+    fn visible_element(&self, label: &str) -> Option<(ElementHandle, Rect)> {
         ElementHandle::find_by_accessible_label(self.window(), label).find_map(|element| {
             let (position, size) = (element.absolute_position(), element.size());
-            (size.width > 0.0 && size.height > 0.0).then(|| {
-                let rect = Rect { x: position.x, y: position.y, width: size.width, height: size.height };
-                (rect, element.accessible_value().map(|value| value.to_string()).unwrap_or_default())
-            })
+            let rect = Rect { x: position.x, y: position.y, width: size.width, height: size.height };
+            (size.width > 0.0 && size.height > 0.0).then_some((element, rect))
         })
     }
 }

@@ -115,6 +115,23 @@ impl ViewRenderer {
             .name("render".into())
             .spawn(move || render_thread(request_receiver, reply_sender));
         let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
+        ViewRenderer::over(requests, replies, thread, None)
+    }
+
+    /// A renderer with no thread and no GPU: requests are taken and counted, no picture ever
+    /// comes back. For the logic's tests, which check what is sent, not what is drawn.
+    pub fn without_gpu() -> ViewRenderer {
+        let (requests, unread) = channel();
+        ViewRenderer::over(requests, channel().1, None, Some(unread))
+    }
+
+    /// A renderer that has asked for nothing yet, over these channels.
+    fn over(
+        requests: Sender<Request>,
+        replies: Receiver<RenderReply>,
+        thread: Option<std::thread::JoinHandle<()>>,
+        unread: Option<Receiver<Request>>,
+    ) -> ViewRenderer {
         ViewRenderer {
             requests,
             replies,
@@ -123,24 +140,7 @@ impl ViewRenderer {
             label_uploads: 0,
             settled: true,
             thread,
-            _unread: None,
-        }
-    }
-
-    /// A renderer with no thread and no GPU: requests are taken and counted, no picture ever
-    /// comes back. For the logic's tests, which check what is sent, not what is drawn.
-    pub fn without_gpu() -> ViewRenderer {
-        let (requests, unread) = channel();
-        let replies = channel().1;
-        ViewRenderer {
-            requests,
-            replies,
-            next_id: 0,
-            awaited: None,
-            label_uploads: 0,
-            settled: true,
-            thread: None,
-            _unread: Some(unread),
+            _unread: unread,
         }
     }
 

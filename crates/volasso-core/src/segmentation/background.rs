@@ -186,14 +186,13 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     }
     let cleaned = TrainingSet { classes, contested_voxels: training.contested_voxels };
     let plan = if air_is_a_class {
-        // Every voxel is classified; the air around the body is the air class's, up to midway
-        // between the air's drawn intensities and the darkest other class's brighter than it (a
-        // windowed CT's fat under the skin lies below the dark level, joined to the air, and is
-        // not air), and at least up to the top of the air as drawn.
+        // The air around the body is the air class's, up to midway between the air's drawn
+        // intensities and the darkest other class's brighter than it (a windowed CT's fat under
+        // the skin lies below the dark level, joined to the air, and is not air), and at least
+        // up to the top of the air as drawn.
         let median = |values: &[f64]| {
-            let mut sorted: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-            sorted.sort_by(f64::total_cmp);
-            sorted.get(sorted.len() / 2).copied()
+            let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
+            (!finite.is_empty()).then(|| median_in_place(&mut finite))
         };
         let air_median = air_class.and_then(|position| median(&values[position]));
         // Classes as dark as the air (a windowed CT's lungs) are inside the body, not its edge.

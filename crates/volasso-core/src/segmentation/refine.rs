@@ -200,20 +200,9 @@ fn label_volume_in(
         job.evaluated.load(Ordering::Relaxed),
         started.elapsed()
     );
-    let mut classified = classified;
-    if let Some(region) = &segmenter.summary.background_region {
-        // Dark voxels inside the body are classified; the air joined to the faces is not: it is
-        // background, or the class drawn in the air.
-        let region_label = segmenter.summary.region_label;
-        for index in region.voxels.iter() {
-            match (labels[index] != 0, region_label != 0) {
-                (true, false) => classified -= 1,
-                (false, true) => classified += 1,
-                _ => {}
-            }
-            labels[index] = region_label;
-        }
-    }
+    // Dark voxels inside the body are classified; the air joined to the faces is not: it is
+    // background, or the class drawn in the air.
+    let mut classified = classified.saturating_add_signed(paint_region(&mut labels, segmenter));
     if segmenter.coherence == super::Coherence::Majority {
         let started = std::time::Instant::now();
         let passes = super::coherence::DEFAULT_PASSES;
@@ -226,11 +215,9 @@ fn label_volume_in(
         let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands), neighbourhood);
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
     }
-    if let Some(region) = segmenter.summary.background_region.as_ref().filter(|_| segmenter.summary.region_label != 0) {
+    if segmenter.summary.region_label != 0 {
         // The air class is the air around the body whatever its neighbours' votes.
-        for index in region.voxels.iter() {
-            labels[index] = segmenter.summary.region_label;
-        }
+        classified = classified.saturating_add_signed(paint_region(&mut labels, segmenter));
     }
     for &(voxel, class) in &segmenter.lassoed {
         if let Some(label) = labels.get_mut(voxel) {
@@ -259,13 +246,22 @@ fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) ->
             *label = coarse_plane[x / 2 + coarse_x * (y / 2)];
         }
     });
-    if let Some(region) = &segmenter.summary.background_region {
-        for index in region.voxels.iter() {
-            labels[index] = segmenter.summary.region_label;
-        }
-    }
+    paint_region(&mut labels, segmenter);
     let classified = labels.iter().filter(|&&label| label != 0).count();
     LabelVolume { dims, labels, classified_voxels: classified, evaluated_voxels: 0 }
+}
+
+/// Gives the voxels of the air joined to the faces (`background_region`) their label: 0, or the
+/// class drawn in the air. Returns the change in classified voxels.
+fn paint_region(labels: &mut [u8], segmenter: &Segmenter) -> isize {
+    let Some(region) = &segmenter.summary.background_region else { return 0 };
+    let region_label = segmenter.summary.region_label;
+    let mut change = 0;
+    for index in region.voxels.iter() {
+        change += isize::from(region_label != 0) - isize::from(labels[index] != 0);
+        labels[index] = region_label;
+    }
+    change
 }
 
 /// Labels every fine plane, slab by slab in parallel, from the whole volume's coarse grid
