@@ -37,6 +37,8 @@
 //! * `dicom_export`: `volasso export` writes a DICOM Segmentation and a Secondary Capture of the
 //!   classified Philips series that dciodvfy validates and highdicom reads back voxel for voxel;
 //!   labels that do not belong to the series are refused.
+//! * `replay_pacs`: the PACS screen and "Send to PACS" by touch against Orthanc on loopback,
+//!   and a PACS that is down.
 //! * `pacs`: `volasso pacs find|get|send` against Orthanc started on loopback: the Philips
 //!   series found, retrieved voxel for voxel, classified, exported and sent back into its study;
 //!   a PACS that is down, rejects the association or fails a C-STORE.
@@ -62,5 +64,6 @@ mod pacs;
 mod rendering;
 mod replay;
 mod replay_gallery;
+mod replay_pacs;
 mod replay_sessions;
 mod support;

@@ -17,7 +17,7 @@ use std::time::{Duration, Instant};
 const PATIENCE: Duration = Duration::from_secs(30);
 
 /// A running Orthanc, killed (by PID) and waited for when dropped.
-struct Orthanc {
+pub(crate) struct Orthanc {
     child: Child,
     dicom_port: u16,
     http_port: u16,
@@ -25,14 +25,14 @@ struct Orthanc {
 }
 
 /// A TCP port nobody listens on at this moment.
-fn free_port() -> u16 {
+pub(crate) fn free_port() -> u16 {
     std::net::TcpListener::bind("127.0.0.1:0").unwrap().local_addr().unwrap().port()
 }
 
 impl Orthanc {
     /// Starts Orthanc (AE title ORTHANC; the kiosk, VOLASSO, a known modality) with the Lua
     /// script `lua`, if any; `None` when Orthanc is not installed.
-    fn start(lua: Option<&str>) -> Option<Orthanc> {
+    pub(crate) fn start(lua: Option<&str>) -> Option<Orthanc> {
         if Command::new("Orthanc").arg("--version").output().is_err() {
             eprintln!("SKIPPED: Orthanc is not installed (apt-get install orthanc; .ci/run installs it)");
             return None;
@@ -79,12 +79,12 @@ impl Orthanc {
         Some(orthanc)
     }
 
-    fn log(&self) -> String {
+    pub(crate) fn log(&self) -> String {
         std::fs::read_to_string(self.folder.path().join("orthanc.log")).unwrap_or_default()
     }
 
     /// `ORTHANC@127.0.0.1:PORT`.
-    fn address(&self) -> String {
+    pub(crate) fn address(&self) -> String {
         format!("ORTHANC@127.0.0.1:{}", self.dicom_port)
     }
 
@@ -98,7 +98,7 @@ impl Orthanc {
     }
 
     /// (SeriesInstanceUID, Modality) of every series of every study, from the REST API.
-    fn series(&self) -> Vec<(String, String, String)> {
+    pub(crate) fn series(&self) -> Vec<(String, String, String)> {
         let mut found = Vec::new();
         for study in self.rest("/studies?expand").unwrap().as_array().unwrap() {
             let study_uid = study["MainDicomTags"]["StudyInstanceUID"].as_str().unwrap().to_string();
@@ -117,7 +117,7 @@ impl Orthanc {
     }
 
     /// Loads the Philips series through dcmtk's storescu.
-    fn load_philips(&self) {
+    pub(crate) fn load_philips(&self) {
         let files: Vec<PathBuf> = std::fs::read_dir(philips())
             .unwrap()
             .map(|entry| entry.unwrap().path())

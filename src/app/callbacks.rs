@@ -40,6 +40,7 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| { open_volume(&w, s, index) }));
+    wire_pacs(window, state, idle);
     session.on_lasso_down(handler!(
         window,
         state,
@@ -194,7 +195,7 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
     refresh::show_screen(window, Screen::Chooser);
 }
 
-fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
+pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
     {
         let mut state = shared.borrow_mut();
         let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
@@ -214,6 +215,28 @@ fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
         state.loader.open(index as usize, source);
     }
     refresh::push_status(window, shared);
+}
+
+/// The PACS screen's callbacks and "Send to PACS", each an intent of `pacs::PacsModel`.
+fn wire_pacs(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    use super::pacs::view::{intent, send};
+    use super::pacs::{PacsIntent, SearchField};
+    let session = window.global::<Session>();
+    session.on_pacs_open(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Open) }));
+    session.on_pacs_key(handler!(window, state, idle, |w, s, key: slint::SharedString| {
+        intent(&w, s, PacsIntent::Key(key.to_string()))
+    }));
+    session.on_pacs_field(handler!(window, state, idle, |w, s, accession: bool| {
+        let field = if accession { SearchField::Accession } else { SearchField::PatientId };
+        intent(&w, s, PacsIntent::Field(field))
+    }));
+    session.on_pacs_search(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Search) }));
+    session.on_pacs_today(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Today) }));
+    session.on_pacs_retrieve(handler!(window, state, idle, |w, s, row: i32| {
+        intent(&w, s, PacsIntent::Retrieve(row.max(0) as usize))
+    }));
+    session.on_pacs_next(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::NextPeer) }));
+    session.on_send_to_pacs(handler!(window, state, idle, |w, s| { send(&w, s) }));
 }
 
 /// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.

@@ -88,9 +88,14 @@ impl Controller {
     /// A controller that sends the 3-D view's requests to `renderer` (tests pass
     /// [`ViewRenderer::without_gpu`]).
     pub fn with_renderer(session_dir: Option<PathBuf>, renderer: ViewRenderer) -> Controller {
+        Controller::with_workers(session_dir, renderer, ClassificationJobs::default())
+    }
+
+    /// A controller over these workers (tests pass [`ClassificationJobs::inline`]).
+    pub fn with_workers(session_dir: Option<PathBuf>, renderer: ViewRenderer, jobs: ClassificationJobs) -> Controller {
         Controller {
             work: None,
-            jobs: ClassificationJobs::default(),
+            jobs,
             renderer,
             saver: AutosaveWriter::new(),
             chosen_template: None,

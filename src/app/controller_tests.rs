@@ -26,9 +26,11 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
     (loaded, soft, bone)
 }
 
-/// A controller whose 3-D view opens no GPU: the tests check what it is sent.
+/// A controller whose 3-D view opens no GPU (the tests check what it is sent) and whose
+/// classifications run on the test's thread, at the poll after they are asked for.
 fn without_gpu(session_dir: Option<std::path::PathBuf>) -> Controller {
-    Controller::with_renderer(session_dir, crate::app::view3d::ViewRenderer::without_gpu())
+    let renderer = crate::app::view3d::ViewRenderer::without_gpu();
+    Controller::with_workers(session_dir, renderer, crate::app::jobs::ClassificationJobs::inline())
 }
 
 fn draw(controller: &mut Controller, lassos: &[Lasso]) -> Changed {
@@ -46,7 +48,8 @@ fn define(controller: &mut Controller) -> Changed {
     controller.edit(|session| session.define_class().map(|_| ()))
 }
 
-/// Polls until the classification comes back (a first look before it is passed over).
+/// Polls until the classification comes back (a first look before it, and the survey of the
+/// result before, are passed over).
 fn classified(controller: &mut Controller) -> Changed {
     classified_after_first_looks(controller).0
 }
@@ -60,7 +63,9 @@ fn classified_after_first_looks(controller: &mut Controller) -> (Changed, usize)
         if changed.status.as_deref().is_some_and(|status| status.starts_with("First look")) {
             assert!(changed.view && changed.classes, "a first look is shown: {changed:?}");
             first_looks += 1;
-        } else if changed != Changed::default() {
+        } else if changed.status.is_some() {
+            // A result or a failure (the survey of an earlier result, which may come between,
+            // changes no status).
             return (changed, first_looks);
         }
         std::thread::sleep(Duration::from_millis(10));

@@ -9,15 +9,14 @@
 //!
 //! Never: touches the UI; the app polls [`ClassificationJobs::poll`] from its event loop.
 
+use super::worker::{Delivery, Inline, Report, Threaded, Ticket, Worker};
 use crate::pipeline::{self, RunControl};
 use crate::segmentation::uncertainty::{self, Survey};
 use crate::segmentation::{LabelVolume, SegmentationOptions, Segmenter};
 use crate::strokes::StrokesFile;
 use crate::transfer::{ClassTable, HueTemplate};
 use crate::volume::Volume;
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
-use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
-use std::sync::{Arc, Mutex};
+use std::sync::Arc;
 use std::time::Instant;
 
 /// A finished classification.
@@ -58,82 +57,55 @@ pub enum JobOutcome {
     Failed(String),
 }
 
-struct RunningJob {
-    generation: u64,
-    cancel: Arc<AtomicBool>,
-    /// Progress in 1/1000ths, written by the worker.
-    progress: Arc<AtomicU32>,
+/// One classification to run: the volume, the classes' lassos, the colour template and how to
+/// segment.
+pub struct ClassifyJob {
+    pub volume: Arc<Volume>,
+    pub strokes: StrokesFile,
+    pub template: HueTemplate,
+    pub options: SegmentationOptions,
 }
 
 /// Starts, cancels and collects classification jobs; one runs at a time.
 pub struct ClassificationJobs {
-    sender: Sender<(u64, JobOutcome)>,
-    receiver: Receiver<(u64, JobOutcome)>,
-    running: Option<RunningJob>,
-    generation: u64,
+    worker: Box<dyn Worker<ClassifyJob, JobOutcome>>,
+    /// The generation of the job whose result is awaited.
+    running: Option<u64>,
     /// The generation of the last job that finished: its guidance is still welcome.
     finished: Option<u64>,
-    options: Arc<Mutex<SegmentationOptions>>,
+    /// How every job segments: the default.
+    options: SegmentationOptions,
 }
 
 impl Default for ClassificationJobs {
     fn default() -> Self {
-        let (sender, receiver) = channel();
-        ClassificationJobs {
-            sender,
-            receiver,
-            running: None,
-            generation: 0,
-            finished: None,
-            options: Arc::new(Mutex::new(SegmentationOptions::default())),
-        }
+        ClassificationJobs::over(Box::new(Threaded::new("classify", Arc::new(run_job))))
     }
 }
 
 impl ClassificationJobs {
+    /// Jobs run on the caller's thread at the next poll ([`Inline`]): the app's logic tests
+    /// classify without a worker thread.
+    pub fn inline() -> ClassificationJobs {
+        ClassificationJobs::over(Box::new(Inline::new(Arc::new(run_job))))
+    }
+
+    /// Jobs run by `worker`.
+    pub fn over(worker: Box<dyn Worker<ClassifyJob, JobOutcome>>) -> ClassificationJobs {
+        ClassificationJobs { worker, running: None, finished: None, options: SegmentationOptions::default() }
+    }
+
     /// Classifies `volume` with the classes of `strokes`, cancelling any job still running.
     pub fn start(&mut self, volume: Arc<Volume>, strokes: StrokesFile, template: HueTemplate) {
         self.cancel();
-        self.generation += 1;
-        let cancel = Arc::new(AtomicBool::new(false));
-        let progress = Arc::new(AtomicU32::new(0));
-        let job = RunningJob { generation: self.generation, cancel: cancel.clone(), progress: progress.clone() };
-        let sender = self.sender.clone();
-        let generation = self.generation;
-        let options = self.options.lock().map(|o| o.clone()).unwrap_or_default();
-        let spawned = std::thread::Builder::new().name("classify".into()).spawn(move || {
-            let report = |outcome: JobOutcome| {
-                if !cancel.load(Ordering::Relaxed) {
-                    let _ = sender.send((generation, outcome));
-                }
-            };
-            // A panic is caught here, so the app hears of it instead of "Classifying..." forever.
-            let run = || classify(&volume, &strokes, template, &options, &progress, &cancel, &report);
-            match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
-                Ok(Ok((classified, segmenter))) => {
-                    report(JobOutcome::Done(classified.clone()));
-                    // After the result is shown: the survey is for guidance, not part of it.
-                    if let Some(guidance) = survey(&volume, segmenter, &classified.labels) {
-                        report(JobOutcome::Guidance(guidance));
-                    }
-                }
-                Ok(Err(message)) => report(JobOutcome::Failed(message)),
-                Err(_) => report(JobOutcome::Failed("the classifier failed (see the log)".to_string())),
-            }
-        });
-        match spawned {
-            Ok(_) => self.running = Some(job),
-            Err(error) => {
-                let _ = self.sender.send((generation, JobOutcome::Failed(format!("cannot start a worker: {error}"))));
-                self.running = Some(job);
-            }
-        }
+        let options = self.options.clone();
+        self.running = Some(self.worker.send(ClassifyJob { volume, strokes, template, options }));
     }
 
     /// Stops the running job, if any; its result will not be reported.
     pub fn cancel(&mut self) {
-        if let Some(job) = self.running.take() {
-            job.cancel.store(true, Ordering::Relaxed);
+        if self.running.take().is_some() {
+            self.worker.cancel();
         }
     }
 
@@ -143,29 +115,55 @@ impl ClassificationJobs {
 
     /// The running job's progress in 0..=1.
     pub fn progress(&self) -> Option<f32> {
-        self.running.as_ref().map(|job| job.progress.load(Ordering::Relaxed) as f32 / 1000.0)
+        self.running.and(self.worker.progress())
     }
 
     /// The next report of the running job (or the guidance of the last one done); never
     /// blocks. The job stops running at its [`JobOutcome::Done`] or [`JobOutcome::Failed`].
     pub fn poll(&mut self) -> Option<JobOutcome> {
         loop {
-            let (generation, outcome) = match self.receiver.try_recv() {
-                Ok(report) => report,
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
+            let Some(Delivery { generation, output }) = self.worker.poll() else {
+                // A job that ended without a word (its thread could not start) must not leave
+                // "Classifying..." on screen for ever.
+                let ended = self.running.filter(|_| !self.worker.busy());
+                if let Some(generation) = ended {
+                    self.running = None;
+                    self.finished = Some(generation);
+                    return Some(JobOutcome::Failed("the classifier stopped without a result (see the log)".into()));
+                }
+                return None;
             };
-            let current = self.running.as_ref().is_some_and(|job| job.generation == generation);
-            match outcome {
-                JobOutcome::Guidance(_) if self.finished == Some(generation) => return Some(outcome),
-                JobOutcome::Preview(_) if current => return Some(outcome),
+            let current = self.running == Some(generation);
+            match output {
+                JobOutcome::Guidance(_) if self.finished == Some(generation) => return Some(output),
+                JobOutcome::Preview(_) if current => return Some(output),
                 JobOutcome::Done(_) | JobOutcome::Failed(_) if current => {
                     self.running = None;
                     self.finished = Some(generation);
-                    return Some(outcome);
+                    return Some(output);
                 }
                 _ => {}
             }
         }
+    }
+}
+
+/// A worker's job: classifies, reports the result, then the survey of where it is unsure. A
+/// panic in the pipeline is reported as a failure, so the app hears of it instead of
+/// "Classifying..." forever.
+fn run_job(job: ClassifyJob, ticket: &Ticket, report: &Report<'_, JobOutcome>) {
+    let ClassifyJob { volume, strokes, template, options } = job;
+    let run = || classify(&volume, &strokes, template, &options, ticket, report);
+    match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
+        Ok(Ok((classified, segmenter))) => {
+            report(JobOutcome::Done(classified.clone()));
+            // After the result is shown: the survey is for guidance, not part of it.
+            if let Some(guidance) = survey(&volume, segmenter, &classified.labels) {
+                report(JobOutcome::Guidance(guidance));
+            }
+        }
+        Ok(Err(message)) => report(JobOutcome::Failed(message)),
+        Err(_) => report(JobOutcome::Failed("the classifier failed (see the log)".to_string())),
     }
 }
 
@@ -176,13 +174,12 @@ fn classify(
     strokes: &StrokesFile,
     template: HueTemplate,
     options: &SegmentationOptions,
-    progress: &AtomicU32,
-    cancel: &AtomicBool,
-    report: &(dyn Fn(JobOutcome) + Sync),
+    ticket: &Ticket,
+    report: &Report<'_, JobOutcome>,
 ) -> Result<(Classified, Segmenter), String> {
     let started = Instant::now();
     // Training is about a tenth of the work; labelling reports the rest.
-    let progressed = |fraction: f32| progress.store(100 + (900.0 * fraction.clamp(0.0, 1.0)) as u32, Ordering::Relaxed);
+    let progressed = |fraction: f32| ticket.set_progress(0.1 + 0.9 * fraction.clamp(0.0, 1.0));
     let class_count = strokes.classes.len();
     let preview = |coarse: &LabelVolume| match ClassTable::compute(volume, &coarse.labels, class_count, template) {
         Ok(table) => {
@@ -197,7 +194,7 @@ fn classify(
         }
         Err(error) => log::warn!("no first look: {error}"),
     };
-    let control = RunControl { progress: &progressed, cancel, preview: Some(&preview) };
+    let control = RunControl { progress: &progressed, cancel: ticket.cancel_flag(), preview: Some(&preview) };
     let classified =
         pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
     let labelled = classified.labels;

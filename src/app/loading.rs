@@ -59,6 +59,23 @@ pub(super) fn rescan_data_folder(state: &Shared) {
     }
 }
 
+/// The chooser index of `source`, added as a new card (its thumbnail asked for) when the
+/// chooser does not have it yet: a series just retrieved from the PACS.
+pub(super) fn add_source(state: &Shared, source: VolumeSource) -> usize {
+    let mut state = state.borrow_mut();
+    if let Some(index) = state.sources.iter().position(|known| *known == source) {
+        return index;
+    }
+    let index = state.sources.len();
+    state.sources.push(source.clone());
+    state.volumes_model.push(blank_card(&source));
+    if state.thumbnails_requested {
+        state.thumbnails_pending += 1;
+        state.loader.thumbnails(vec![(index, source)]);
+    }
+    index
+}
+
 pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
     match event {
         LoaderEvent::Thumbnail { index, result } => {
@@ -179,6 +196,8 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
             None => Camera::default(),
         };
         state.camera = state.home_camera;
+        // A send's answer belongs to the volume it was sent from.
+        state.pacs.model.send_message.clear();
         if !loaded.volume.warnings.is_empty() {
             for warning in &loaded.volume.warnings {
                 log::warn!("{}: {warning}", loaded.source.name());

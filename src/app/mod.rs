@@ -41,6 +41,7 @@ pub mod jobs;
 pub mod library;
 mod loading;
 pub mod memory;
+pub mod pacs;
 mod painter;
 mod path_loops;
 pub mod pictures;
@@ -55,6 +56,7 @@ pub mod ui;
 pub mod view3d;
 mod view_tools;
 pub mod windowing;
+pub mod worker;
 
 use crate::render::Camera;
 use crate::slices::{Axis, DisplayWindow, SliceLayout};
@@ -92,6 +94,9 @@ pub struct AppConfig {
     pub dpi: Option<f32>,
     /// Where USB sticks are mounted (snapshots are copied onto each one found).
     pub media_roots: Vec<PathBuf>,
+    /// The PACS peers to query, retrieve from and send results to (`--pacs`); none: no PACS
+    /// button.
+    pub pacs: Vec<crate::pacs::Peer>,
 }
 
 impl Default for AppConfig {
@@ -104,7 +109,18 @@ impl Default for AppConfig {
             open_options: OpenOptions::default(),
             dpi: None,
             media_roots: snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
+            pacs: Vec::new(),
         }
+    }
+}
+
+/// Where results are written before they are sent to the PACS: the session folder's
+/// `outbox`, else the data folder's hidden `.outbox` (the chooser skips hidden folders).
+fn outbox(config: &AppConfig) -> Option<PathBuf> {
+    match (&config.session_dir, &config.data_dir) {
+        (Some(session_dir), _) => Some(session_dir.join("outbox")),
+        (None, Some(data_dir)) => Some(data_dir.join(".outbox")),
+        (None, None) => None,
     }
 }
 
@@ -125,6 +141,7 @@ pub enum Screen {
     Start = 0,
     Chooser = 1,
     Work = 2,
+    Pacs = 3,
 }
 
 /// The panels of the work screen: axial, coronal, sagittal (`slices::plane_axes`).
@@ -253,6 +270,8 @@ struct State {
     results: results::Results,
     /// The start screen's turntable after the idle timeout.
     attract: attract::Attract,
+    /// The PACS screen and "Send to PACS", with their worker.
+    pacs: pacs::view::Pacs,
     /// Polls in a row without work for the user ([`State::works_for_user`]): the idle
     /// timeout counts from the later of the last touch and the end of that work.
     polls_without_work: u32,
@@ -287,6 +306,7 @@ impl State {
             || self.tools.snapshots.busy()
             || self.view_dirty
             || self.results.busy()
+            || self.pacs.busy()
     }
 }
 
@@ -350,6 +370,10 @@ impl App {
             tools: view_tools::Tools::default(),
             results: results::Results::default(),
             attract: attract::Attract::default(),
+            pacs: pacs::view::Pacs {
+                model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), outbox(&config)),
+                worker: pacs::jobs::threaded(),
+            },
             polls_without_work: 0,
             config,
         };
@@ -369,6 +393,7 @@ impl App {
             session.set_results(state.results.model.clone().into());
         }
         callbacks::wire(&app.window, &state, &app.idle_timer);
+        pacs::view::push(&app.window, &state);
         let weak = app.window.as_weak();
         let polled = state.clone();
         app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {

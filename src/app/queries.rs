@@ -1,5 +1,5 @@
 //! The app's state by name, for replay scripts' `expect KEY VALUE` ([`super::App::query`]):
-//! `screen` (start, chooser, work), `classes`, `pending`, `volume`, `banner`, `hint` (the line
+//! `screen` (start, chooser, work, pacs), `classes`, `pending`, `volume`, `banner`, `hint` (the line
 //! over an empty 3-D view), `failed` (`yes` while the newest classification failed), `busy`,
 //! `classifying`, `classified`, `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the
 //! chooser's cards), `cannot-open` (those whose file cannot be opened), `panels` (the panels'
@@ -13,7 +13,10 @@
 //! when it can), `attract` (the start screen's turntable: off, loading, rendering or
 //! playing), `unsure` (`on` while the unsure voxels are striped, else `off`),
 //! `unsure-share` (the unsure share of the classified voxels in percent) and
-//! `on-unsure-slice` (`yes` when the panel "Draw here next" picks shows the slice it picks).
+//! `on-unsure-slice` (`yes` when the panel "Draw here next" picks shows the slice it picks);
+//! `studies` (the PACS list's rows), `pacs` (the PACS screen's status line), `pacs-failed`
+//! (`yes` when its last search or retrieval failed), `sent` (the answer of "Send to PACS") and
+//! `send-failed` (`yes` when that answer is a failure).
 //!
 //! [`result_digest`] is what a result is, in one line (replay's `same-result`).
 //!
@@ -26,7 +29,7 @@ use slint::Model;
 pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
     let work = state.ctl.work.as_ref();
     let value = match key {
-        "screen" => ["start", "chooser", "work"].get(screen as usize).unwrap_or(&"?").to_string(),
+        "screen" => ["start", "chooser", "work", "pacs"].get(screen as usize).unwrap_or(&"?").to_string(),
         "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
         "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
@@ -37,6 +40,11 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         "classifying" => state.ctl.jobs.busy().to_string(),
         "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
         "cards" => state.volumes_model.row_count().to_string(),
+        "studies" => state.pacs.model.rows().len().to_string(),
+        "pacs" => state.pacs.model.message.clone(),
+        "sent" => state.pacs.model.send_message.clone(),
+        "pacs-failed" => yes_no(state.pacs.model.failed()),
+        "send-failed" => yes_no(state.pacs.model.send_message.starts_with("Not sent")),
         "cannot-open" => state.volumes_model.iter().filter(|card| card.failed).count().to_string(),
         "template" => {
             let template = state.template();
@@ -117,4 +125,8 @@ pub(super) fn result_digest(state: &State) -> String {
         camera.pan_mm[0],
         camera.pan_mm[1],
     )
+}
+
+fn yes_no(flag: bool) -> String {
+    if flag { "yes" } else { "no" }.to_string()
 }

@@ -52,6 +52,8 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     }
     request_frame_if_needed(window, state);
     super::view_tools::poll(window, state);
+    super::pacs::view::poll(window, state);
+    super::pacs::view::push_send(window, state);
     push_status(window, state);
     loading::rescan_data_folder(state);
 }

@@ -13,10 +13,11 @@
 //! Never: fails the app. A read-only or full stick, a missing data folder, a picture not yet
 //! drawn: each becomes a sentence in the confirmation.
 
+use super::worker::{Report, Task, Threaded, Ticket, Worker};
 use crate::atomic_file::write_atomically;
 use std::io::Write;
 use std::path::{Path, PathBuf};
-use std::sync::mpsc::{Receiver, Sender, channel};
+use std::sync::Arc;
 use std::time::SystemTime;
 
 /// The folder of the data folder (and of a stick) that holds the snapshots.
@@ -181,43 +182,53 @@ pub fn take_to(
     outcome
 }
 
+/// One snapshot to write: the picture, the volume it shows, where it goes and when it was taken.
+pub struct SnapshotJob {
+    pub image: image::RgbaImage,
+    pub volume: String,
+    pub places: Places,
+    pub time: SystemTime,
+}
+
 /// Takes snapshots on a thread per press and hands back their outcomes.
 pub struct SnapshotWriter {
-    sender: Sender<Outcome>,
-    receiver: Receiver<Outcome>,
+    worker: Box<dyn Worker<SnapshotJob, Outcome>>,
+    /// Snapshots started whose outcome has not been polled.
     in_flight: usize,
 }
 
 impl Default for SnapshotWriter {
     fn default() -> Self {
-        let (sender, receiver) = channel();
-        SnapshotWriter { sender, receiver, in_flight: 0 }
+        let task: Task<SnapshotJob, Outcome> =
+            Arc::new(|job: SnapshotJob, _: &Ticket, report: &Report<'_, Outcome>| {
+                report(take(&job.image, &job.volume, &job.places, job.time))
+            });
+        SnapshotWriter { worker: Box::new(Threaded::new("snapshot", task)), in_flight: 0 }
     }
 }
 
 impl SnapshotWriter {
     /// Starts writing `image`; the outcome comes from [`Self::poll`].
     pub fn start(&mut self, image: image::RgbaImage, volume: String, places: Places) {
-        let sender = self.sender.clone();
-        let time = SystemTime::now();
-        let spawned = std::thread::Builder::new().name("snapshot".into()).spawn(move || {
-            let _ = sender.send(take(&image, &volume, &places, time));
-        });
-        match spawned {
-            Ok(_) => self.in_flight += 1,
-            Err(error) => {
-                let problem = format!("Snapshot not saved: cannot start its writer ({error})");
-                let _ = self.sender.send(Outcome { written: Vec::new(), problems: vec![problem] });
-                self.in_flight += 1;
-            }
-        }
+        self.worker.send(SnapshotJob { image, volume, places, time: SystemTime::now() });
+        self.in_flight += 1;
     }
 
     /// A finished snapshot's outcome, if one is ready; never blocks.
     pub fn poll(&mut self) -> Option<Outcome> {
-        let outcome = self.receiver.try_recv().ok()?;
-        self.in_flight = self.in_flight.saturating_sub(1);
-        Some(outcome)
+        if let Some(delivery) = self.worker.poll() {
+            self.in_flight = self.in_flight.saturating_sub(1);
+            return Some(delivery.output);
+        }
+        if self.in_flight > 0 && !self.worker.busy() {
+            // Its writer could not start or stopped without an outcome (logged).
+            self.in_flight -= 1;
+            return Some(Outcome {
+                written: Vec::new(),
+                problems: vec!["Snapshot not saved: its writer stopped".into()],
+            });
+        }
+        None
     }
 
     /// True while a snapshot is being written.

@@ -39,6 +39,8 @@ pub struct ReplayArgs {
     /// The screen's pixel density, which sizes touch targets and text (default 150).
     #[arg(long, value_parser = super::args::parse_dpi, value_name = "DPI")]
     pub dpi: Option<f32>,
+    #[command(flatten)]
+    pub pacs: super::ui::KioskPacsArgs,
 }
 
 pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
@@ -54,6 +56,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         session_dir: args.session_dir.clone(),
         idle_timeout: args.idle_timeout,
         dpi: args.dpi,
+        pacs: args.pacs.clone(),
         ..UiArgs::default()
     };
     let options = ReplayOptions {

@@ -60,6 +60,44 @@ pub struct UiArgs {
     /// the DRM display's physical size when it reports a believable one, else 150.
     #[arg(long, value_parser = super::args::parse_dpi, value_name = "DPI")]
     pub dpi: Option<f32>,
+    #[command(flatten)]
+    pub pacs: KioskPacsArgs,
+}
+
+/// The PACS peers of the kiosk's PACS screen and "Send to PACS".
+#[derive(Debug, Args, Clone)]
+pub struct KioskPacsArgs {
+    /// A PACS to query, retrieve from and send results to, as AE@host:port; repeatable (the
+    /// PACS screen's "Next PACS" goes through them).
+    #[arg(long = "pacs", value_name = "AE@HOST:PORT", value_parser = parse_peer)]
+    pub pacs: Vec<String>,
+    /// This kiosk's AE title (the calling AE title).
+    #[arg(long = "ae-title", env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE", value_parser = parse_ae_title)]
+    pub ae_title: String,
+}
+
+impl Default for KioskPacsArgs {
+    fn default() -> Self {
+        KioskPacsArgs { pacs: Vec::new(), ae_title: "VOLASSO".into() }
+    }
+}
+
+/// How long the kiosk waits for a PACS to connect or answer.
+const PACS_TIMEOUT: Duration = Duration::from_secs(30);
+
+impl KioskPacsArgs {
+    /// The peers, checked when parsed.
+    pub fn peers(&self) -> Vec<crate::pacs::Peer> {
+        self.pacs.iter().filter_map(|text| crate::pacs::Peer::parse(text, &self.ae_title, PACS_TIMEOUT).ok()).collect()
+    }
+}
+
+fn parse_peer(text: &str) -> Result<String, String> {
+    crate::pacs::Peer::parse(text, "VOLASSO", PACS_TIMEOUT).map(|_| text.to_string()).map_err(|error| error.to_string())
+}
+
+fn parse_ae_title(text: &str) -> Result<String, String> {
+    crate::receive::check_ae_title(text).map(|()| text.to_string()).map_err(|error| error.to_string())
 }
 
 /// `volasso` alone: the UI with its defaults (and the VOLASSO_* environment variables).
@@ -84,6 +122,7 @@ impl UiArgs {
             idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
             initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
             dpi: self.dpi,
+            pacs: self.pacs.peers(),
             ..AppConfig::default()
         }
     }

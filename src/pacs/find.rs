@@ -43,6 +43,12 @@ pub struct StudyFound {
     pub modalities: Vec<String>,
     /// The study's series.
     pub series: Vec<SeriesFound>,
+    /// PatientName, for the kiosk's list only: never printed or logged.
+    #[serde(skip)]
+    pub patient_name: String,
+    /// PatientID, for the kiosk's list only: never printed or logged.
+    #[serde(skip)]
+    pub patient_id: String,
 }
 
 /// One series of a study.
@@ -98,6 +104,7 @@ fn find_on(
         ),
         given(tags::ACCESSION_NUMBER, VR::SH, &query.accession_number),
         given(tags::PATIENT_ID, VR::LO, &query.patient_id),
+        empty(tags::PATIENT_NAME, VR::PN),
         empty(tags::STUDY_DESCRIPTION, VR::LO),
         given(tags::MODALITIES_IN_STUDY, VR::CS, &query.modality),
     ]);
@@ -119,6 +126,8 @@ fn find_on(
                 .map(str::to_string)
                 .collect(),
             series: Vec::new(),
+            patient_name: text(tags::PATIENT_NAME).replace('^', " ").trim().to_string(),
+            patient_id: text(tags::PATIENT_ID),
             study_uid,
         });
     }

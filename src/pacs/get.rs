@@ -50,6 +50,18 @@ pub fn get(
     study_uid: &str,
     series_uid: Option<&str>,
 ) -> Result<Vec<SeriesReport>, PacsError> {
+    get_counting(peer, data_dir, study_uid, series_uid, &|_| {})
+}
+
+/// [`get`], calling `stored` with the count of images filed so far after each one (the kiosk's
+/// progress while a series arrives).
+pub fn get_counting(
+    peer: &Peer,
+    data_dir: &Path,
+    study_uid: &str,
+    series_uid: Option<&str>,
+    stored: &dyn Fn(u64),
+) -> Result<Vec<SeriesReport>, PacsError> {
     let data_error = |source| PacsError::DataDir { source, path: data_dir.to_path_buf() };
     std::fs::create_dir_all(data_dir).map_err(data_error)?;
     let store = Store::join(data_dir).map_err(data_error)?;
@@ -64,7 +76,8 @@ pub fn get(
             return Err(error);
         }
     };
-    let mut retrieval = Retrieval { store: &store, folder: folder.clone(), next_file: 0, series: BTreeMap::new() };
+    let mut retrieval =
+        Retrieval { store: &store, folder: folder.clone(), next_file: 0, series: BTreeMap::new(), stored, filed: 0 };
     let result = retrieval.run(&mut association, peer, study_uid, series_uid);
     remove_path(&folder);
     match result {
@@ -119,6 +132,9 @@ struct Retrieval<'a> {
     next_file: u64,
     /// Series folder name to SeriesInstanceUID.
     series: BTreeMap<String, String>,
+    /// Told the count of images filed after each one.
+    stored: &'a dyn Fn(u64),
+    filed: u64,
 }
 
 impl Retrieval<'_> {
@@ -163,6 +179,10 @@ impl Retrieval<'_> {
                         has_data_set: message.has_data,
                     };
                     let (status, comment) = self.store_one(association, &request, message.context).map_err(protocol)?;
+                    if status == dimse::status::SUCCESS {
+                        self.filed += 1;
+                        (self.stored)(self.filed);
+                    }
                     association
                         .send(&Pdu::PData {
                             data: vec![PDataValue {

@@ -19,7 +19,7 @@ mod get;
 mod send;
 
 pub use find::{FindQuery, SeriesFound, StudyFound, find};
-pub use get::get;
+pub use get::{get, get_counting};
 pub use send::{SendReport, send};
 
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
