@@ -26,10 +26,10 @@ const PATIENCE: Duration = Duration::from_secs(20);
 const TEST_STABLE_AFTER: &str = "0.3";
 
 /// A running `volasso receive` on a free loopback port, killed when dropped.
-struct Scp {
+pub(crate) struct Scp {
     child: Child,
-    port: u16,
-    data_dir: PathBuf,
+    pub(crate) port: u16,
+    pub(crate) data_dir: PathBuf,
     /// The data folder, when this receiver made it.
     _owned: Option<tempfile::TempDir>,
     stdout: Receiver<String>,
@@ -37,7 +37,7 @@ struct Scp {
 }
 
 impl Scp {
-    fn start(extra: &[&str]) -> Scp {
+    pub(crate) fn start(extra: &[&str]) -> Scp {
         let data_dir = tempfile::tempdir().unwrap();
         let mut scp = Scp::start_in(data_dir.path(), extra, &[]);
         scp._owned = Some(data_dir);

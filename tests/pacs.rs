@@ -33,6 +33,12 @@ impl Orthanc {
     /// Starts Orthanc (AE title ORTHANC; the kiosk, VOLASSO, a known modality) with the Lua
     /// script `lua`, if any; `None` when Orthanc is not installed.
     pub(crate) fn start(lua: Option<&str>) -> Option<Orthanc> {
+        Orthanc::start_configured(lua, 11112, true)
+    }
+
+    /// An Orthanc that knows the kiosk (AE title VOLASSO) at `kiosk_port` on loopback, the
+    /// destination of its C-MOVEs, and answers the kiosk's C-GETs only when `allow_get`.
+    pub(crate) fn start_configured(lua: Option<&str>, kiosk_port: u16, allow_get: bool) -> Option<Orthanc> {
         if Command::new("Orthanc").arg("--version").output().is_err() {
             eprintln!("SKIPPED: Orthanc is not installed (apt-get install orthanc; .ci/run installs it)");
             return None;
@@ -58,8 +64,8 @@ impl Orthanc {
             "DicomCheckCalledAet": true,
             "DicomAlwaysAllowStore": true,
             "DicomAlwaysAllowEcho": true,
-            "DicomModalities": {"kiosk": {"AET": "VOLASSO", "Host": "127.0.0.1", "Port": 11112,
-                "AllowEcho": true, "AllowFind": true, "AllowGet": true, "AllowMove": true, "AllowStore": true}},
+            "DicomModalities": {"kiosk": {"AET": "VOLASSO", "Host": "127.0.0.1", "Port": kiosk_port,
+                "AllowEcho": true, "AllowFind": true, "AllowGet": allow_get, "AllowMove": true, "AllowStore": true}},
             "DicomCheckModalityHost": true,
             "LuaScripts": lua_scripts,
             "Plugins": [],
@@ -361,4 +367,59 @@ fn a_peer_that_accepts_the_connection_and_never_answers_is_given_up_after_the_ti
     let output = pacs(&["find", "--pacs", &silent, "--timeout", "1"], folder.path());
     assert_clean_error(&output, "did not answer the association request within 1 s", "a silent peer");
     assert!(started.elapsed() < Duration::from_secs(10), "{:?}", started.elapsed());
+}
+
+/// A PACS that refuses the kiosk C-GET (Orthanc without AllowGet, which aborts the association)
+/// sends by C-MOVE to the kiosk's own receiver instead: `volasso pacs get` prints the series the
+/// receiver published, and its voxels are the source's.
+#[test]
+fn a_pacs_without_c_get_sends_by_c_move_to_the_kiosk_s_receiver() {
+    if !dcmtk_available() {
+        return;
+    }
+    let receiver = crate::dicom_receive::Scp::start(&[]);
+    let Some(orthanc) = Orthanc::start_configured(None, receiver.port, false) else { return };
+    orthanc.load_philips();
+    let folder = tempfile::tempdir().unwrap();
+    let cache = folder.path().join("cache");
+    let study = attribute(&philips().join("I10"), STUDY_INSTANCE_UID);
+    let data_dir = receiver.data_dir.to_str().unwrap().to_string();
+    let output = pacs(&["get", "--pacs", &orthanc.address(), "--data-dir", &data_dir, &study], &cache);
+    assert!(output.status.success(), "get: {}\n{}", String::from_utf8_lossy(&output.stderr), orthanc.log());
+    assert!(orthanc.log().contains("Get is not allowed"), "the C-GET was refused: {}", orthanc.log());
+    let lines = json_lines(&output);
+    assert_eq!(lines.len(), 1, "{lines:?}");
+    assert_eq!(lines[0]["event"], "stored");
+    assert_eq!(lines[0]["dims"], serde_json::json!([512, 512, 28]));
+    assert_eq!(lines[0]["pacs"], orthanc.address());
+    let path = PathBuf::from(lines[0]["path"].as_str().unwrap());
+    let retrieved = volasso::volume::open(&path, &volasso::volume::OpenOptions::default()).unwrap();
+    let source = volasso::volume::open(&philips(), &volasso::volume::OpenOptions::default()).unwrap();
+    assert!(retrieved.raw_bytes() == source.raw_bytes(), "the voxels are the source's");
+}
+
+/// Several PACS (`--pacs` twice, or separated by commas): `find` asks each and still lists the
+/// studies of the one that answers when another is down (then exits 1 saying which failed);
+/// `get` retrieves from the first that can.
+#[test]
+fn several_pacs_are_each_asked_and_one_that_is_down_is_said() {
+    if !dcmtk_available() {
+        return;
+    }
+    let Some(orthanc) = Orthanc::start(None) else { return };
+    orthanc.load_philips();
+    let folder = tempfile::tempdir().unwrap();
+    let cache = folder.path().join("cache");
+    let down = format!("DOWN@127.0.0.1:{}", free_port());
+    let output = pacs(&["find", "--pacs", &down, "--pacs", &orthanc.address()], &cache);
+    assert_clean_error(&output, "DOWN@127.0.0.1", "one PACS down");
+    let lines = json_lines(&output);
+    assert_eq!(lines.len(), 1, "the other PACS's study is listed: {lines:?}");
+    assert_eq!(lines[0]["pacs"], orthanc.address());
+    let study = lines[0]["study_uid"].as_str().unwrap().to_string();
+    let data_dir = folder.path().join("data");
+    let both = format!("{down},{}", orthanc.address());
+    let output = pacs(&["get", "--pacs", &both, "--data-dir", data_dir.to_str().unwrap(), &study], &cache);
+    assert!(output.status.success(), "get: {}", String::from_utf8_lossy(&output.stderr));
+    assert_eq!(json_lines(&output)[0]["event"], "stored");
 }

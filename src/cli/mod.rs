@@ -116,7 +116,7 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Receive(args)) => receive::run(&args),
         Some(Command::Export(args)) => export::run(&args),
         Some(Command::Pacs(command)) => pacs::run(&command),
-        None => ui::run(&ui::UiArgs::from_environment()),
+        None => ui::run(&ui::UiArgs::from_environment()?),
     }
 }
 

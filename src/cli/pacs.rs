@@ -20,9 +20,10 @@ pub enum PacsCommand {
 
 #[derive(Debug, Args)]
 pub struct PeerArgs {
-    /// The PACS, as AE@host:port.
-    #[arg(long, env = "VOLASSO_PACS", value_name = "AE@HOST:PORT")]
-    pub pacs: String,
+    /// The PACS, as AE@host:port; repeatable, or several separated by commas: `find` asks
+    /// each, `get` retrieves from the first that has the study, `send` stores on each.
+    #[arg(long, env = "VOLASSO_PACS", value_delimiter = ',', required = true, value_name = "AE@HOST:PORT")]
+    pub pacs: Vec<String>,
     /// This kiosk's AE title (the calling AE title).
     #[arg(long, env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE")]
     pub ae_title: String,
@@ -32,9 +33,20 @@ pub struct PeerArgs {
 }
 
 impl PeerArgs {
-    fn peer(&self) -> Result<Peer, PacsError> {
-        Peer::parse(&self.pacs, &self.ae_title, Duration::from_secs_f64(self.timeout))
+    /// Every PACS given, in order; the first that does not parse is the error.
+    fn peers(&self) -> Result<Vec<Peer>, PacsError> {
+        let timeout = Duration::from_secs_f64(self.timeout);
+        self.pacs.iter().map(|text| Peer::parse(text, &self.ae_title, timeout)).collect()
     }
+}
+
+/// One JSON line: `value` with the PACS it came from.
+fn line_from(value: &impl serde::Serialize, peer: &Peer) -> String {
+    let mut value = serde_json::to_value(value).unwrap_or_default();
+    if let Some(object) = value.as_object_mut() {
+        object.insert("pacs".into(), peer.describe().into());
+    }
+    value.to_string()
 }
 
 fn parse_timeout(text: &str) -> Result<f64, String> {
@@ -101,39 +113,63 @@ pub fn run(command: &PacsCommand) -> Result<(), CliError> {
                 modality: args.modality.clone(),
                 since: args.since.clone(),
             };
-            for study in crate::pacs::find(&args.peer.peer()?, &query)? {
-                println!("{}", serde_json::to_string(&study).unwrap_or_default());
+            // Every PACS is asked; one that fails is the error, after the others' studies.
+            let mut failure = None;
+            for peer in args.peer.peers()? {
+                match crate::pacs::find(&peer, &query) {
+                    Ok(studies) => studies.iter().for_each(|study| println!("{}", line_from(study, &peer))),
+                    Err(error) => failure = Some(error),
+                }
             }
-            Ok(())
+            failure.map_or(Ok(()), |error| Err(error.into()))
         }
         PacsCommand::Get(args) => {
-            let reports =
-                crate::pacs::get(&args.peer.peer()?, &args.data_dir, &args.study_uid, args.series_uid.as_deref())?;
-            let mut failed = 0;
-            for report in &reports {
-                failed += usize::from(matches!(report, crate::receive::SeriesReport::Incomplete { .. }));
-                println!("{}", serde_json::to_string(report).unwrap_or_default());
+            let mut last = None;
+            for peer in args.peer.peers()? {
+                match get_from(&peer, args) {
+                    Ok(()) => return Ok(()),
+                    // Another PACS may hold the study; one that published part of it has spoken.
+                    Err(error @ CliError::Pacs(PacsError::NotAllPublished { .. })) => return Err(error),
+                    Err(error) => last = Some(error),
+                }
             }
-            if failed > 0 {
-                return Err(PacsError::NotAllPublished { failed }.into());
-            }
-            if reports.is_empty() {
-                let uid = args.series_uid.clone().unwrap_or_else(|| args.study_uid.clone());
-                return Err(PacsError::NothingRetrieved { uid, peer: args.peer.pacs.clone() }.into());
-            }
-            Ok(())
+            last.map_or(Ok(()), Err)
         }
         PacsCommand::Send(args) => {
-            let peer = args.peer.peer()?;
-            let reports = crate::pacs::send(&peer, &args.files)?;
-            for report in &reports {
-                println!("{}", serde_json::to_string(report).unwrap_or_default());
+            let mut failure = None;
+            for peer in args.peer.peers()? {
+                let reports = match crate::pacs::send(&peer, &args.files) {
+                    Ok(reports) => reports,
+                    Err(error) => {
+                        failure = Some(error);
+                        continue;
+                    }
+                };
+                reports.iter().for_each(|report| println!("{}", line_from(report, &peer)));
+                let failed = reports.iter().filter(|report| !report.stored).count();
+                if failed > 0 {
+                    failure = Some(PacsError::NotAllStored { failed, total: reports.len(), peer: peer.describe() });
+                }
             }
-            let failed = reports.iter().filter(|report| !report.stored).count();
-            if failed > 0 {
-                return Err(PacsError::NotAllStored { failed, total: reports.len(), peer: peer.describe() }.into());
-            }
-            Ok(())
+            failure.map_or(Ok(()), |error| Err(error.into()))
         }
     }
+}
+
+/// `get` from one PACS: its lines printed, an error when it published nothing or not all.
+fn get_from(peer: &Peer, args: &GetArgs) -> Result<(), CliError> {
+    let reports = crate::pacs::get(peer, &args.data_dir, &args.study_uid, args.series_uid.as_deref())?;
+    let mut failed = 0;
+    for report in &reports {
+        failed += usize::from(matches!(report, crate::receive::SeriesReport::Incomplete { .. }));
+        println!("{}", line_from(report, peer));
+    }
+    if failed > 0 {
+        return Err(PacsError::NotAllPublished { failed }.into());
+    }
+    if reports.is_empty() {
+        let uid = args.series_uid.clone().unwrap_or_else(|| args.study_uid.clone());
+        return Err(PacsError::NothingRetrieved { uid, peer: peer.describe() }.into());
+    }
+    Ok(())
 }

@@ -67,9 +67,9 @@ pub struct UiArgs {
 /// The PACS peers of the kiosk's PACS screen and "Send to PACS".
 #[derive(Debug, Args, Clone)]
 pub struct KioskPacsArgs {
-    /// A PACS to query, retrieve from and send results to, as AE@host:port; repeatable (the
-    /// PACS screen's "Next PACS" goes through them).
-    #[arg(long = "pacs", value_name = "AE@HOST:PORT", value_parser = parse_peer)]
+    /// A PACS to query, retrieve from and send results to, as AE@host:port; repeatable, or
+    /// several separated by commas (the PACS screen's "Next PACS" goes through them).
+    #[arg(long = "pacs", env = "VOLASSO_PACS", value_delimiter = ',', value_name = "AE@HOST:PORT", value_parser = parse_peer)]
     pub pacs: Vec<String>,
     /// This kiosk's AE title (the calling AE title).
     #[arg(long = "ae-title", env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE", value_parser = parse_ae_title)]
@@ -108,9 +108,11 @@ struct UiOnly {
 }
 
 impl UiArgs {
-    pub fn from_environment() -> UiArgs {
+    /// The UI's settings from the VOLASSO_* environment variables; a value that does not parse
+    /// (a PACS address without a port) is an error, never silently the default.
+    pub fn from_environment() -> Result<UiArgs, CliError> {
         use clap::Parser;
-        UiOnly::try_parse_from(["volasso"]).map(|only| only.args).unwrap_or_default()
+        UiOnly::try_parse_from(["volasso"]).map(|only| only.args).map_err(|error| CliError::Usage(error.to_string()))
     }
 }
 

@@ -66,7 +66,7 @@ pub struct SeriesFound {
     pub images: Option<u64>,
 }
 
-const FIND: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_FIND;
+pub(super) const FIND: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_FIND;
 
 /// The studies matching `query` on `peer`, each with its series.
 pub fn find(peer: &Peer, query: &FindQuery) -> Result<Vec<StudyFound>, PacsError> {
@@ -132,33 +132,51 @@ fn find_on(
         });
     }
     for (index, study) in found.iter_mut().enumerate() {
-        let series = InMemDicomObject::from_element_iter([
-            DataElement::new(tags::QUERY_RETRIEVE_LEVEL, VR::CS, PrimitiveValue::from("SERIES")),
-            DataElement::new(tags::STUDY_INSTANCE_UID, VR::UI, PrimitiveValue::from(study.study_uid.as_str())),
-            empty(tags::SERIES_INSTANCE_UID, VR::UI),
-            empty(tags::MODALITY, VR::CS),
-            empty(tags::SERIES_DESCRIPTION, VR::LO),
-            empty(tags::SERIES_NUMBER, VR::IS),
-            empty(tags::NUMBER_OF_SERIES_RELATED_INSTANCES, VR::IS),
-        ]);
         let message_id = u16::try_from(index + 2).unwrap_or(u16::MAX);
-        for answer in query_all(association, peer, &series, message_id)? {
-            let text = |tag| answer_text(&answer, tag);
-            let series_uid = text(tags::SERIES_INSTANCE_UID);
-            if series_uid.is_empty() {
-                continue;
-            }
-            study.series.push(SeriesFound {
-                series_uid,
-                modality: text(tags::MODALITY),
-                description: text(tags::SERIES_DESCRIPTION),
-                number: text(tags::SERIES_NUMBER).trim().parse().ok(),
-                images: text(tags::NUMBER_OF_SERIES_RELATED_INSTANCES).trim().parse().ok(),
-            });
-        }
-        study.series.sort_by(|a, b| (a.number, &a.series_uid).cmp(&(b.number, &b.series_uid)));
+        study.series = series_of(association, peer, &study.study_uid, None, message_id)?;
     }
     Ok(found)
+}
+
+/// The series of `study_uid` (only `series_uid`, when given), by SeriesNumber: one C-FIND at
+/// series level on an association with a C-FIND context.
+pub(super) fn series_of(
+    association: &mut ClientAssociation<TcpStream>,
+    peer: &Peer,
+    study_uid: &str,
+    series_uid: Option<&str>,
+    message_id: u16,
+) -> Result<Vec<SeriesFound>, PacsError> {
+    let empty = |tag, vr| DataElement::new(tag, vr, PrimitiveValue::Empty);
+    let identifier = InMemDicomObject::from_element_iter([
+        DataElement::new(tags::QUERY_RETRIEVE_LEVEL, VR::CS, PrimitiveValue::from("SERIES")),
+        DataElement::new(tags::STUDY_INSTANCE_UID, VR::UI, PrimitiveValue::from(study_uid)),
+        match series_uid {
+            Some(uid) => DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, PrimitiveValue::from(uid)),
+            None => empty(tags::SERIES_INSTANCE_UID, VR::UI),
+        },
+        empty(tags::MODALITY, VR::CS),
+        empty(tags::SERIES_DESCRIPTION, VR::LO),
+        empty(tags::SERIES_NUMBER, VR::IS),
+        empty(tags::NUMBER_OF_SERIES_RELATED_INSTANCES, VR::IS),
+    ]);
+    let mut series = Vec::new();
+    for answer in query_all(association, peer, &identifier, message_id)? {
+        let text = |tag| answer_text(&answer, tag);
+        let series_uid = text(tags::SERIES_INSTANCE_UID);
+        if series_uid.is_empty() {
+            continue;
+        }
+        series.push(SeriesFound {
+            series_uid,
+            modality: text(tags::MODALITY),
+            description: text(tags::SERIES_DESCRIPTION),
+            number: text(tags::SERIES_NUMBER).trim().parse().ok(),
+            images: text(tags::NUMBER_OF_SERIES_RELATED_INSTANCES).trim().parse().ok(),
+        });
+    }
+    series.sort_by(|a, b| (a.number, &a.series_uid).cmp(&(b.number, &b.series_uid)));
+    Ok(series)
 }
 
 fn answer_text(answer: &InMemDicomObject, tag: dicom_core::Tag) -> String {

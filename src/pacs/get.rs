@@ -1,5 +1,6 @@
 //! C-GET SCU (PS3.4 Annex C, Study Root Query/Retrieve Information Model - GET) of a study or
-//! one series, with the storage sub-operations answered on the same association in the SCP
+//! one series (by C-MOVE to the kiosk's own receiver where the PACS accepts no C-GET context or
+//! refuses the C-GET before sending an image: `moving.rs`), with the storage sub-operations answered on the same association in the SCP
 //! role (CT and MR images, every transfer syntax the reader decodes: the receiver's
 //! [`crate::receive::STORAGE_SOP_CLASSES`] and [`crate::receive::accepted_transfer_syntaxes`]).
 //!
@@ -76,6 +77,13 @@ pub fn get_counting(
             return Err(error);
         }
     };
+    // A PACS that offers no C-GET sends by C-MOVE to the kiosk's receiver instead.
+    if !association.presentation_contexts().iter().any(|context| context.abstract_syntax == GET) {
+        log::info!("{} offers no C-GET: retrieving by C-MOVE to {}", peer.describe(), peer.calling_ae_title);
+        release(association, peer);
+        remove_path(&folder);
+        return super::moving::move_to_receiver(peer, data_dir, study_uid, series_uid, stored);
+    }
     let mut retrieval =
         Retrieval { store: &store, folder: folder.clone(), next_file: 0, series: BTreeMap::new(), stored, filed: 0 };
     let result = retrieval.run(&mut association, peer, study_uid, series_uid);
@@ -84,6 +92,12 @@ pub fn get_counting(
         Ok(()) => release(association, peer),
         Err(error) => {
             let _ = association.abort();
+            // A PACS that refuses this kiosk the C-GET it offered (Orthanc aborts the
+            // association; others answer a failure) may still send by C-MOVE.
+            if retrieval.filed == 0 && refused(&error) {
+                log::info!("{} refused the C-GET ({error}): retrieving by C-MOVE", peer.describe());
+                return super::moving::move_to_receiver(peer, data_dir, study_uid, series_uid, stored);
+            }
             return Err(error);
         }
     }
@@ -126,6 +140,18 @@ pub fn get_counting(
 }
 
 /// One C-GET's state: where images arrive and the series they were filed under.
+/// Whether `error` is the PACS refusing this kiosk C-GET itself, not the request: the
+/// association aborted by the PACS (Orthanc's answer to a modality without C-GET), or "refused:
+/// not authorized" (0124H), "SOP class not supported" (0122H), "unrecognized operation"
+/// (0211H). An unknown study (C000H, say) is answered as it is.
+fn refused(error: &PacsError) -> bool {
+    match error {
+        PacsError::Status { operation: "C-GET", status, .. } => matches!(status, 0x0122 | 0x0124 | 0x0211),
+        PacsError::Protocol { problem, .. } => problem.starts_with("the PACS aborted the association"),
+        _ => false,
+    }
+}
+
 struct Retrieval<'a> {
     store: &'a Store,
     folder: PathBuf,

@@ -16,10 +16,12 @@
 
 mod find;
 mod get;
+mod moving;
 mod send;
 
 pub use find::{FindQuery, SeriesFound, StudyFound, find};
 pub use get::{get, get_counting};
+pub use moving::RECEIVER_PATIENCE;
 pub use send::{SendReport, send};
 
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
@@ -196,6 +198,24 @@ pub enum PacsError {
     NotAllPublished {
         /// Series not published.
         failed: usize,
+    },
+    /// The PACS answered a C-MOVE with success, but the kiosk's receiver did not publish the
+    /// series in time.
+    #[error(
+        "the PACS {peer} sent the images to {destination}, but {missing} series did not appear in {} within {seconds} s (is volasso receive running there, and does the PACS know {destination}'s address?)",
+        data_dir.display()
+    )]
+    ReceiverSilent {
+        /// `AE@host:port`.
+        peer: String,
+        /// The move destination (this kiosk's AE title).
+        destination: String,
+        /// Series not published.
+        missing: usize,
+        /// How long the kiosk waited.
+        seconds: u64,
+        /// The data folder.
+        data_dir: std::path::PathBuf,
     },
 }
 

@@ -372,7 +372,11 @@ impl Store {
 }
 
 /// The series in `folder` checked as the kiosk reads it (gaps refused, resampling allowed).
-fn check_series(folder: &Path, series_uid: &str, limits: &ReadLimits) -> Result<dicom::SeriesCheck, VolumeError> {
+pub(crate) fn check_series(
+    folder: &Path,
+    series_uid: &str,
+    limits: &ReadLimits,
+) -> Result<dicom::SeriesCheck, VolumeError> {
     let source = dicom::list_source(folder, limits)?;
     let options = DicomOptions { series_uid: Some(series_uid.to_string()), ..DicomOptions::default() };
     let check = dicom::check_source(folder, &source, &options, limits)?;
