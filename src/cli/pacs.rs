@@ -30,13 +30,42 @@ pub struct PeerArgs {
     /// Bounds the connection and each read and write, in seconds.
     #[arg(long, default_value_t = 30.0, value_name = "SECONDS", value_parser = parse_timeout)]
     pub timeout: f64,
+    #[command(flatten)]
+    pub tls: ClientTlsArgs,
+}
+
+/// DICOM over TLS to the PACS.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ClientTlsArgs {
+    /// Connect over TLS (BCP 195: TLS 1.2 or 1.3), trusting a PACS whose certificate chains to
+    /// one of these CA certificates (PEM) and names its host or address.
+    #[arg(long = "tls-ca", env = "VOLASSO_PACS_TLS_CA", value_name = "PEM")]
+    pub ca: Option<PathBuf>,
+    /// The kiosk's certificate chain (PEM), presented when the PACS asks for one.
+    #[arg(long = "tls-cert", env = "VOLASSO_PACS_TLS_CERT", value_name = "PEM", requires_all = ["ca", "key"])]
+    pub cert: Option<PathBuf>,
+    /// The private key of `--tls-cert` (PEM).
+    #[arg(long = "tls-key", env = "VOLASSO_PACS_TLS_KEY", value_name = "PEM", requires = "cert")]
+    pub key: Option<PathBuf>,
+}
+
+impl ClientTlsArgs {
+    /// The TLS configuration; `None` without `--tls-ca`.
+    pub fn config(&self) -> Result<Option<std::sync::Arc<rustls::ClientConfig>>, PacsError> {
+        let Some(ca) = &self.ca else { return Ok(None) };
+        let identity = self.cert.as_deref().zip(self.key.as_deref());
+        Ok(Some(crate::receive::tls::client_config(ca, identity)?))
+    }
 }
 
 impl PeerArgs {
     /// Every PACS given, in order; the first that does not parse is the error.
     fn peers(&self) -> Result<Vec<Peer>, PacsError> {
         let timeout = Duration::from_secs_f64(self.timeout);
-        self.pacs.iter().map(|text| Peer::parse(text, &self.ae_title, timeout)).collect()
+        let tls = self.tls.config()?;
+        let peer =
+            |text: &String| Peer::parse(text, &self.ae_title, timeout).map(|peer| Peer { tls: tls.clone(), ..peer });
+        self.pacs.iter().map(peer).collect()
     }
 }
 

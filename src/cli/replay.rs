@@ -64,7 +64,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         screenshots: args.screenshots.clone(),
         events_out: args.events_out.clone(),
         size: args.size,
-        config: ui.config(),
+        config: ui.config()?,
     };
     let report = replay::run(&options)?;
     let frames = |times: &crate::kiosk::harness::FrameTimes| {

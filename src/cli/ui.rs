@@ -74,11 +74,13 @@ pub struct KioskPacsArgs {
     /// This kiosk's AE title (the calling AE title).
     #[arg(long = "ae-title", env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE", value_parser = parse_ae_title)]
     pub ae_title: String,
+    #[command(flatten)]
+    pub tls: super::pacs::ClientTlsArgs,
 }
 
 impl Default for KioskPacsArgs {
     fn default() -> Self {
-        KioskPacsArgs { pacs: Vec::new(), ae_title: "VOLASSO".into() }
+        KioskPacsArgs { pacs: Vec::new(), ae_title: "VOLASSO".into(), tls: Default::default() }
     }
 }
 
@@ -86,9 +88,14 @@ impl Default for KioskPacsArgs {
 const PACS_TIMEOUT: Duration = Duration::from_secs(30);
 
 impl KioskPacsArgs {
-    /// The peers, checked when parsed.
-    pub fn peers(&self) -> Vec<crate::pacs::Peer> {
-        self.pacs.iter().filter_map(|text| crate::pacs::Peer::parse(text, &self.ae_title, PACS_TIMEOUT).ok()).collect()
+    /// The peers (their addresses were checked when parsed), over TLS with `--tls-ca`.
+    pub fn peers(&self) -> Result<Vec<crate::pacs::Peer>, CliError> {
+        let tls = self.tls.config()?;
+        let peer = |text: &String| {
+            crate::pacs::Peer::parse(text, &self.ae_title, PACS_TIMEOUT)
+                .map(|peer| crate::pacs::Peer { tls: tls.clone(), ..peer })
+        };
+        Ok(self.pacs.iter().map(peer).collect::<Result<_, _>>()?)
     }
 }
 
@@ -117,16 +124,16 @@ impl UiArgs {
 }
 
 impl UiArgs {
-    pub fn config(&self) -> AppConfig {
-        AppConfig {
+    pub fn config(&self) -> Result<AppConfig, CliError> {
+        Ok(AppConfig {
             data_dir: self.data_dir.clone(),
             session_dir: self.session_dir.clone(),
             idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
             initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
             dpi: self.dpi,
-            pacs: self.pacs.peers(),
+            pacs: self.pacs.peers()?,
             ..AppConfig::default()
-        }
+        })
     }
 }
 
@@ -150,7 +157,7 @@ fn run_window(args: &UiArgs) -> Result<(), CliError> {
     if !cfg!(feature = "window") {
         return Err(CliError::NoWindowSupport);
     }
-    let app = App::new(args.config()).map_err(CliError::Window)?;
+    let app = App::new(args.config()?).map_err(CliError::Window)?;
     if !args.windowed {
         use slint::ComponentHandle;
         app.window().window().set_fullscreen(true);
@@ -166,5 +173,5 @@ fn run_drm(args: &UiArgs) -> Result<(), CliError> {
         flip_x: args.touch_flip_x,
         flip_y: args.touch_flip_y,
     };
-    Ok(crate::kiosk::drm_loop::run(args.config(), args.card.clone(), touch)?)
+    Ok(crate::kiosk::drm_loop::run(args.config()?, args.card.clone(), touch)?)
 }

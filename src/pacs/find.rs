@@ -11,9 +11,7 @@ use super::{
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::InMemDicomObject;
-use dicom_ul::ClientAssociation;
 use serde::Serialize;
-use std::net::TcpStream;
 
 /// What to match (empty: any).
 #[derive(Clone, Debug, Default)]
@@ -84,11 +82,7 @@ pub fn find(peer: &Peer, query: &FindQuery) -> Result<Vec<StudyFound>, PacsError
     }
 }
 
-fn find_on(
-    association: &mut ClientAssociation<TcpStream>,
-    peer: &Peer,
-    query: &FindQuery,
-) -> Result<Vec<StudyFound>, PacsError> {
+fn find_on(association: &mut super::Association, peer: &Peer, query: &FindQuery) -> Result<Vec<StudyFound>, PacsError> {
     let empty = |tag, vr| DataElement::new(tag, vr, PrimitiveValue::Empty);
     let given = |tag, vr, value: &Option<String>| match value {
         Some(value) => DataElement::new(tag, vr, PrimitiveValue::from(value.as_str())),
@@ -141,7 +135,7 @@ fn find_on(
 /// The series of `study_uid` (only `series_uid`, when given), by SeriesNumber: one C-FIND at
 /// series level on an association with a C-FIND context.
 pub(super) fn series_of(
-    association: &mut ClientAssociation<TcpStream>,
+    association: &mut super::Association,
     peer: &Peer,
     study_uid: &str,
     series_uid: Option<&str>,
@@ -189,7 +183,7 @@ fn answer_text(answer: &InMemDicomObject, tag: dicom_core::Tag) -> String {
 
 /// Sends one C-FIND request and collects its pending answers' identifiers.
 fn query_all(
-    association: &mut ClientAssociation<TcpStream>,
+    association: &mut super::Association,
     peer: &Peer,
     identifier: &InMemDicomObject,
     message_id: u16,

@@ -28,12 +28,10 @@ use crate::volume::limits::ReadLimits;
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
-use dicom_ul::ClientAssociation;
 use dicom_ul::Pdu;
 use dicom_ul::pdu::{PDataValue, PDataValueType};
 use std::collections::BTreeMap;
 use std::io::Write;
-use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 
 const GET: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_GET;
@@ -166,7 +164,7 @@ struct Retrieval<'a> {
 impl Retrieval<'_> {
     fn run(
         &mut self,
-        association: &mut ClientAssociation<TcpStream>,
+        association: &mut super::Association,
         peer: &Peer,
         study_uid: &str,
         series_uid: Option<&str>,
@@ -250,7 +248,7 @@ impl Retrieval<'_> {
     /// answer with.
     fn store_one(
         &mut self,
-        association: &mut ClientAssociation<TcpStream>,
+        association: &mut super::Association,
         request: &Command,
         context_id: u8,
     ) -> Result<(u16, Option<String>), String> {

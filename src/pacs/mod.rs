@@ -43,7 +43,7 @@ const MOST_COMMAND_BYTES: usize = 64 * 1024;
 const MOST_IDENTIFIER_BYTES: usize = 1024 * 1024;
 
 /// A PACS: its AE title and address, and this client's own title.
-#[derive(Clone, Debug, PartialEq, Eq)]
+#[derive(Clone, Debug)]
 pub struct Peer {
     /// The PACS's AE title (the called AE title).
     pub ae_title: String,
@@ -55,6 +55,71 @@ pub struct Peer {
     pub calling_ae_title: String,
     /// Bounds the connection, each read and each write.
     pub timeout: Duration,
+    /// DICOM over TLS (`--tls-ca`, PS3.15 Annex B.9 as [`crate::receive::tls`] describes it);
+    /// `None`: plain TCP.
+    pub tls: Option<std::sync::Arc<rustls::ClientConfig>>,
+}
+
+/// Peers are the same PACS when they have the same titles, address and timeout, and both or
+/// neither use TLS.
+impl PartialEq for Peer {
+    fn eq(&self, other: &Peer) -> bool {
+        (&self.ae_title, &self.host, self.port, &self.calling_ae_title, self.timeout, self.tls.is_some())
+            == (&other.ae_title, &other.host, other.port, &other.calling_ae_title, other.timeout, other.tls.is_some())
+    }
+}
+
+impl Eq for Peer {}
+
+/// An association over plain TCP or TLS: the few calls this client makes, on either.
+pub(super) enum Association {
+    Plain(ClientAssociation<TcpStream>),
+    Tls(Box<ClientAssociation<dicom_ul::association::client::TlsStream>>),
+}
+
+/// `$body` with `$association` bound to the inner association, whichever it is.
+macro_rules! on_either {
+    ($self:expr, $association:ident => $body:expr) => {
+        match $self {
+            Association::Plain($association) => $body,
+            Association::Tls($association) => $body,
+        }
+    };
+}
+
+impl Association {
+    fn presentation_contexts(&self) -> &[dicom_ul::pdu::PresentationContextNegotiated] {
+        on_either!(self, association => association.presentation_contexts())
+    }
+
+    fn read_timeout(&self) -> Option<Duration> {
+        on_either!(self, association => association.read_timeout())
+    }
+
+    fn send(&mut self, pdu: &Pdu) -> Result<(), dicom_ul::association::Error> {
+        on_either!(self, association => association.send(pdu))
+    }
+
+    fn receive(&mut self) -> Result<Pdu, dicom_ul::association::Error> {
+        on_either!(self, association => association.receive())
+    }
+
+    /// Sends `data` as the data set of a message on presentation context `context`.
+    fn send_data(&mut self, context: u8, data: &[u8]) -> std::io::Result<()> {
+        on_either!(self, association => {
+            let mut writer = association.send_pdata(context);
+            writer.write_all(data)?;
+            writer.finish()
+        })
+    }
+
+    fn release(self) -> Result<(), dicom_ul::association::Error> {
+        on_either!(self, association => association.release())
+    }
+
+    fn abort(self) -> Result<(), dicom_ul::association::Error> {
+        on_either!(self, association => association.abort())
+    }
 }
 
 impl Peer {
@@ -77,6 +142,7 @@ impl Peer {
             port,
             calling_ae_title: calling_ae_title.to_string(),
             timeout,
+            tls: None,
         })
     }
 
@@ -87,11 +153,7 @@ impl Peer {
 
     /// Opens an association proposing `contexts` (abstract syntax, transfer syntaxes) and, for
     /// the abstract syntaxes in `scp_roles`, the SCP role (C-GET's storage sub-operations).
-    fn associate(
-        &self,
-        contexts: &[(String, Vec<String>)],
-        scp_roles: &[&str],
-    ) -> Result<ClientAssociation<TcpStream>, PacsError> {
+    fn associate(&self, contexts: &[(String, Vec<String>)], scp_roles: &[&str]) -> Result<Association, PacsError> {
         let mut options = ClientAssociationOptions::new()
             .calling_ae_title(self.calling_ae_title.as_str())
             .called_ae_title(self.ae_title.as_str())
@@ -106,7 +168,16 @@ impl Peer {
             options = options.with_role_selection(*sop_class, false, true);
         }
         let started = std::time::Instant::now();
-        options.establish((self.host.as_str(), self.port)).map_err(|error| PacsError::Association {
+        let address = (self.host.as_str(), self.port);
+        let established = match &self.tls {
+            None => options.establish(address).map(Association::Plain),
+            Some(config) => options
+                .tls_config(config.clone())
+                .server_name(self.host.as_str())
+                .establish_tls(address)
+                .map(|association| Association::Tls(Box::new(association))),
+        };
+        established.map_err(|error| PacsError::Association {
             peer: self.describe(),
             problem: timed_out(started, Some(self.timeout), "answer the association request")
                 .unwrap_or_else(|| chain(&error)),
@@ -125,6 +196,9 @@ pub enum PacsError {
         /// What is wrong with it.
         problem: &'static str,
     },
+    /// The TLS files cannot make a client configuration.
+    #[error("DICOM over TLS: {0}")]
+    Tls(#[from] crate::receive::tls::TlsError),
     /// An AE title breaks DICOM's rules.
     #[error("{problem}")]
     AeTitle {
@@ -289,7 +363,7 @@ fn decode(bytes: &[u8], transfer_syntax: &str) -> Result<InMemDicomObject, Strin
 
 /// Sends a command (and its data set) on presentation context `context`.
 fn send_message(
-    association: &mut ClientAssociation<TcpStream>,
+    association: &mut Association,
     context: u8,
     command: Vec<u8>,
     data: Option<&[u8]>,
@@ -305,9 +379,7 @@ fn send_message(
         })
         .map_err(|error| chain(&error))?;
     if let Some(data) = data {
-        let mut writer = association.send_pdata(context);
-        writer.write_all(data).map_err(|error| error.to_string())?;
-        writer.finish().map_err(|error| error.to_string())?;
+        association.send_data(context, data).map_err(|error| error.to_string())?;
     }
     Ok(())
 }
@@ -327,7 +399,7 @@ struct Received {
 
 /// The next command set from the peer (fragments joined). A release request or an abort ends
 /// with an error.
-fn receive_command(association: &mut ClientAssociation<TcpStream>) -> Result<Received, String> {
+fn receive_command(association: &mut Association) -> Result<Received, String> {
     let mut bytes = Vec::new();
     loop {
         let started = std::time::Instant::now();
@@ -381,7 +453,7 @@ fn parse_received(bytes: &[u8], context: u8) -> Result<Received, String> {
 /// The data set that follows a command, fragments passed to `sink` until the last (at most
 /// `most` bytes in all).
 fn receive_data(
-    association: &mut ClientAssociation<TcpStream>,
+    association: &mut Association,
     most: u64,
     mut sink: impl FnMut(&[u8]) -> Result<(), String>,
 ) -> Result<(), String> {
@@ -416,7 +488,7 @@ fn receive_data(
 
 /// Releases the association; a PACS that does not answer the release is only logged (every
 /// answer that mattered has arrived).
-fn release(association: ClientAssociation<TcpStream>, peer: &Peer) {
+fn release(association: Association, peer: &Peer) {
     if let Err(error) = association.release() {
         log::warn!("the PACS {} did not release the association cleanly: {}", peer.describe(), chain(&error));
     }

@@ -61,7 +61,7 @@ pub(super) fn move_to_receiver(
 
 /// Sends the C-MOVE request to this client's AE title and reads its responses to the end.
 fn request_move(
-    association: &mut dicom_ul::ClientAssociation<std::net::TcpStream>,
+    association: &mut super::Association,
     peer: &Peer,
     study_uid: &str,
     series_uid: Option<&str>,

@@ -30,7 +30,7 @@ mod association;
 pub(crate) mod dimse;
 mod stable;
 pub(crate) mod store;
-mod tls;
+pub mod tls;
 mod watchdog;
 
 pub use admission::{Limits, MOST_REJECTING, REJECT_PATIENCE};

@@ -1,4 +1,5 @@
-//! The TLS configuration of `volasso receive --tls-cert --tls-key [--tls-ca]`: DICOM's BCP 195
+//! The TLS configurations of `volasso receive --tls-cert --tls-key [--tls-ca]` (the server) and
+//! of the PACS client (`volasso pacs --tls-ca [--tls-cert --tls-key]`, [`client_config`]): DICOM's BCP 195
 //! TLS profile (PS3.15 Annex B.9): TLS 1.2 or 1.3 only, and only cipher suites with forward
 //! secrecy and authenticated encryption, as BCP 195 (RFC 9325 §4.2) recommends: for TLS 1.2
 //! ECDHE with AES-GCM (ECDSA or RSA certificates), for TLS 1.3 AES-GCM. rustls offers no
@@ -7,8 +8,11 @@
 //! of its certificates (checked by rustls' WebPKI verifier); without it, any peer may connect
 //! and AE titles (`--allow-ae`) are the only check.
 //!
-//! Never: accepts TLS 1.1 or older, a NULL, export or CBC cipher suite, or a client
-//! certificate that does not verify when a CA is given.
+//! The client verifies the PACS's certificate against the CA certificates given (and its name
+//! or address against the certificate's), and presents its own certificate when given one.
+//!
+//! Never: accepts TLS 1.1 or older, a NULL, export or CBC cipher suite, a client certificate
+//! that does not verify when a CA is given, or a PACS whose certificate does not verify.
 
 use rustls::crypto::ring::cipher_suite;
 use rustls::pki_types::pem::PemObject;
@@ -128,6 +132,41 @@ pub fn server_config(files: &TlsFiles) -> Result<Arc<rustls::ServerConfig>, TlsE
     };
     let config =
         builder.with_single_cert(chain, key).map_err(|source| TlsError::Config { source, path: files.cert.clone() })?;
+    Ok(Arc::new(config))
+}
+
+/// The certificates of a PEM file, at least one.
+fn certificates(what: &'static str, path: &Path) -> Result<Vec<CertificateDer<'static>>, TlsError> {
+    let found = CertificateDer::pem_file_iter(path)
+        .and_then(|certificates| certificates.collect::<Result<Vec<_>, _>>())
+        .map_err(pem(what, path))?;
+    if found.is_empty() {
+        return Err(pem(what, path)(rustls::pki_types::pem::Error::NoItemsFound));
+    }
+    Ok(found)
+}
+
+/// The rustls client configuration for a PACS: its certificate must chain to one in `ca`;
+/// `identity` (certificate chain and key files) is presented when the PACS asks for one.
+pub fn client_config(ca: &Path, identity: Option<(&Path, &Path)>) -> Result<Arc<rustls::ClientConfig>, TlsError> {
+    let mut roots = rustls::RootCertStore::empty();
+    for anchor in certificates("CA certificates", ca)? {
+        roots.add(anchor).map_err(|source| TlsError::Anchor { source, path: ca.to_path_buf() })?;
+    }
+    let builder = rustls::ClientConfig::builder_with_provider(Arc::new(bcp195_provider()))
+        .with_protocol_versions(&[&rustls::version::TLS13, &rustls::version::TLS12])
+        .map_err(|source| TlsError::Config { source, path: ca.to_path_buf() })?
+        .with_root_certificates(roots);
+    let config = match identity {
+        None => builder.with_no_client_auth(),
+        Some((cert, key)) => {
+            let chain = certificates("certificate", cert)?;
+            let key = PrivateKeyDer::from_pem_file(key).map_err(pem("private key", key))?;
+            builder
+                .with_client_auth_cert(chain, key)
+                .map_err(|source| TlsError::Config { source, path: cert.to_path_buf() })?
+        }
+    };
     Ok(Arc::new(config))
 }
 

@@ -109,3 +109,51 @@ fn echo_and_store_over_tls_with_client_certificates_and_plain_or_foreign_peers_r
     let log = scp.stderr_so_far();
     assert!(log.contains("a plain (not TLS) association request on the TLS port"), "{log}");
 }
+
+/// The PACS client over TLS (`volasso pacs send --tls-ca --tls-cert --tls-key`), against the
+/// receiver as the TLS peer: stored with the kiosk's certificate; refused by the client when the
+/// peer's certificate does not chain to the CA given, and by the peer without a client
+/// certificate or without TLS.
+#[test]
+fn the_pacs_client_stores_over_tls_and_refuses_a_peer_it_cannot_verify() {
+    if !dcmtk_available() || !openssl_available() {
+        return;
+    }
+    let folder = tempfile::tempdir().unwrap();
+    let dir = folder.path();
+    make_ca(dir, "trusted");
+    make_ca(dir, "foreign");
+    let server_extensions =
+        "basicConstraints=CA:FALSE\nsubjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n";
+    let client_extensions = "basicConstraints=CA:FALSE\nextendedKeyUsage=clientAuth\n";
+    let (server_cert, server_key) = make_certificate(dir, "server", "trusted", server_extensions);
+    let (client_cert, client_key) = make_certificate(dir, "client", "trusted", client_extensions);
+    let (ca, foreign_ca) = (dir.join("trusted-ca.pem"), dir.join("foreign-ca.pem"));
+    let path = |path: &Path| path.to_str().unwrap().to_string();
+    let scp = Scp::start(&["--tls-cert", &path(&server_cert), "--tls-key", &path(&server_key), "--tls-ca", &path(&ca)]);
+    let file = path(&series_files("philips_phantom_5mm")[0]);
+    let address = format!("VOLASSO@127.0.0.1:{}", scp.port);
+    let send = |extra: &[&str]| {
+        let mut command = Command::new(env!("CARGO_BIN_EXE_volasso"));
+        command.args(["pacs", "send", "--pacs", &address, "--timeout", "10"]).args(extra).arg(&file);
+        command.env_remove("VOLASSO_PACS_TLS_CA").env_remove("VOLASSO_PACS").output().expect("volasso runs")
+    };
+    let identity = ["--tls-cert", &path(&client_cert), "--tls-key", &path(&client_key)];
+    let stored = send(&[&["--tls-ca", &path(&ca)][..], &identity[..]].concat());
+    assert!(stored.status.success(), "send over TLS: {}", text(&stored));
+    let line: serde_json::Value = serde_json::from_slice(&stored.stdout).expect("one JSON line");
+    assert_eq!(line["stored"], true, "{line}");
+    for (case, extra) in [
+        (
+            "a peer whose certificate is not from the CA given",
+            [&["--tls-ca", &path(&foreign_ca)][..], &identity[..]].concat(),
+        ),
+        ("no client certificate", vec!["--tls-ca", &path(&ca)]),
+        ("no TLS", vec![]),
+    ] {
+        let refused = send(&extra.iter().map(|s| s.as_ref()).collect::<Vec<&str>>());
+        assert!(!refused.status.success(), "{case}: stored anyway: {}", text(&refused));
+        let stderr = String::from_utf8_lossy(&refused.stderr);
+        assert!(stderr.contains("volasso: error:") && !stderr.contains("panicked"), "{case}: {stderr}");
+    }
+}
