@@ -44,27 +44,26 @@
 //! (`cli`, `app`, `kiosk`, `touch`, `display`, `ui/*.slint`) call the pipeline and are not part
 //! of the library's documented surface. The pipeline is a crate of its own,
 //! `crates/volasso-core`, re-exported here module by module: it depends on no UI, input or
-//! network crate, so cargo refuses any import from it into the app. `accuracy` measures the
+//! network crate, so cargo refuses any import from it into the app. The DICOM network code
+//! (`receive`, `pacs`) and the DICOM objects volasso writes (`dicom_out`) are
+//! `crates/volasso-dicom`, which knows the pipeline's volumes and no UI. `accuracy` measures the
 //! pipeline against phantoms with known truth.
 
 #![warn(missing_docs)]
 
 pub use volasso_core::{
-    Volume, VolumeError, VoxelType, accuracy, atomic_file, classify, cpu, features, input_file, phantom, pipeline,
-    render, rng, segmentation, slices, strokes, transfer, volume,
+    Volume, VolumeError, VoxelType, accuracy, atomic_file, calendar, classify, cpu, features, input_file, phantom,
+    pipeline, render, rng, segmentation, slices, strokes, transfer, volume,
 };
+pub use volasso_dicom::{dicom_out, pacs, receive};
 
 #[doc(hidden)]
 pub mod app;
-pub mod calendar;
 #[doc(hidden)]
 pub mod cli;
-pub mod dicom_out;
 #[doc(hidden)]
 pub mod display;
 #[doc(hidden)]
 pub mod kiosk;
-pub mod pacs;
-pub mod receive;
 #[doc(hidden)]
 pub mod touch;

@@ -51,7 +51,7 @@ pub struct ClientTlsArgs {
 
 impl ClientTlsArgs {
     /// The TLS configuration; `None` without `--tls-ca`.
-    pub fn config(&self) -> Result<Option<std::sync::Arc<rustls::ClientConfig>>, PacsError> {
+    pub fn config(&self) -> Result<Option<crate::pacs::TlsConfig>, PacsError> {
         let Some(ca) = &self.ca else { return Ok(None) };
         let identity = self.cert.as_deref().zip(self.key.as_deref());
         Ok(Some(crate::receive::tls::client_config(ca, identity)?))

@@ -18,6 +18,7 @@
 
 pub mod accuracy;
 pub mod atomic_file;
+pub mod calendar;
 pub mod classify;
 pub mod cpu;
 pub mod features;

@@ -14,12 +14,12 @@ use super::{
 };
 use crate::receive::SeriesReport;
 use crate::receive::store::{check_series, series_name};
-use crate::volume::limits::ReadLimits;
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::InMemDicomObject;
 use std::path::Path;
 use std::time::{Duration, Instant};
+use volasso_core::volume::limits::ReadLimits;
 
 const MOVE: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_MOVE;
 

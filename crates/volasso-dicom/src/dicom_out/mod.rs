@@ -12,7 +12,7 @@
 //! Never: exports labels of a volume that did not come from DICOM, labels whose dimensions
 //! differ from the series', or labels whose class table does not match them; changes the
 //! source files; writes an object partly (the caller stages each file whole,
-//! [`crate::atomic_file`]).
+//! [`volasso_core::atomic_file`]).
 
 mod sc;
 mod seg;
@@ -20,9 +20,6 @@ mod seg;
 pub use sc::secondary_capture;
 pub use seg::{Segment, segmentation};
 
-use crate::volume::VolumeError;
-use crate::volume::dicom::{self, DicomOptions, Resample};
-use crate::volume::limits::ReadLimits;
 use dicom_core::value::DataSetSequence;
 use dicom_core::{DataElement, PrimitiveValue, Tag, VR};
 use dicom_dictionary_std::tags;
@@ -30,6 +27,9 @@ use dicom_object::{FileDicomObject, FileMetaTableBuilder, InMemDicomObject};
 use sha2::{Digest, Sha256};
 use std::path::{Path, PathBuf};
 use std::sync::atomic::{AtomicU64, Ordering};
+use volasso_core::volume::VolumeError;
+use volasso_core::volume::dicom::{self, DicomOptions, Resample};
+use volasso_core::volume::limits::ReadLimits;
 
 /// Explicit VR Little Endian: the transfer syntax of every object written here.
 pub const EXPLICIT_VR_LITTLE_ENDIAN: &str = "1.2.840.10008.1.2.1";
@@ -279,7 +279,7 @@ pub(crate) fn decimal(value: f64) -> String {
 pub(crate) fn date_time_now() -> (String, String) {
     let seconds = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
     let of_day = seconds % 86_400;
-    let [year, month, day] = crate::calendar::civil_from_days((seconds / 86_400) as i64);
+    let [year, month, day] = volasso_core::calendar::civil_from_days((seconds / 86_400) as i64);
     (format!("{year:04}{month:02}{day:02}"), format!("{:02}{:02}{:02}", of_day / 3600, of_day % 3600 / 60, of_day % 60))
 }
 

@@ -5,8 +5,8 @@
 //! its P-DATA fragments arrive (preamble, a file meta group built from the command and the
 //! presentation context, then the data set bytes exactly as sent), so memory stays at one PDU
 //! whatever the series' length. When the last fragment is written the file is flushed to disk
-//! and read back as the kiosk reads it: its identity ([`crate::volume::dicom::read_identity`])
-//! and its pixel data (every frame decoded, [`crate::volume::dicom::check_source`]). A data set
+//! and read back as the kiosk reads it: its identity ([`volasso_core::volume::dicom::read_identity`])
+//! and its pixel data (every frame decoded, [`volasso_core::volume::dicom::check_source`]). A data set
 //! that fails is answered with a failure status and an Error Comment and removed; one that
 //! passes is filed durably under its pending series ([`Store::accept`]) and only then answered
 //! with success ([`super::dimse::status`] lists which status answers what).
@@ -24,8 +24,6 @@ use super::stable::{Tracker, print_reports};
 use super::store::{Store, remove_path, used_fraction};
 use super::watchdog::{Deadline, Watchdog};
 use super::{ReceiveOptions, admission};
-use crate::volume::dicom::{self, DicomOptions};
-use crate::volume::limits::ReadLimits;
 use dicom_object::FileMetaTableBuilder;
 use dicom_ul::Pdu;
 use dicom_ul::association::server::ServerAssociationOptions;
@@ -40,6 +38,8 @@ use std::net::TcpStream;
 use std::path::{Path, PathBuf};
 use std::sync::{Arc, Mutex};
 use std::time::Instant;
+use volasso_core::volume::dicom::{self, DicomOptions};
+use volasso_core::volume::limits::ReadLimits;
 
 /// The largest PDU this SCP accepts; the sender splits data sets into PDUs of this size.
 pub const MAX_PDU_BYTES: u32 = 64 * 1024;
@@ -573,7 +573,7 @@ impl<'a> Session<'a> {
 
 /// Whether the kiosk can read the image in `path` on its own: header, geometry and every
 /// frame's pixel data decoded.
-fn readable(path: &Path, limits: &ReadLimits) -> Result<(), crate::volume::VolumeError> {
+fn readable(path: &Path, limits: &ReadLimits) -> Result<(), volasso_core::volume::VolumeError> {
     let source = dicom::list_source(path, limits)?;
     dicom::check_source(path, &source, &DicomOptions::default(), limits).map(|_| ())
 }

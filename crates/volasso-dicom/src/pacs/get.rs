@@ -23,8 +23,6 @@ use super::{
 use crate::receive::dimse::{self, Command, status};
 use crate::receive::store::{Published, Store, remove_path, used_fraction};
 use crate::receive::{STORAGE_SOP_CLASSES, SeriesReport, accepted_transfer_syntaxes};
-use crate::volume::dicom;
-use crate::volume::limits::ReadLimits;
 use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
@@ -33,6 +31,8 @@ use dicom_ul::pdu::{PDataValue, PDataValueType};
 use std::collections::BTreeMap;
 use std::io::Write;
 use std::path::{Path, PathBuf};
+use volasso_core::volume::dicom;
+use volasso_core::volume::limits::ReadLimits;
 
 const GET: &str = uids::STUDY_ROOT_QUERY_RETRIEVE_INFORMATION_MODEL_GET;
 /// The most bytes of one retrieved image.

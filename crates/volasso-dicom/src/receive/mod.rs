@@ -147,7 +147,7 @@ pub fn accepted_transfer_syntaxes() -> Vec<&'static str> {
         "1.2.840.10008.1.2.4.50", // JPEG Baseline
         "1.2.840.10008.1.2.4.51", // JPEG Extended
     ];
-    CANDIDATES.into_iter().filter(|uid| crate::volume::dicom::readable_transfer_syntax(uid)).collect()
+    CANDIDATES.into_iter().filter(|uid| volasso_core::volume::dicom::readable_transfer_syntax(uid)).collect()
 }
 
 /// Checks an AE title: 1 to 16 characters of printable ASCII, not only spaces, no backslash.
@@ -188,12 +188,12 @@ pub fn serve(
     std::fs::create_dir_all(&options.data_dir).map_err(data_dir_error)?;
     let (store, pending) = store::Store::open(&options.data_dir).map_err(data_dir_error)?;
     // Each pending series' UID, from one of its files (all were read before they were kept).
-    let limits = crate::volume::limits::ReadLimits::default();
+    let limits = volasso_core::volume::limits::ReadLimits::default();
     let pending: Vec<(String, String)> = pending
         .into_iter()
         .filter_map(|name| {
             let files = store.pending_files(&name);
-            let identity = files.iter().find_map(|file| crate::volume::dicom::read_identity(file, &limits).ok());
+            let identity = files.iter().find_map(|file| volasso_core::volume::dicom::read_identity(file, &limits).ok());
             if identity.is_none() {
                 log::warn!("series {name}: none of its received images can be read back; it is left unpublished");
             }

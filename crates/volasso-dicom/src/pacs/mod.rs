@@ -42,6 +42,9 @@ const MOST_COMMAND_BYTES: usize = 64 * 1024;
 /// The most bytes of one C-FIND identifier accepted from a peer.
 const MOST_IDENTIFIER_BYTES: usize = 1024 * 1024;
 
+/// The TLS configuration of a PACS client ([`crate::receive::tls::client_config`]).
+pub type TlsConfig = std::sync::Arc<rustls::ClientConfig>;
+
 /// A PACS: its AE title and address, and this client's own title.
 #[derive(Clone, Debug)]
 pub struct Peer {
@@ -57,7 +60,7 @@ pub struct Peer {
     pub timeout: Duration,
     /// DICOM over TLS (`--tls-ca`, PS3.15 Annex B.9 as [`crate::receive::tls`] describes it);
     /// `None`: plain TCP.
-    pub tls: Option<std::sync::Arc<rustls::ClientConfig>>,
+    pub tls: Option<TlsConfig>,
 }
 
 /// Peers are the same PACS when they have the same titles, address and timeout, and both or

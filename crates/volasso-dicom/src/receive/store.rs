@@ -20,7 +20,7 @@
 //!
 //! Publishing ([`Store::publish`]) hard-links the published files and then the pending ones
 //! (pending wins, by SOPInstanceUID) into a candidate folder, checks the candidate exactly as
-//! the kiosk reads it ([`crate::volume::dicom::check_source`]: every slice decodes, no missing
+//! the kiosk reads it ([`volasso_core::volume::dicom::check_source`]: every slice decodes, no missing
 //! slice, one geometry), flushes it, and swaps it with `DATA/NAME` in one rename (an exchange
 //! when the series exists, so a reader sees the old series or the new one, never a mix). Only
 //! then are the pending links removed. A kill at any point leaves the published series as it
@@ -36,9 +36,6 @@
 //! before it is published, removes a published series before its replacement is in place,
 //! or writes outside the data folder.
 
-use crate::volume::VolumeError;
-use crate::volume::dicom::{self, DicomOptions};
-use crate::volume::limits::ReadLimits;
 use serde::Serialize;
 use sha2::{Digest, Sha256};
 use std::ffi::OsString;
@@ -46,6 +43,9 @@ use std::os::unix::fs::MetadataExt;
 use std::path::{Path, PathBuf};
 use std::sync::Mutex;
 use std::sync::atomic::{AtomicU64, Ordering};
+use volasso_core::volume::VolumeError;
+use volasso_core::volume::dicom::{self, DicomOptions};
+use volasso_core::volume::limits::ReadLimits;
 
 /// The hidden folder inside the data folder that holds everything not yet published.
 pub const STAGING_FOLDER: &str = ".volasso-receive";
