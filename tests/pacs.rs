@@ -226,12 +226,7 @@ fn a_study_found_retrieved_classified_exported_and_sent_back_lands_in_the_pacs_s
         .filter(|name| !name.starts_with('.'))
         .collect();
     assert_eq!(visible.len(), 1, "{visible:?}");
-    let options = volasso::volume::dicom::DicomOptions::default();
-    let original = volasso::volume::dicom::read_series(&philips(), &options).unwrap().volume;
-    let copy = volasso::volume::dicom::read_series(&retrieved, &options).unwrap().volume;
-    assert_eq!((copy.dims, copy.voxel_type), (original.dims, original.voxel_type));
-    assert!(copy.raw_bytes() == original.raw_bytes(), "the retrieved voxels differ from the source's");
-    assert_eq!(copy.spacing_mm, original.spacing_mm);
+    assert_is_the_philips_series(&retrieved);
 
     // Only one series, by its UID, retrieves the same; an unknown UID retrieves nothing.
     let again = folder.path().join("again");
@@ -392,10 +387,17 @@ fn a_pacs_without_c_get_sends_by_c_move_to_the_kiosk_s_receiver() {
     assert_eq!(lines[0]["event"], "stored");
     assert_eq!(lines[0]["dims"], serde_json::json!([512, 512, 28]));
     assert_eq!(lines[0]["pacs"], orthanc.address());
-    let path = PathBuf::from(lines[0]["path"].as_str().unwrap());
-    let retrieved = volasso::volume::open(&path, &volasso::volume::OpenOptions::default()).unwrap();
-    let source = volasso::volume::open(&philips(), &volasso::volume::OpenOptions::default()).unwrap();
-    assert!(retrieved.raw_bytes() == source.raw_bytes(), "the voxels are the source's");
+    assert_is_the_philips_series(Path::new(lines[0]["path"].as_str().unwrap()));
+}
+
+/// The series at `retrieved` reads to the Philips series' voxels, type and spacing.
+fn assert_is_the_philips_series(retrieved: &Path) {
+    let options = volasso::volume::dicom::DicomOptions::default();
+    let original = volasso::volume::dicom::read_series(&philips(), &options).unwrap().volume;
+    let copy = volasso::volume::dicom::read_series(retrieved, &options).unwrap().volume;
+    assert_eq!((copy.dims, copy.voxel_type), (original.dims, original.voxel_type));
+    assert!(copy.raw_bytes() == original.raw_bytes(), "the retrieved voxels differ from the source's");
+    assert_eq!(copy.spacing_mm, original.spacing_mm);
 }
 
 /// Several PACS (`--pacs` twice, or separated by commas): `find` asks each and still lists the

@@ -54,6 +54,31 @@ fn make_certificate(folder: &Path, name: &str, ca: &str, extensions: &str) -> (P
     (folder.join(cert), folder.join(key))
 }
 
+/// The certificates of a test, made in `dir`: a trusted and a foreign CA, the receiver's
+/// certificate (for 127.0.0.1 and localhost) and a client's, both from the trusted CA.
+struct Certificates {
+    server: (PathBuf, PathBuf),
+    client: (PathBuf, PathBuf),
+    ca: PathBuf,
+    foreign_ca: PathBuf,
+}
+
+/// The extensions of a client certificate.
+const CLIENT_EXTENSIONS: &str = "basicConstraints=CA:FALSE\nextendedKeyUsage=clientAuth\n";
+
+fn certificates(dir: &Path) -> Certificates {
+    make_ca(dir, "trusted");
+    make_ca(dir, "foreign");
+    let server_extensions =
+        "basicConstraints=CA:FALSE\nsubjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n";
+    Certificates {
+        server: make_certificate(dir, "server", "trusted", server_extensions),
+        client: make_certificate(dir, "client", "trusted", CLIENT_EXTENSIONS),
+        ca: dir.join("trusted-ca.pem"),
+        foreign_ca: dir.join("foreign-ca.pem"),
+    }
+}
+
 fn openssl_available() -> bool {
     let found = Command::new("openssl").arg("version").output().is_ok_and(|output| output.status.success());
     if !found {
@@ -69,15 +94,9 @@ fn echo_and_store_over_tls_with_client_certificates_and_plain_or_foreign_peers_r
     }
     let folder = tempfile::tempdir().unwrap();
     let dir = folder.path();
-    make_ca(dir, "trusted");
-    make_ca(dir, "foreign");
-    let server_extensions =
-        "basicConstraints=CA:FALSE\nsubjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n";
-    let client_extensions = "basicConstraints=CA:FALSE\nextendedKeyUsage=clientAuth\n";
-    let (server_cert, server_key) = make_certificate(dir, "server", "trusted", server_extensions);
-    let (client_cert, client_key) = make_certificate(dir, "client", "trusted", client_extensions);
-    let (stranger_cert, stranger_key) = make_certificate(dir, "stranger", "foreign", client_extensions);
-    let ca = dir.join("trusted-ca.pem");
+    let Certificates { server: (server_cert, server_key), client: (client_cert, client_key), ca, .. } =
+        certificates(dir);
+    let (stranger_cert, stranger_key) = make_certificate(dir, "stranger", "foreign", CLIENT_EXTENSIONS);
     let path = |path: &Path| path.to_str().unwrap().to_string();
     let scp = Scp::start(&["--tls-cert", &path(&server_cert), "--tls-key", &path(&server_key), "--tls-ca", &path(&ca)]);
     let tls_with = |cert: &Path, key: &Path| -> Vec<String> {
@@ -120,15 +139,8 @@ fn the_pacs_client_stores_over_tls_and_refuses_a_peer_it_cannot_verify() {
         return;
     }
     let folder = tempfile::tempdir().unwrap();
-    let dir = folder.path();
-    make_ca(dir, "trusted");
-    make_ca(dir, "foreign");
-    let server_extensions =
-        "basicConstraints=CA:FALSE\nsubjectAltName=IP:127.0.0.1,DNS:localhost\nextendedKeyUsage=serverAuth\n";
-    let client_extensions = "basicConstraints=CA:FALSE\nextendedKeyUsage=clientAuth\n";
-    let (server_cert, server_key) = make_certificate(dir, "server", "trusted", server_extensions);
-    let (client_cert, client_key) = make_certificate(dir, "client", "trusted", client_extensions);
-    let (ca, foreign_ca) = (dir.join("trusted-ca.pem"), dir.join("foreign-ca.pem"));
+    let Certificates { server: (server_cert, server_key), client: (client_cert, client_key), ca, foreign_ca } =
+        certificates(folder.path());
     let path = |path: &Path| path.to_str().unwrap().to_string();
     let scp = Scp::start(&["--tls-cert", &path(&server_cert), "--tls-key", &path(&server_key), "--tls-ca", &path(&ca)]);
     let file = path(&series_files("philips_phantom_5mm")[0]);

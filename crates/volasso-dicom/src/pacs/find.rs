@@ -5,10 +5,10 @@
 //! on, not shown).
 
 use super::{
-    MOST_IDENTIFIER_BYTES, PacsError, Peer, command, decode, encode, is_pending, native_syntaxes, receive_command,
-    receive_data, release, send_message,
+    MOST_IDENTIFIER_BYTES, PacsError, Peer, command, decode, encode, is_pending, native_syntaxes, priority,
+    receive_command, receive_data, release, send_message,
 };
-use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
+use dicom_core::{DataElement, PrimitiveValue, VR};
 use dicom_dictionary_std::{tags, uids};
 use dicom_object::InMemDicomObject;
 use serde::Serialize;
@@ -189,12 +189,8 @@ fn query_all(
     message_id: u16,
 ) -> Result<Vec<InMemDicomObject>, PacsError> {
     let protocol = |problem: String| PacsError::Protocol { peer: peer.describe(), problem };
-    let context = association
-        .presentation_contexts()
-        .iter()
-        .find(|context| context.abstract_syntax == FIND)
-        .map(|context| (context.id, context.transfer_syntax.clone()))
-        .ok_or_else(|| protocol("the PACS accepted no C-FIND context".into()))?;
+    let context =
+        association.context_for(FIND).ok_or_else(|| protocol("the PACS accepted no C-FIND context".into()))?;
     let data = encode(identifier, &context.1).map_err(protocol)?;
     let request = command(0x0020, message_id, FIND, vec![priority()], true);
     send_message(association, context.0, request, Some(&data)).map_err(protocol)?;
@@ -226,9 +222,4 @@ fn query_all(
             comment: response.comment,
         });
     }
-}
-
-/// Priority MEDIUM.
-fn priority() -> DataElement<InMemDicomObject> {
-    DataElement::new(tags::PRIORITY, VR::US, dicom_value!(U16, [0]))
 }

@@ -18,14 +18,14 @@
 //! is durable.
 
 use super::{
-    PacsError, Peer, command, encode, is_pending, native_syntaxes, receive_command, receive_data, release, send_message,
+    PacsError, Peer, command, encode, is_pending, native_syntaxes, priority, receive_command, receive_data, release,
+    retrieve_identifier, send_message,
 };
 use crate::receive::dimse::{self, Command, status};
 use crate::receive::store::{Published, Store, remove_path, used_fraction};
 use crate::receive::{STORAGE_SOP_CLASSES, SeriesReport, accepted_transfer_syntaxes};
-use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
-use dicom_dictionary_std::{tags, uids};
-use dicom_object::{FileMetaTableBuilder, InMemDicomObject};
+use dicom_dictionary_std::uids;
+use dicom_object::FileMetaTableBuilder;
 use dicom_ul::Pdu;
 use dicom_ul::pdu::{PDataValue, PDataValueType};
 use std::collections::BTreeMap;
@@ -76,7 +76,7 @@ pub fn get_counting(
         }
     };
     // A PACS that offers no C-GET sends by C-MOVE to the kiosk's receiver instead.
-    if !association.presentation_contexts().iter().any(|context| context.abstract_syntax == GET) {
+    if association.context_for(GET).is_none() {
         log::info!("{} offers no C-GET: retrieving by C-MOVE to {}", peer.describe(), peer.calling_ae_title);
         release(association, peer);
         remove_path(&folder);
@@ -170,26 +170,10 @@ impl Retrieval<'_> {
         series_uid: Option<&str>,
     ) -> Result<(), PacsError> {
         let protocol = |problem: String| PacsError::Protocol { peer: peer.describe(), problem };
-        let (context, syntax) = association
-            .presentation_contexts()
-            .iter()
-            .find(|context| context.abstract_syntax == GET)
-            .map(|context| (context.id, context.transfer_syntax.clone()))
-            .ok_or_else(|| protocol("the PACS accepted no C-GET context".into()))?;
-        let mut identifier = InMemDicomObject::from_element_iter([
-            DataElement::new(
-                tags::QUERY_RETRIEVE_LEVEL,
-                VR::CS,
-                PrimitiveValue::from(if series_uid.is_some() { "SERIES" } else { "STUDY" }),
-            ),
-            DataElement::new(tags::STUDY_INSTANCE_UID, VR::UI, PrimitiveValue::from(study_uid)),
-        ]);
-        if let Some(series_uid) = series_uid {
-            identifier.put(DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, PrimitiveValue::from(series_uid)));
-        }
-        let data = encode(&identifier, &syntax).map_err(protocol)?;
-        let priority = DataElement::new(tags::PRIORITY, VR::US, dicom_value!(U16, [0]));
-        send_message(association, context, command(0x0010, 1, GET, vec![priority], true), Some(&data))
+        let (context, syntax) =
+            association.context_for(GET).ok_or_else(|| protocol("the PACS accepted no C-GET context".into()))?;
+        let data = encode(&retrieve_identifier(study_uid, series_uid), &syntax).map_err(protocol)?;
+        send_message(association, context, command(0x0010, 1, GET, vec![priority()], true), Some(&data))
             .map_err(protocol)?;
         loop {
             let message = receive_command(association).map_err(protocol)?;

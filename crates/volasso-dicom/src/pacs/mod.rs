@@ -91,6 +91,15 @@ macro_rules! on_either {
 }
 
 impl Association {
+    /// The presentation context the PACS accepted for `abstract_syntax`: its ID and transfer
+    /// syntax.
+    fn context_for(&self, abstract_syntax: &str) -> Option<(u8, String)> {
+        self.presentation_contexts()
+            .iter()
+            .find(|context| context.abstract_syntax == abstract_syntax)
+            .map(|context| (context.id, context.transfer_syntax.clone()))
+    }
+
     fn presentation_contexts(&self) -> &[dicom_ul::pdu::PresentationContextNegotiated] {
         on_either!(self, association => association.presentation_contexts())
     }
@@ -322,6 +331,24 @@ fn timed_out(started: std::time::Instant, timeout: Option<Duration>, what: &str)
 /// Explicit and Implicit VR Little Endian: what command identifiers are proposed in.
 fn native_syntaxes() -> Vec<String> {
     vec!["1.2.840.10008.1.2.1".to_string(), "1.2.840.10008.1.2".to_string()]
+}
+
+/// The identifier of a C-GET or C-MOVE: the study, or one series of it.
+fn retrieve_identifier(study_uid: &str, series_uid: Option<&str>) -> InMemDicomObject {
+    let level = if series_uid.is_some() { "SERIES" } else { "STUDY" };
+    let mut identifier = InMemDicomObject::from_element_iter([
+        DataElement::new(tags::QUERY_RETRIEVE_LEVEL, VR::CS, PrimitiveValue::from(level)),
+        DataElement::new(tags::STUDY_INSTANCE_UID, VR::UI, PrimitiveValue::from(study_uid)),
+    ]);
+    if let Some(series_uid) = series_uid {
+        identifier.put(DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, PrimitiveValue::from(series_uid)));
+    }
+    identifier
+}
+
+/// Priority MEDIUM.
+fn priority() -> DataElement<InMemDicomObject> {
+    DataElement::new(tags::PRIORITY, VR::US, dicom_value!(U16, [0]))
 }
 
 /// A request command set (PS3.7 §9.3): its fields and whether a data set follows.

@@ -10,13 +10,13 @@
 
 use super::find::{FIND, series_of};
 use super::{
-    PacsError, Peer, command, encode, is_pending, native_syntaxes, receive_command, receive_data, release, send_message,
+    PacsError, Peer, command, encode, is_pending, native_syntaxes, priority, receive_command, receive_data, release,
+    retrieve_identifier, send_message,
 };
 use crate::receive::SeriesReport;
 use crate::receive::store::{check_series, series_name};
-use dicom_core::{DataElement, PrimitiveValue, VR, dicom_value};
+use dicom_core::{DataElement, PrimitiveValue, VR};
 use dicom_dictionary_std::{tags, uids};
-use dicom_object::InMemDicomObject;
 use std::path::Path;
 use std::time::{Duration, Instant};
 use volasso_core::volume::limits::ReadLimits;
@@ -68,22 +68,11 @@ fn request_move(
 ) -> Result<(), PacsError> {
     let protocol = |problem: String| PacsError::Protocol { peer: peer.describe(), problem };
     let (context, syntax) = association
-        .presentation_contexts()
-        .iter()
-        .find(|context| context.abstract_syntax == MOVE)
-        .map(|context| (context.id, context.transfer_syntax.clone()))
+        .context_for(MOVE)
         .ok_or_else(|| protocol("the PACS accepted neither a C-GET nor a C-MOVE context".into()))?;
-    let level = if series_uid.is_some() { "SERIES" } else { "STUDY" };
-    let mut identifier = InMemDicomObject::from_element_iter([
-        DataElement::new(tags::QUERY_RETRIEVE_LEVEL, VR::CS, PrimitiveValue::from(level)),
-        DataElement::new(tags::STUDY_INSTANCE_UID, VR::UI, PrimitiveValue::from(study_uid)),
-    ]);
-    if let Some(series_uid) = series_uid {
-        identifier.put(DataElement::new(tags::SERIES_INSTANCE_UID, VR::UI, PrimitiveValue::from(series_uid)));
-    }
-    let data = encode(&identifier, &syntax).map_err(protocol)?;
+    let data = encode(&retrieve_identifier(study_uid, series_uid), &syntax).map_err(protocol)?;
     let extra = vec![
-        DataElement::new(tags::PRIORITY, VR::US, dicom_value!(U16, [0])),
+        priority(),
         DataElement::new(tags::MOVE_DESTINATION, VR::AE, PrimitiveValue::from(peer.calling_ae_title.as_str())),
     ];
     send_message(association, context, command(0x0021, 2, MOVE, extra, true), Some(&data)).map_err(protocol)?;
