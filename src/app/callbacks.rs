@@ -39,7 +39,9 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     let session = window.global::<Session>();
     session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
-    session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| { open_volume(&w, s, index) }));
+    session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| {
+        super::loading::open_volume(&w, s, index)
+    }));
     wire_pacs(window, state, idle);
     session.on_lasso_down(handler!(
         window,
@@ -67,17 +69,17 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         scrub_slice(&w, s, panel, slice)
     }));
     session.on_define_class(handler!(window, state, idle, |w, s| {
-        edit_session(&w, s, |session| session.define_class().map(|_| ()))
+        refresh::edit_session(&w, s, |session| session.define_class().map(|_| ()))
     }));
-    session.on_undo(handler!(window, state, idle, |w, s| { edit_session(&w, s, |session| session.undo()) }));
+    session.on_undo(handler!(window, state, idle, |w, s| { refresh::edit_session(&w, s, |session| session.undo()) }));
     session.on_clear(handler!(window, state, idle, |w, s| {
-        edit_session(&w, s, |session| {
+        refresh::edit_session(&w, s, |session| {
             session.clear();
             Ok(())
         })
     }));
     session.on_delete_class(handler!(window, state, idle, |w, s, index: i32| {
-        edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
+        refresh::edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
     }));
     session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
     session.on_toggle_unsure(handler!(window, state, idle, |w, s| { super::guidance::toggle_unsure(&w, s) }));
@@ -195,28 +197,6 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
     refresh::show_screen(window, Screen::Chooser);
 }
 
-pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
-    {
-        let mut state = shared.borrow_mut();
-        let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
-        if state.opening.is_some() {
-            return;
-        }
-        let series = super::loading::series_cards(&state.sources, &source);
-        if series > 1 {
-            state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
-            drop(state);
-            refresh::push_status(window, shared);
-            return;
-        }
-        state.ctl.jobs.cancel();
-        state.status = format!("Opening {}...", source.name());
-        state.opening = Some(index as usize);
-        state.loader.open(index as usize, source);
-    }
-    refresh::push_status(window, shared);
-}
-
 /// The PACS screen's callbacks and "Send to PACS", each an intent of `pacs::PacsModel`.
 fn wire_pacs(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
     use super::pacs::view::{intent, send};
@@ -237,16 +217,6 @@ fn wire_pacs(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
     }));
     session.on_pacs_next(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::NextPeer) }));
     session.on_send_to_pacs(handler!(window, state, idle, |w, s| { send(&w, s) }));
-}
-
-/// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.
-pub(super) fn edit_session(
-    window: &AppWindow,
-    state: &Shared,
-    edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), super::session::SessionError>,
-) {
-    let changed = state.borrow_mut().ctl.edit(edit);
-    refresh::apply(window, state, changed);
 }
 
 fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {

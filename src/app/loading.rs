@@ -9,7 +9,7 @@
 //! Never: opens files itself (library.rs does, on worker threads).
 
 use super::library::{LoadedVolume, LoaderEvent, VolumeSource};
-use super::refresh::{apply, show_screen, to_slint_image};
+use super::refresh::{self, apply, show_screen, to_slint_image};
 use super::ui::{AppWindow, Session, VolumeCard};
 use super::{Screen, State, Work, autosave};
 use crate::render::Camera;
@@ -51,7 +51,7 @@ pub(super) fn rescan_data_folder(state: &Shared) {
     log::info!("{} new volume(s) in the data folder", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        state.volumes_model.push(blank_card(source));
+        state.volumes_model.push(super::refresh::blank_card(source));
     }
     if state.thumbnails_requested {
         state.thumbnails_pending += added.len();
@@ -68,12 +68,36 @@ pub(super) fn add_source(state: &Shared, source: VolumeSource) -> usize {
     }
     let index = state.sources.len();
     state.sources.push(source.clone());
-    state.volumes_model.push(blank_card(&source));
+    state.volumes_model.push(super::refresh::blank_card(&source));
     if state.thumbnails_requested {
         state.thumbnails_pending += 1;
         state.loader.thumbnails(vec![(index, source)]);
     }
     index
+}
+
+/// A chooser card tapped: its volume opens on the loader thread (a folder of several series
+/// says to pick one of their cards).
+pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
+    {
+        let mut state = shared.borrow_mut();
+        let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
+        if state.opening.is_some() {
+            return;
+        }
+        let series = super::loading::series_cards(&state.sources, &source);
+        if series > 1 {
+            state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
+            drop(state);
+            refresh::push_status(window, shared);
+            return;
+        }
+        state.ctl.jobs.cancel();
+        state.status = format!("Opening {}...", source.name());
+        state.opening = Some(index as usize);
+        state.loader.open(index as usize, source);
+    }
+    refresh::push_status(window, shared);
 }
 
 pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
@@ -152,7 +176,7 @@ fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
     log::info!("a folder holds {} series", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        model.push(blank_card(source));
+        model.push(super::refresh::blank_card(source));
     }
     state.thumbnails_pending += added.len();
     state.loader.thumbnails(added);
@@ -227,9 +251,4 @@ pub(super) fn home_caption(home: Option<&HomeView>) -> &'static str {
         Some(home) if !home.exact => "Nearest front view with the head up",
         Some(_) => "",
     }
-}
-
-/// A volume's card before its thumbnail and details arrive: its name alone.
-pub(super) fn blank_card(source: &VolumeSource) -> VolumeCard {
-    VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default(), failed: false }
 }

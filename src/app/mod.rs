@@ -8,9 +8,12 @@
 //! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
 //! `State`; what the user does to the classes goes to the Slint-free `Controller`
 //! (controller.rs: the work, the template and the classification, autosave and 3-D view
-//! workers), which says what changed; a 16 ms poll timer collects finished work (`loading.rs`
-//! applies what the loader reports); `refresh.rs` alone pushes state into the `Session`
-//! global.
+//! workers), which says what changed; a 16 ms poll timer (`poll.rs`) collects finished work
+//! and each feature applies its own (`loading.rs` what the loader reports); `refresh.rs` pushes
+//! state into the `Session` global and depends on no feature, so the files' imports run one way
+//! (callbacks and poll -> features -> refresh). The PACS screen (`pacs/`) is the shape the rest
+//! is moving to: a Slint-free model updated by intents, its jobs behind the `Worker` trait
+//! (`worker.rs`), one glue file.
 //!
 //! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
 //! sagittal panels with the patient's directions at their edges; the stored order and
@@ -45,6 +48,7 @@ pub mod pacs;
 mod painter;
 mod path_loops;
 pub mod pictures;
+mod poll;
 mod queries;
 mod refresh;
 mod results;
@@ -398,7 +402,7 @@ impl App {
         let polled = state.clone();
         app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
             if let Some(window) = weak.upgrade() {
-                refresh::poll(&window, &polled);
+                poll::poll(&window, &polled);
                 let mut state = polled.borrow_mut();
                 state.polls_without_work =
                     if state.works_for_user() { 0 } else { state.polls_without_work.saturating_add(1) };

@@ -1,12 +1,10 @@
-//! Moving state into the UI, and collecting finished work from the loader, classifier,
-//! painter and renderer threads (the poll timer). Each `push_*` sets only the `Session` properties it names.
+//! Moving state into the UI: each `push_*` sets only the `Session` properties it names. The poll
+//! timer that collects finished work is `poll.rs`; nothing here starts or collects work.
 
 use super::controller::{Changed, FAILURE_BANNER_START, Failure, failure_banner};
-use super::loading;
 use super::painter::PictureRequest;
 use super::pictures::class_colour;
 use super::ui::{AppWindow, ClassEntry, Session, SliceView, VolumeCard};
-use super::view3d::RenderReply;
 use super::{PANEL_COUNT, Screen, State};
 use crate::transfer::RgbImage;
 use slint::{ComponentHandle, Model};
@@ -16,46 +14,14 @@ use std::sync::Arc;
 
 type Shared = Rc<RefCell<State>>;
 
-/// Collects finished work; called every 16 ms on the UI thread.
-pub(super) fn poll(window: &AppWindow, state: &Shared) {
-    loop {
-        // A separate statement: the borrow must end before the event is handled.
-        let event = state.borrow().loader.poll();
-        let Some(event) = event else { break };
-        loading::loader_event(window, state, event);
-    }
-    super::results::poll(window, state);
-    let changed = state.borrow_mut().ctl.poll();
-    if changed != Changed::default() {
-        apply(window, state, changed);
-    }
-    loading::confirm_restore(state);
-    picture_done(state);
-    let reply = state.borrow_mut().ctl.renderer.poll();
-    match reply {
-        Some(RenderReply::Picture(picture)) => {
-            let image = &picture.image;
-            let buffer = slint::SharedPixelBuffer::<slint::Rgba8Pixel>::clone_from_slice(
-                image.as_raw(),
-                image.width(),
-                image.height(),
-            );
-            window.global::<Session>().set_view_picture(slint::Image::from_rgba8(buffer));
-            state.borrow_mut().tools.picture = Some(picture.image);
-        }
-        Some(RenderReply::Failed(error)) => {
-            let message = error.to_string();
-            log::warn!("{message}");
-            state.borrow_mut().banner = message;
-        }
-        None => {}
-    }
-    request_frame_if_needed(window, state);
-    super::view_tools::poll(window, state);
-    super::pacs::view::poll(window, state);
-    super::pacs::view::push_send(window, state);
-    push_status(window, state);
-    loading::rescan_data_folder(state);
+/// Applies `edit` to the session; on success autosaves, reclassifies and refreshes.
+pub(super) fn edit_session(
+    window: &AppWindow,
+    state: &Shared,
+    edit: impl FnOnce(&mut super::session::WorkSession) -> Result<(), super::session::SessionError>,
+) {
+    let changed = state.borrow_mut().ctl.edit(edit);
+    apply(window, state, changed);
 }
 
 pub(super) fn show_screen(window: &AppWindow, screen: Screen) {
@@ -176,7 +142,7 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
 
 pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
-    let cards: Vec<VolumeCard> = state.sources.iter().map(super::loading::blank_card).collect();
+    let cards: Vec<VolumeCard> = state.sources.iter().map(blank_card).collect();
     state.volumes_model.set_vec(cards);
     drop(state);
     let _ = window;
@@ -270,33 +236,6 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
     let _ = window;
 }
 
-/// Shows the slice pictures the painter thread finished.
-fn picture_done(state: &Shared) {
-    loop {
-        let finished = state.borrow_mut().painter.poll();
-        let Some((panel, result)) = finished else { return };
-        let mut state = state.borrow_mut();
-        match result {
-            Ok(picture) => {
-                let model = state.slices_model.clone();
-                if let Some(mut view) = (panel < model.row_count()).then(|| model.row_data(panel)).flatten() {
-                    view.picture = to_slint_image(&picture);
-                    model.set_row_data(panel, view);
-                }
-            }
-            Err(error) => {
-                // The file under the volume changed (truncated) or the slice is gone: say so once.
-                let message = error.to_string();
-                log::warn!("slice picture: {message}");
-                let banner = format!("Cannot show the slice: {message}");
-                if state.banner != banner {
-                    state.banner = banner;
-                }
-            }
-        }
-    }
-}
-
 /// Only the lasso path of the panel being drawn on (cheap: no new picture).
 pub(super) fn push_lasso(window: &AppWindow, state: &Shared) {
     let state = state.borrow();
@@ -313,30 +252,6 @@ pub(super) fn push_lasso(window: &AppWindow, state: &Shared) {
     let _ = window;
 }
 
-/// Asks the renderer for a frame when the view needs one and none is being drawn: half size
-/// while a finger orbits (twice the frame rate on a slow GPU), full size when it lifts.
-fn request_frame_if_needed(window: &AppWindow, state: &Shared) {
-    let session = window.global::<Session>();
-    let scale = window.window().scale_factor();
-    let size = [session.get_view_width(), session.get_view_height()].map(|logical| (logical * scale).round() as u32);
-    let mut state = state.borrow_mut();
-    if size != state.view_size {
-        state.view_size = size;
-        state.view_dirty = true;
-    }
-    let classified = state.ctl.work.as_ref().is_some_and(|work| work.classified.is_some());
-    if !state.view_dirty || state.ctl.renderer.busy() || !classified || size[0] == 0 || size[1] == 0 {
-        if !classified {
-            state.view_dirty = false;
-        }
-        return;
-    }
-    state.view_dirty = false;
-    let size = if state.orbit_from.is_some() { size.map(|side| (side / 2).max(1)) } else { size };
-    let camera = state.camera;
-    state.ctl.renderer.request_frame(camera, size);
-}
-
 pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {
     if image.width == 0 || image.height == 0 {
         return slint::Image::default();
@@ -351,4 +266,9 @@ pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {
 
 fn to_colour([r, g, b]: [u8; 3]) -> slint::Color {
     slint::Color::from_rgb_u8(r, g, b)
+}
+
+/// A volume's card before its thumbnail and details arrive: its name alone.
+pub(super) fn blank_card(source: &super::library::VolumeSource) -> VolumeCard {
+    VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default(), failed: false }
 }

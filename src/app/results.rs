@@ -186,7 +186,7 @@ fn put_back(window: &AppWindow, state: &Shared) {
 
 /// A result card tapped: its volume opens with its classes; its camera and visibility follow.
 pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
-    {
+    let entry = {
         let mut state = state.borrow_mut();
         if state.opening.is_some() {
             return;
@@ -198,16 +198,13 @@ pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
             state.status = entry.missing_message();
             return;
         }
-        let source = VolumeSource::from_key(&entry.session.volume);
-        let index = match state.sources.iter().position(|known| *known == source) {
-            Some(index) => index,
-            None => {
-                // A scan outside the data folder: it joins the chooser, so indices stay aligned.
-                state.sources.push(source.clone());
-                state.volumes_model.push(super::loading::blank_card(&source));
-                state.sources.len() - 1
-            }
-        };
+        entry
+    };
+    let source = VolumeSource::from_key(&entry.session.volume);
+    // A scan outside the data folder joins the chooser, so indices stay aligned.
+    let index = super::loading::add_source(state, source.clone());
+    {
+        let mut state = state.borrow_mut();
         state.ctl.jobs.cancel();
         state.status = format!("Opening {}...", entry.volume_name);
         state.results.pending = Some((entry.session.volume.clone(), entry.camera, entry.visible.clone()));

@@ -9,7 +9,7 @@
 use super::drawing::{FingerPath, PathMeaning, Unclear};
 use super::ui::AppWindow;
 use super::windowing::{self, CUSTOM};
-use super::{State, callbacks, refresh};
+use super::{State, refresh};
 use crate::slices::Axis;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -75,7 +75,7 @@ pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f
     };
     refresh::push_lasso(window, state);
     match meaning {
-        Some((_, PathMeaning::Lasso(lasso))) => callbacks::edit_session(window, state, |session| {
+        Some((_, PathMeaning::Lasso(lasso))) => refresh::edit_session(window, state, |session| {
             session.add_lasso(lasso);
             Ok(())
         }),

@@ -104,7 +104,7 @@ pub(in crate::app) fn poll(window: &AppWindow, shared: &Shared) {
     };
     if let Some(folder) = retrieved.first() {
         let index = crate::app::loading::add_source(shared, VolumeSource::Path(folder.clone()));
-        crate::app::callbacks::open_volume(window, shared, index as i32);
+        crate::app::loading::open_volume(window, shared, index as i32);
     }
     if changed {
         push(window, shared);
