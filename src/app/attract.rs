@@ -17,6 +17,7 @@ use super::gallery::{self, Listed};
 use super::library::{self, LoadedVolume, OpenError, VolumeSource};
 use super::ui::{AppWindow, Session};
 use super::view3d::RenderReply;
+use super::worker::{Report, Task, Threaded, Ticket, Worker};
 use super::{
     State, Work,
     autosave::{SavedLook, SavedSession},
@@ -26,7 +27,7 @@ use crate::strokes::StrokesFile;
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::{Rc, Weak};
-use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::sync::Arc;
 use std::time::Duration;
 
 /// Pictures in one turn (12 degrees apart).
@@ -59,7 +60,7 @@ enum Phase {
     Off,
     Loading {
         showing: Showing,
-        loaded: Receiver<Result<Box<LoadedVolume>, OpenError>>,
+        loader: Box<dyn Worker<VolumeSource, Result<Box<LoadedVolume>, OpenError>>>,
     },
     Rendering {
         showing: Showing,
@@ -132,18 +133,15 @@ pub(super) fn begin(window: &AppWindow, state: &Shared) {
     }
     let options = state.borrow().config.open_options.clone();
     let source = VolumeSource::from_key(&showing.session.volume);
-    let (sender, loaded) = channel();
-    let spawned = std::thread::Builder::new().name("attract".into()).spawn(move || {
-        let result = library::guarded(&source, || library::load(&source, &options)).map(Box::new);
-        let _ = sender.send(result);
-    });
-    if let Err(error) = spawned {
-        log::warn!("attract mode: cannot start a thread to open the volume: {error}");
-        return;
-    }
+    let task: Task<VolumeSource, Result<Box<LoadedVolume>, OpenError>> =
+        Arc::new(move |source, _: &Ticket, report: &Report<'_, Result<Box<LoadedVolume>, OpenError>>| {
+            report(library::guarded(&source, || library::load(&source, &options)).map(Box::new))
+        });
+    let mut loader: Box<dyn Worker<_, _>> = Box::new(Threaded::new("attract", task));
+    loader.send(source);
     log::info!("attract mode: a turntable of {}", showing.name);
     let mut state_ref = state.borrow_mut();
-    state_ref.attract.phase = Phase::Loading { showing, loaded };
+    state_ref.attract.phase = Phase::Loading { showing, loader };
     let (weak_window, weak_state) = (window.as_weak(), Rc::downgrade(state));
     state_ref.attract.timer.start(slint::TimerMode::Repeated, PREPARING_TICK, move || tick(&weak_window, &weak_state));
     drop(state_ref);
@@ -211,11 +209,11 @@ fn tick(window: &slint::Weak<AppWindow>, state: &Weak<RefCell<State>>) {
     let was_rendering = matches!(phase, Phase::Rendering { .. });
     let next = match phase {
         Phase::Off => Phase::Off,
-        Phase::Loading { showing, loaded } => match loaded.try_recv() {
-            Err(TryRecvError::Empty) => Phase::Loading { showing, loaded },
-            Err(TryRecvError::Disconnected) => stopped("the loader stopped"),
-            Ok(Err(error)) => stopped(&format!("cannot open {}: {error}", showing.name)),
-            Ok(Ok(loaded)) => {
+        Phase::Loading { showing, mut loader } => match loader.poll().map(|delivery| delivery.output) {
+            None if loader.ended_silently().is_some() => stopped("the loader stopped"),
+            None => Phase::Loading { showing, loader },
+            Some(Err(error)) => stopped(&format!("cannot open {}: {error}", showing.name)),
+            Some(Ok(loaded)) => {
                 let mut ctl = Box::new(Controller::new(None));
                 ctl.open(Work::new(*loaded), Some(showing.session.clone()));
                 for (index, shown) in showing.visible.iter().enumerate() {

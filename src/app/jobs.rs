@@ -125,11 +125,14 @@ impl ClassificationJobs {
             let Some(Delivery { generation, output }) = self.worker.poll() else {
                 // A job that ended without a word (its thread could not start) must not leave
                 // "Classifying..." on screen for ever.
-                let ended = self.running.filter(|_| !self.worker.busy());
-                if let Some(generation) = ended {
-                    self.running = None;
-                    self.finished = Some(generation);
-                    return Some(JobOutcome::Failed("the classifier stopped without a result (see the log)".into()));
+                while let Some(generation) = self.worker.ended_silently() {
+                    if self.running == Some(generation) {
+                        self.running = None;
+                        self.finished = Some(generation);
+                        return Some(JobOutcome::Failed(
+                            "the classifier stopped without a result (see the log)".into(),
+                        ));
+                    }
                 }
                 return None;
             };

@@ -15,15 +15,16 @@
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
 use super::windowing::WindowChoices;
+use super::worker::{Report, Task, Threaded, Ticket, Worker};
 pub use crate::phantom::source::VolumeSource;
 use crate::phantom::source::uid_tail;
 use crate::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use crate::transfer::RgbImage;
 use crate::volume::dicom::{PatientShown, list_series};
 use crate::volume::{OpenOptions, Volume, open::detect_format};
+use std::collections::{HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::sync::mpsc::{Receiver, Sender, channel};
 
 /// Why a volume cannot be offered or opened; a card or banner shows it
 /// ([`reason_for_display`]).
@@ -234,59 +235,88 @@ pub enum LoaderEvent {
 /// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
 /// volume the user picks on a thread of its own, so a pick never waits behind thumbnails.
 pub struct Loader {
-    options: OpenOptions,
-    sender: Sender<LoaderEvent>,
-    events: Receiver<LoaderEvent>,
+    thumbnails: Box<dyn Worker<Vec<(usize, VolumeSource)>, LoaderEvent>>,
+    opens: Box<dyn Worker<(usize, VolumeSource), LoaderEvent>>,
+    /// The chooser indices of each job not yet ended, to say they failed should the job end
+    /// without a word.
+    thumbnailing: HashMap<u64, Vec<usize>>,
+    opening: HashMap<u64, usize>,
+    /// Failures of such jobs, one event per index, still to be polled.
+    failed: VecDeque<LoaderEvent>,
 }
 
 impl Loader {
     pub fn new(options: OpenOptions) -> Loader {
-        let (sender, events) = channel();
-        Loader { options, sender, events }
+        let thumbnail_options = options.clone();
+        let thumbnails: Task<Vec<(usize, VolumeSource)>, LoaderEvent> =
+            Arc::new(move |sources, _: &Ticket, report: &Report<'_, LoaderEvent>| {
+                for (index, source) in sources {
+                    let options = &thumbnail_options;
+                    if let Ok(Some(series)) = guarded(&source, || Ok(series_of(&source, options))) {
+                        report(LoaderEvent::Series { index, series });
+                        continue;
+                    }
+                    let result = guarded(&source, || load(&source, options).and_then(|loaded| thumbnail(&loaded)));
+                    report(LoaderEvent::Thumbnail { index, result });
+                }
+            });
+        let opens: Task<(usize, VolumeSource), LoaderEvent> =
+            Arc::new(move |(index, source), _: &Ticket, report: &Report<'_, LoaderEvent>| {
+                let result = guarded(&source, || load(&source, &options)).map(Box::new);
+                report(LoaderEvent::Opened { index, result });
+            });
+        Loader {
+            thumbnails: Box::new(Threaded::new("thumbnails", thumbnails)),
+            opens: Box::new(Threaded::new("open", opens)),
+            thumbnailing: HashMap::new(),
+            opening: HashMap::new(),
+            failed: VecDeque::new(),
+        }
     }
 
     /// Thumbnails of `sources`, each reported under its index in the chooser.
-    pub fn thumbnails(&self, sources: Vec<(usize, VolumeSource)>) {
-        let (sender, options) = (self.sender.clone(), self.options.clone());
-        spawn("thumbnails", move || {
-            for (index, source) in sources {
-                if let Ok(Some(series)) = guarded(&source, || Ok(series_of(&source, &options))) {
-                    if sender.send(LoaderEvent::Series { index, series }).is_err() {
-                        return;
-                    }
-                    continue;
-                }
-                let result = guarded(&source, || load(&source, &options).and_then(|loaded| thumbnail(&loaded)));
-                if sender.send(LoaderEvent::Thumbnail { index, result }).is_err() {
-                    return;
+    pub fn thumbnails(&mut self, sources: Vec<(usize, VolumeSource)>) {
+        let indices = sources.iter().map(|(index, _)| *index).collect();
+        let generation = self.thumbnails.send(sources);
+        self.thumbnailing.insert(generation, indices);
+    }
+
+    pub fn open(&mut self, index: usize, source: VolumeSource) {
+        let generation = self.opens.send((index, source));
+        self.opening.insert(generation, index);
+    }
+
+    pub fn poll(&mut self) -> Option<LoaderEvent> {
+        if let Some(delivery) = self.opens.poll() {
+            self.opening.remove(&delivery.generation);
+            return Some(delivery.output);
+        }
+        if let Some(delivery) = self.thumbnails.poll() {
+            let reported = match &delivery.output {
+                LoaderEvent::Thumbnail { index, .. } | LoaderEvent::Series { index, .. } => Some(*index),
+                LoaderEvent::Opened { .. } => None,
+            };
+            if let Some(indices) = self.thumbnailing.get_mut(&delivery.generation) {
+                indices.retain(|index| Some(*index) != reported);
+                if indices.is_empty() {
+                    self.thumbnailing.remove(&delivery.generation);
                 }
             }
-        });
-    }
-
-    pub fn open(&self, index: usize, source: VolumeSource) {
-        let (sender, options) = (self.sender.clone(), self.options.clone());
-        let failed = sender.clone();
-        if !spawn("open", move || {
-            let result = guarded(&source, || load(&source, &options)).map(Box::new);
-            let _ = sender.send(LoaderEvent::Opened { index, result });
-        }) {
-            let _ = failed.send(LoaderEvent::Opened { index, result: Err(OpenError::NoThread) });
+            return Some(delivery.output);
         }
-    }
-
-    pub fn poll(&self) -> Option<LoaderEvent> {
-        self.events.try_recv().ok()
-    }
-}
-
-fn spawn(name: &str, work: impl FnOnce() + Send + 'static) -> bool {
-    match std::thread::Builder::new().name(name.into()).spawn(work) {
-        Ok(_) => true,
-        Err(error) => {
-            log::error!("cannot start the {name} thread: {error}");
-            false
+        // A job whose thread could not start (or that panicked past its guard) fails every
+        // index it was about, so no card and no open waits for ever.
+        while let Some(generation) = self.opens.ended_silently() {
+            if let Some(index) = self.opening.remove(&generation) {
+                self.failed.push_back(LoaderEvent::Opened { index, result: Err(OpenError::NoThread) });
+            }
         }
+        while let Some(generation) = self.thumbnails.ended_silently() {
+            for index in self.thumbnailing.remove(&generation).unwrap_or_default() {
+                self.failed.push_back(LoaderEvent::Thumbnail { index, result: Err(OpenError::NoThread) });
+            }
+        }
+        self.failed.pop_front()
     }
 }
 
@@ -359,7 +389,8 @@ mod tests {
         let folder = tempfile::tempdir().unwrap();
         let empty = folder.path().join("empty.nii");
         std::fs::write(&empty, b"").unwrap();
-        let loader = Loader::new(OpenOptions { cache_dir: Some(folder.path().join("cache")), ..Default::default() });
+        let mut loader =
+            Loader::new(OpenOptions { cache_dir: Some(folder.path().join("cache")), ..Default::default() });
         loader.thumbnails(vec![(1, VolumeSource::Path(empty)), (0, VolumeSource::Demo)]);
         let mut reported = Vec::new();
         let started = std::time::Instant::now();

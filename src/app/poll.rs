@@ -21,7 +21,7 @@ type Shared = Rc<RefCell<State>>;
 pub(super) fn poll(window: &AppWindow, state: &Shared) {
     loop {
         // A separate statement: the borrow must end before the event is handled.
-        let event = state.borrow().loader.poll();
+        let event = state.borrow_mut().loader.poll();
         let Some(event) = event else { break };
         loading::loader_event(window, state, event);
     }

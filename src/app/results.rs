@@ -12,31 +12,56 @@ use super::gallery::{self, GalleryEntry, GalleryError, Listed};
 use super::library::VolumeSource;
 use super::refresh;
 use super::ui::{AppWindow, ResultCard, Session};
+use super::worker::{Report, Task, Threaded, Ticket, Worker};
 use crate::render::Camera;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
-use std::sync::mpsc::{Receiver, TryRecvError, channel};
+use std::sync::Arc;
 
 type Shared = Rc<RefCell<State>>;
 
+/// One kept result to write: where, what, and the 3-D view's picture.
+pub(super) struct SaveJob {
+    data_dir: PathBuf,
+    entry: GalleryEntry,
+    picture: image::RgbaImage,
+}
+
 /// The gallery's part of the app's state.
-#[derive(Default)]
 pub(super) struct Results {
     /// The gallery as last listed, in card order.
     listed: Vec<Listed>,
-    /// A save on the writer thread.
-    saving: Option<Receiver<Result<PathBuf, GalleryError>>>,
+    /// Writes a kept result off the UI thread, a thread per save.
+    writer: Box<dyn Worker<SaveJob, Result<PathBuf, GalleryError>>>,
+    /// A save was sent and its outcome not yet collected.
+    saving: bool,
     /// A result being opened: its volume key, camera and visibility, put back once it is open.
     pending: Option<(String, Camera, Vec<bool>)>,
     pub(super) model: Rc<slint::VecModel<ResultCard>>,
 }
 
+impl Default for Results {
+    fn default() -> Self {
+        let task: Task<SaveJob, Result<PathBuf, GalleryError>> =
+            Arc::new(|job: SaveJob, _: &Ticket, report: &Report<'_, Result<PathBuf, GalleryError>>| {
+                report(gallery::save(&job.data_dir, &job.entry, &job.picture))
+            });
+        Results {
+            listed: Vec::new(),
+            writer: Box::new(Threaded::new("gallery", task)),
+            saving: false,
+            pending: None,
+            model: Rc::default(),
+        }
+    }
+}
+
 impl Results {
     /// A save is still being written.
     pub(super) fn busy(&self) -> bool {
-        self.saving.is_some()
+        self.saving
     }
 }
 
@@ -80,17 +105,9 @@ pub(super) fn save(window: &AppWindow, state: &Shared) {
     let message = match prepare(&state_ref, picture) {
         Err(message) => message,
         Ok((data_dir, entry, picture)) => {
-            let (sender, receiver) = channel();
-            let spawned = std::thread::Builder::new().name("gallery".into()).spawn(move || {
-                let _ = sender.send(gallery::save(&data_dir, &entry, &picture));
-            });
-            match spawned {
-                Ok(_) => {
-                    state_ref.results.saving = Some(receiver);
-                    "Saving to the gallery...".to_string()
-                }
-                Err(error) => format!("Cannot save: no thread to write with ({error})"),
-            }
+            state_ref.results.writer.send(SaveJob { data_dir, entry, picture });
+            state_ref.results.saving = true;
+            "Saving to the gallery...".to_string()
         }
     };
     state_ref.status = message;
@@ -102,7 +119,7 @@ type Prepared = (PathBuf, GalleryEntry, image::RgbaImage);
 
 /// What a save writes, or why there is nothing to save.
 fn prepare(state: &State, picture: Option<slint::SharedPixelBuffer<slint::Rgba8Pixel>>) -> Result<Prepared, String> {
-    if state.results.saving.is_some() {
+    if state.results.busy() {
         return Err("Still saving the last result...".into());
     }
     let data_dir = state.config.data_dir.clone().ok_or("Cannot save: there is no data folder")?;
@@ -130,15 +147,20 @@ fn prepare(state: &State, picture: Option<slint::SharedPixelBuffer<slint::Rgba8P
 /// Collects a finished save, and puts back a result's camera and visibility once its volume
 /// is open; called by the poll timer.
 pub(super) fn poll(window: &AppWindow, state: &Shared) {
-    let finished = match state.borrow().results.saving.as_ref().map(Receiver::try_recv) {
-        None | Some(Err(TryRecvError::Empty)) => None,
-        Some(Ok(result)) => Some(result.map_err(|error| error.to_string())),
-        Some(Err(TryRecvError::Disconnected)) => Some(Err("the gallery writer stopped".to_string())),
+    let finished = {
+        let mut state = state.borrow_mut();
+        let results = &mut state.results;
+        let finished = match results.writer.poll() {
+            Some(delivery) => Some(delivery.output.map_err(|error| error.to_string())),
+            // Its thread could not start, or stopped without a word (logged).
+            None => results.writer.ended_silently().map(|_| Err("the gallery writer stopped".to_string())),
+        };
+        results.saving &= finished.is_none();
+        finished
     };
     if let Some(result) = finished {
         {
             let mut state = state.borrow_mut();
-            state.results.saving = None;
             state.status = match result {
                 Ok(folder) => {
                     log::info!("result kept in {}", folder.display());

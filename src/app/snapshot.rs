@@ -220,9 +220,9 @@ impl SnapshotWriter {
             self.in_flight = self.in_flight.saturating_sub(1);
             return Some(delivery.output);
         }
-        if self.in_flight > 0 && !self.worker.busy() {
+        if self.worker.ended_silently().is_some() {
             // Its writer could not start or stopped without an outcome (logged).
-            self.in_flight -= 1;
+            self.in_flight = self.in_flight.saturating_sub(1);
             return Some(Outcome {
                 written: Vec::new(),
                 problems: vec!["Snapshot not saved: its writer stopped".into()],

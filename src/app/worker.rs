@@ -10,7 +10,8 @@
 //! with no thread (and can hand in a fake task that never touches the pipeline or a GPU).
 //!
 //! Never: blocks in `poll`, touches the UI, or lets a panicking task take the app down (a
-//! panic ends the job; the owner hears of it as the job ending with nothing more to say).
+//! panic ends the job; its owner hears of it from [`Worker::ended_silently`], as of a job whose
+//! thread could not start).
 
 use std::collections::VecDeque;
 use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
@@ -84,6 +85,9 @@ pub trait Worker<J, O> {
     fn progress(&self) -> Option<f32>;
     /// Cancels every job sent so far: their cancel flags are set and their reports dropped.
     fn cancel(&mut self);
+    /// A job (not cancelled) that ended without reporting anything: its thread could not
+    /// start or its task panicked (logged). Its owner says so rather than wait for ever.
+    fn ended_silently(&mut self) -> Option<u64>;
 }
 
 /// What a job's thread tells its worker.
@@ -97,23 +101,45 @@ struct Ledger {
     sent: u64,
     /// Reports of jobs of this generation or older are dropped.
     cancelled_through: u64,
-    running: Vec<Ticket>,
+    /// The jobs not yet ended, each with whether it has reported anything.
+    running: Vec<(Ticket, bool)>,
+    /// Jobs that ended without a report, oldest first.
+    silent: VecDeque<u64>,
 }
 
 impl Ledger {
     fn new() -> Ledger {
-        Ledger { sent: 0, cancelled_through: 0, running: Vec::new() }
+        Ledger { sent: 0, cancelled_through: 0, running: Vec::new(), silent: VecDeque::new() }
     }
 
     fn start(&mut self) -> Ticket {
         self.sent += 1;
         let ticket = Ticket::new(self.sent);
-        self.running.push(ticket.shared());
+        self.running.push((ticket.shared(), false));
         ticket
     }
 
+    fn reported(&mut self, generation: u64) {
+        for (ticket, reported) in &mut self.running {
+            *reported |= ticket.generation == generation;
+        }
+    }
+
     fn ended(&mut self, generation: u64) {
-        self.running.retain(|ticket| ticket.generation != generation);
+        let silent = self.running.iter().any(|(ticket, reported)| ticket.generation == generation && !reported);
+        if silent && self.wanted(generation) {
+            self.silent.push_back(generation);
+        }
+        self.running.retain(|(ticket, _)| ticket.generation != generation);
+    }
+
+    fn ended_silently(&mut self) -> Option<u64> {
+        while let Some(generation) = self.silent.pop_front() {
+            if self.wanted(generation) {
+                return Some(generation);
+            }
+        }
+        None
     }
 
     fn wanted(&self, generation: u64) -> bool {
@@ -121,17 +147,17 @@ impl Ledger {
     }
 
     fn busy(&self) -> bool {
-        self.running.iter().any(|ticket| self.wanted(ticket.generation))
+        self.running.iter().any(|(ticket, _)| self.wanted(ticket.generation))
     }
 
     fn progress(&self) -> Option<f32> {
-        let newest =
-            self.running.iter().filter(|ticket| self.wanted(ticket.generation)).max_by_key(|t| t.generation)?;
+        let wanted = self.running.iter().map(|(ticket, _)| ticket).filter(|ticket| self.wanted(ticket.generation));
+        let newest = wanted.max_by_key(|ticket| ticket.generation)?;
         Some(newest.progress.load(Ordering::Relaxed) as f32 / 1000.0)
     }
 
     fn cancel(&mut self) {
-        for ticket in &self.running {
+        for (ticket, _) in &self.running {
             ticket.cancel.store(true, Ordering::Relaxed);
         }
         self.cancelled_through = self.sent;
@@ -187,6 +213,7 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Threaded<J, O> {
         loop {
             match self.receiver.try_recv() {
                 Ok(Message::Output(generation, output)) if self.ledger.wanted(generation) => {
+                    self.ledger.reported(generation);
                     return Some(Delivery { generation, output });
                 }
                 Ok(Message::Output(..)) => {}
@@ -206,6 +233,10 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Threaded<J, O> {
 
     fn cancel(&mut self) {
         self.ledger.cancel();
+    }
+
+    fn ended_silently(&mut self) -> Option<u64> {
+        self.ledger.ended_silently()
     }
 }
 
@@ -232,10 +263,12 @@ impl<J, O: Send> Inline<J, O> {
                 let report = |output| outputs.lock().map(|mut outputs| outputs.push(output)).unwrap_or(());
                 run_guarded("inline", &self.task, job, &ticket, &report);
             }
+            let outputs = outputs.into_inner().unwrap_or_default();
+            if !outputs.is_empty() {
+                self.ledger.reported(generation);
+            }
             self.ledger.ended(generation);
-            self.reports.extend(
-                outputs.into_inner().unwrap_or_default().into_iter().map(|output| Delivery { generation, output }),
-            );
+            self.reports.extend(outputs.into_iter().map(|output| Delivery { generation, output }));
         }
     }
 }
@@ -268,6 +301,11 @@ impl<J, O: Send> Worker<J, O> for Inline<J, O> {
 
     fn cancel(&mut self) {
         self.ledger.cancel();
+    }
+
+    fn ended_silently(&mut self) -> Option<u64> {
+        self.run_waiting();
+        self.ledger.ended_silently()
     }
 }
 
@@ -357,6 +395,8 @@ mod tests {
         ] {
             worker.send(0);
             assert!(drain(worker.as_mut()).is_empty());
+            assert_eq!(worker.ended_silently(), Some(1), "the owner hears that the job ended without a word");
+            assert_eq!(worker.ended_silently(), None);
             worker.send(9);
             assert_eq!(drain(worker.as_mut()), vec![Delivery { generation: 2, output: 9 }]);
         }
