@@ -41,7 +41,7 @@
 //!
 //! Programs that hold their scan as an array use [`pipeline::classify_array`] and
 //! [`Volume::stored_view`] (see `examples/classify_array.rs`). The command line and the kiosk
-//! (`cli`, `app`, `kiosk`, `touch`, `display`, `ui/*.slint`) call the pipeline and are not part
+//! (`cli`, `app`, `kiosk`, `touch`, `display`, `ui/*.slint`; the app is `crates/volasso-app`) call the pipeline and are not part
 //! of the library's documented surface. The pipeline is a crate of its own,
 //! `crates/volasso-core`, re-exported here module by module: it depends on no UI, input or
 //! network crate, so cargo refuses any import from it into the app. The DICOM network code
@@ -58,7 +58,7 @@ pub use volasso_core::{
 pub use volasso_dicom::{dicom_out, pacs, receive};
 
 #[doc(hidden)]
-pub mod app;
+pub use volasso_app as app;
 #[doc(hidden)]
 pub mod cli;
 #[doc(hidden)]

@@ -49,26 +49,7 @@ pub use synthesis::{
 use super::event::DeviceInfo;
 use super::format::EventsText;
 
-/// A rectangle in screen pixels (Slint logical coordinates).
-#[derive(Clone, Copy, Debug, PartialEq)]
-pub struct Rect {
-    pub x: f32,
-    pub y: f32,
-    pub width: f32,
-    pub height: f32,
-}
-
-impl Rect {
-    /// The screen point at fractions `fraction` of this rectangle.
-    pub fn point(&self, fraction: [f32; 2]) -> [f32; 2] {
-        [self.x + fraction[0] * self.width, self.y + fraction[1] * self.height]
-    }
-
-    /// True when `point` lies inside (left and top edges included).
-    pub fn contains(&self, point: [f32; 2]) -> bool {
-        point[0] >= self.x && point[1] >= self.y && point[0] < self.x + self.width && point[1] < self.y + self.height
-    }
-}
+pub use crate::app::Rect;
 
 /// What the UI tells the script runner about its screen.
 pub trait ElementLocator {

@@ -1,0 +1,264 @@
+//! What each `Session` callback does to the app's [`State`]. Every callback counts as input
+//! (the idle timeout restarts), changes state, starts slow work elsewhere, and pushes what
+//! changed back to the UI (refresh.rs).
+
+use super::refresh;
+use super::slice_actions::{choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice};
+use super::ui::{AppWindow, Session};
+use super::{Screen, State};
+use slint::ComponentHandle;
+use std::cell::RefCell;
+use std::rc::Rc;
+use std::time::Duration;
+use volasso_core::render::Camera;
+use volasso_core::transfer::{HueTemplate, TemplateType};
+
+/// Degrees the volume turns per pixel of one-finger drag.
+const ORBIT_DEGREES_PER_PIXEL: f32 = 0.4;
+const ZOOM_RANGE: (f32, f32) = (0.25, 8.0);
+
+type Shared = Rc<RefCell<State>>;
+
+/// Makes a callback closure that upgrades the window, restarts the idle timer and runs `body`.
+macro_rules! handler {
+    ($window:expr, $state:expr, $idle:expr, |$w:ident, $s:ident $(, $arg:ident : $ty:ty)*| $body:block) => {{
+        let weak = $window.as_weak();
+        let state = $state.clone();
+        let idle = $idle.clone();
+        move |$($arg: $ty),*| {
+            if let Some($w) = weak.upgrade() {
+                let $s: &Shared = &state;
+                restart_idle_timer(&$w, $s, &idle);
+                $body
+            }
+        }
+    }};
+}
+
+pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    let session = window.global::<Session>();
+    session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
+    session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
+    session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| {
+        super::loading::open_volume(&w, s, index)
+    }));
+    wire_pacs(window, state, idle);
+    session.on_lasso_down(handler!(
+        window,
+        state,
+        idle,
+        |w, s, panel: i32, x: f32, y: f32, width: f32, height: f32, ms: f32| {
+            lasso_down(&w, s, panel, [x, y], [width, height], ms as f64)
+        }
+    ));
+    session.on_lasso_move(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+        lasso_move(&w, s, panel, [x, y], ms as f64)
+    }));
+    session.on_lasso_up(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+        lasso_up(&w, s, panel, [x, y], ms as f64)
+    }));
+    session.on_enlarge(handler!(window, state, idle, |w, s, panel: i32| { enlarge(&w, s, panel) }));
+    session.on_shrink(handler!(window, state, idle, |w, s| { shrink(&w, s) }));
+    session.on_choose_window(handler!(window, state, idle, |w, s, name: slint::SharedString| {
+        choose_window(&w, s, &name)
+    }));
+    session.on_step_slice(handler!(window, state, idle, |w, s, panel: i32, delta: i32| {
+        step_slice(&w, s, panel, delta)
+    }));
+    session.on_scrub_slice(handler!(window, state, idle, |w, s, panel: i32, slice: i32| {
+        scrub_slice(&w, s, panel, slice)
+    }));
+    session.on_define_class(handler!(window, state, idle, |w, s| {
+        refresh::edit_session(&w, s, |session| session.define_class().map(|_| ()))
+    }));
+    session.on_undo(handler!(window, state, idle, |w, s| { refresh::edit_session(&w, s, |session| session.undo()) }));
+    session.on_clear(handler!(window, state, idle, |w, s| {
+        refresh::edit_session(&w, s, |session| {
+            session.clear();
+            Ok(())
+        })
+    }));
+    session.on_delete_class(handler!(window, state, idle, |w, s, index: i32| {
+        refresh::edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
+    }));
+    session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
+    session.on_toggle_unsure(handler!(window, state, idle, |w, s| { super::guidance::toggle_unsure(&w, s) }));
+    session.on_draw_here_next(handler!(window, state, idle, |w, s| { super::guidance::draw_here_next(&w, s) }));
+    session.on_choose_template(handler!(window, state, idle, |w, s, name: slint::SharedString| {
+        let rotation = s.borrow().template().rotation_degrees;
+        if let Some(template) = TemplateType::from_name(&name) {
+            set_template(&w, s, HueTemplate::new(template, rotation));
+        }
+    }));
+    session.on_rotate_template(handler!(window, state, idle, |w, s, degrees: i32| {
+        let template = s.borrow().template().template;
+        set_template(&w, s, HueTemplate::new(template, degrees as f32));
+    }));
+    session.on_reset_view(handler!(window, state, idle, |_w, s| {
+        let mut state = s.borrow_mut();
+        state.camera = state.home_camera;
+        state.view_dirty = true;
+    }));
+    // While clipping, one finger moves the clip plane instead of orbiting (view_tools.rs).
+    session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
+        if !super::view_tools::clip_press(s, [x, y]) {
+            s.borrow_mut().orbit_from = Some([x, y]);
+        }
+    }));
+    session.on_view_drag(handler!(window, state, idle, |w, s, x: f32, y: f32| {
+        if !super::view_tools::clip_drag(&w, s, [x, y]) {
+            orbit(s, [x, y])
+        }
+    }));
+    session.on_view_release(handler!(window, state, idle, |_w, s| {
+        super::view_tools::clip_release(s);
+        let mut state = s.borrow_mut();
+        state.orbit_from = None;
+        state.view_dirty = true;
+    }));
+    session
+        .on_view_zoom(handler!(window, state, idle, |_w, s, factor: f32| { view_gesture(s, factor, [0.0; 2], 0.0) }));
+    session.on_dismiss_banner(handler!(window, state, idle, |w, s| {
+        s.borrow_mut().banner.clear();
+        refresh::push_status(&w, s);
+    }));
+    // The 3-D view's tools (per-class opacity, clip plane, snapshot).
+    session.on_class_opacity(handler!(window, state, idle, |w, s, index: i32, percent: i32| {
+        super::view_tools::class_opacity(&w, s, index, percent)
+    }));
+    session.on_toggle_clip(handler!(window, state, idle, |w, s| { super::view_tools::toggle_clip(&w, s) }));
+    session.on_reset_clip(handler!(window, state, idle, |w, s| { super::view_tools::reset_clip(&w, s) }));
+    session.on_snapshot(handler!(window, state, idle, |w, s| { super::view_tools::snapshot(&w, s) }));
+    // The gallery: keep the current result, open a kept one (results.rs).
+    session.on_save_result(handler!(window, state, idle, |w, s| { super::results::save(&w, s) }));
+    session.on_open_result(handler!(window, state, idle, |w, s, index: i32| { super::results::open(&w, s, index) }));
+}
+
+/// Starts the idle timeout again; when it fires, the session is forgotten and the start
+/// screen comes back. The timeout counts from the later of the last touch and the end of the
+/// last work the user waits for (a volume opening, a classification, the 3-D view being
+/// drawn): a slow panel must not throw away the result the user is waiting for.
+pub(super) fn restart_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    let Some(timeout) = state.borrow().config.idle_timeout else { return };
+    start_idle_timer(window, state, idle, timeout, timeout);
+}
+
+/// Starts the idle timer to fire after `wait`, for a timeout of `timeout`.
+fn start_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>, wait: Duration, timeout: Duration) {
+    let weak = window.as_weak();
+    let timer = Rc::downgrade(idle);
+    let state = state.clone();
+    idle.start(slint::TimerMode::SingleShot, wait, move || {
+        let Some(window) = weak.upgrade() else { return };
+        let without_work = {
+            let state = state.borrow();
+            if state.works_for_user() { Duration::ZERO } else { super::POLL_INTERVAL * state.polls_without_work }
+        };
+        match timer.upgrade() {
+            Some(timer) if without_work < timeout => {
+                start_idle_timer(&window, &state, &timer, timeout - without_work, timeout)
+            }
+            _ => reset_to_start(&window, &state),
+        }
+    });
+}
+
+fn reset_to_start(window: &AppWindow, state: &Shared) {
+    {
+        let mut state = state.borrow_mut();
+        state.ctl.forget();
+        state.panel_pictures.clear();
+        state.restore = None;
+        state.restore_unconfirmed = false;
+        state.camera = Camera::default();
+        state.home_camera = Camera::default();
+        state.banner.clear();
+        state.status.clear();
+    }
+    log::info!("idle timeout: back to the start screen, session cleared");
+    window.global::<Session>().set_view_picture(slint::Image::default());
+    refresh::push_work(window, state);
+    refresh::show_screen(window, Screen::Start);
+    super::attract::begin(window, state);
+}
+
+fn show_chooser(window: &AppWindow, state: &Shared) {
+    {
+        let mut state = state.borrow_mut();
+        if !state.thumbnails_requested {
+            state.thumbnails_requested = true;
+            let sources: Vec<_> = state.sources.iter().cloned().enumerate().collect();
+            state.thumbnails_pending = sources.len();
+            state.loader.thumbnails(sources);
+        }
+    }
+    super::attract::end(window, state);
+    super::results::refresh_cards(state);
+    refresh::show_screen(window, Screen::Chooser);
+}
+
+/// The PACS screen's callbacks and "Send to PACS", each an intent of `pacs::PacsModel`.
+fn wire_pacs(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+    use super::pacs::view::{intent, send};
+    use super::pacs::{PacsIntent, SearchField};
+    let session = window.global::<Session>();
+    session.on_pacs_open(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Open) }));
+    session.on_pacs_key(handler!(window, state, idle, |w, s, key: slint::SharedString| {
+        intent(&w, s, PacsIntent::Key(key.to_string()))
+    }));
+    session.on_pacs_field(handler!(window, state, idle, |w, s, accession: bool| {
+        let field = if accession { SearchField::Accession } else { SearchField::PatientId };
+        intent(&w, s, PacsIntent::Field(field))
+    }));
+    session.on_pacs_search(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Search) }));
+    session.on_pacs_today(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Today) }));
+    session.on_pacs_retrieve(handler!(window, state, idle, |w, s, row: i32| {
+        intent(&w, s, PacsIntent::Retrieve(row.max(0) as usize))
+    }));
+    session.on_pacs_next(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::NextPeer) }));
+    session.on_send_to_pacs(handler!(window, state, idle, |w, s| { send(&w, s) }));
+}
+
+fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {
+    let changed = state.borrow_mut().ctl.toggle_class(index.max(0) as usize);
+    refresh::apply(window, state, changed);
+}
+
+fn set_template(window: &AppWindow, state: &Shared, template: HueTemplate) {
+    let changed = state.borrow_mut().ctl.choose_template(template);
+    refresh::apply(window, state, changed);
+}
+
+fn orbit(state: &Shared, to: [f32; 2]) {
+    let mut state = state.borrow_mut();
+    let Some(from) = state.orbit_from else { return };
+    let camera = &mut state.camera;
+    camera.azimuth_degrees -= (to[0] - from[0]) * ORBIT_DEGREES_PER_PIXEL;
+    camera.elevation_degrees =
+        (camera.elevation_degrees + (to[1] - from[1]) * ORBIT_DEGREES_PER_PIXEL).clamp(-89.0, 89.0);
+    state.orbit_from = Some(to);
+    state.view_dirty = true;
+}
+
+pub(super) fn view_gesture(state: &Shared, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
+    let mut state = state.borrow_mut();
+    let extent_mm = state.ctl.work.as_ref().map(|work| {
+        let volume = &work.loaded.volume;
+        std::array::from_fn::<f32, 3, _>(|a| (volume.dims[a] as f64 * volume.spacing_mm[a]) as f32)
+    });
+    let [width, height] = state.view_size;
+    let camera = &mut state.camera;
+    if zoom.is_finite() && zoom > 0.0 {
+        camera.zoom = (camera.zoom * zoom).clamp(ZOOM_RANGE.0, ZOOM_RANGE.1);
+    }
+    if let Some(extent_mm) = extent_mm
+        && pan_pixels.iter().all(|p| p.is_finite())
+        && width > 0
+    {
+        camera.pan_by_pixels(pan_pixels[0], pan_pixels[1], extent_mm, width, height);
+    }
+    if turn_degrees.is_finite() {
+        camera.azimuth_degrees -= turn_degrees;
+    }
+    state.view_dirty = true;
+}

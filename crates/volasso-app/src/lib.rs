@@ -1,0 +1,528 @@
+//! The kiosk app: the Slint UI (`ui/*.slint`) wired to the pipeline. It holds what the user is
+//! doing (the open volume, the three slices shown, the session of classes and lassos, the
+//! camera) and runs everything slow elsewhere: volumes open on a loader thread, the
+//! classifier on a job thread, the 3-D view on a render thread, the autosave on a writer
+//! thread (saver.rs), the slice pictures on a painter thread (painter.rs). The UI thread moves
+//! data between them and Slint and never waits for them, nor for the disk.
+//!
+//! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
+//! `State`; what the user does to the classes goes to the Slint-free `Controller`
+//! (controller.rs: the work, the template and the classification, autosave and 3-D view
+//! workers), which says what changed; a 16 ms poll timer (`poll.rs`) collects finished work
+//! and each feature applies its own (`loading.rs` what the loader reports); `refresh.rs` pushes
+//! state into the `Session` global and depends on no feature, so the files' imports run one way
+//! (callbacks and poll -> features -> refresh). The PACS screen (`pacs/`) is the shape the rest
+//! is moving to: a Slint-free model updated by intents, its jobs behind the `Worker` trait
+//! (`worker.rs`), one glue file.
+//!
+//! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
+//! sagittal panels with the patient's directions at their edges; the stored order and
+//! "orientation unknown" when the file says nothing), and the 3-D view starts from the front
+//! with the head up (`slices::HomeView`). Lassos are stored in voxel coordinates whatever the
+//! flips (drawing.rs), and display windows never reach the classifier (windowing.rs). Every volume file is treated as hostile: one that fails or panics its
+//! reader becomes a "Cannot open" card, and a saved session that cannot be restored (or that
+//! stopped the app while restoring) is set aside with a banner (`autosave.rs`).
+//!
+//! Beyond the paper (§3.2-3.5), every lasso reclassifies at once, with the lassos not yet
+//! defined as a provisional class, so the user sees the result of a lasso before deciding to
+//! define the class.
+//!
+//! Never: draws pixels itself or reads input devices; the platform (the `volasso` crate's kiosk
+//! or Slint's own winit backend) does that. This crate depends on no display, touch device or
+//! command-line code, so cargo refuses an import of them here.
+
+mod attract;
+pub mod autosave;
+mod callbacks;
+pub mod clip;
+mod controller;
+pub mod dpi;
+pub mod drawing;
+mod elements;
+pub use elements::Rect;
+pub mod gallery;
+mod guidance;
+pub mod jobs;
+pub mod library;
+mod loading;
+pub mod memory;
+pub mod pacs;
+mod painter;
+mod path_loops;
+pub mod pictures;
+mod poll;
+mod queries;
+mod refresh;
+mod results;
+mod saver;
+pub mod session;
+mod slice_actions;
+pub mod snapshot;
+pub mod ui;
+pub mod view3d;
+mod view_tools;
+pub mod windowing;
+pub mod worker;
+
+use controller::Controller;
+use drawing::FingerPath;
+use jobs::Classified;
+use library::{LoadedVolume, Loader, VolumeSource};
+use session::WorkSession;
+use slint::ComponentHandle;
+use std::cell::RefCell;
+use std::path::PathBuf;
+use std::rc::Rc;
+use std::sync::Arc;
+use std::time::Duration;
+use ui::AppWindow;
+use volasso_core::render::Camera;
+use volasso_core::slices::{Axis, DisplayWindow, SliceLayout};
+use volasso_core::strokes::StrokesFile;
+use volasso_core::transfer::HueTemplate;
+use volasso_core::volume::OpenOptions;
+
+/// How the app is set up (`volasso ui` options).
+#[derive(Clone, Debug)]
+pub struct AppConfig {
+    /// The folder whose volumes the chooser offers (besides the demo).
+    pub data_dir: Option<PathBuf>,
+    /// Where the session is autosaved; `None`: no autosave.
+    pub session_dir: Option<PathBuf>,
+    /// After this long without a touch the app returns to the start screen and forgets the
+    /// session; `None`: never.
+    pub idle_timeout: Option<Duration>,
+    /// Open this volume at once instead of showing the start screen.
+    pub initial_volume: Option<VolumeSource>,
+    pub open_options: OpenOptions,
+    /// The panel's pixel density, which sizes touch targets and text ([`dpi`]); `None`:
+    /// [`dpi::DEFAULT_DPI`].
+    pub dpi: Option<f32>,
+    /// Where USB sticks are mounted (snapshots are copied onto each one found).
+    pub media_roots: Vec<PathBuf>,
+    /// The PACS peers to query, retrieve from and send results to (`--pacs`); none: no PACS
+    /// button.
+    pub pacs: Vec<volasso_dicom::pacs::Peer>,
+}
+
+impl Default for AppConfig {
+    fn default() -> Self {
+        AppConfig {
+            data_dir: None,
+            session_dir: None,
+            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
+            initial_volume: None,
+            open_options: OpenOptions::default(),
+            dpi: None,
+            media_roots: snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
+            pacs: Vec::new(),
+        }
+    }
+}
+
+/// Where results are written before they are sent to the PACS: the session folder's
+/// `outbox`, else the data folder's hidden `.outbox` (the chooser skips hidden folders).
+fn outbox(config: &AppConfig) -> Option<PathBuf> {
+    match (&config.session_dir, &config.data_dir) {
+        (Some(session_dir), _) => Some(session_dir.join("outbox")),
+        (None, Some(data_dir)) => Some(data_dir.join(".outbox")),
+        (None, None) => None,
+    }
+}
+
+/// Two minutes: long enough to think between lassos, short enough that a demo station is
+/// fresh for the next visitor.
+pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(120);
+
+/// How often finished work is collected.
+pub(crate) const POLL_INTERVAL: Duration = Duration::from_millis(16);
+
+/// The data folder is listed again every this many polls (2 s), so that volumes copied there
+/// while the app runs (a USB import on the appliance) appear in the chooser.
+const RESCAN_POLLS: u32 = 125;
+
+/// The screens of `Session.screen`.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Screen {
+    Start = 0,
+    Chooser = 1,
+    Work = 2,
+    Pacs = 3,
+}
+
+/// The panels of the work screen: axial, coronal, sagittal (`slices::plane_axes`).
+const PANEL_COUNT: usize = 3;
+
+/// One slice panel: which axis, where in that axis's ranking it stands, and how it lies on the
+/// screen.
+#[derive(Clone, Copy, Debug)]
+struct Panel {
+    axis: Axis,
+    /// 0 = the highest-ranked slice.
+    rank: usize,
+    slice: usize,
+    layout: SliceLayout,
+}
+
+/// An open volume and the user's work on it.
+struct Work {
+    loaded: LoadedVolume,
+    session: WorkSession,
+    panels: [Panel; PANEL_COUNT],
+    /// The finger path being drawn, on which panel.
+    drawing: Option<(usize, FingerPath)>,
+    /// The last path that broke off open, on which panel: a finger landing again where it left
+    /// goes on with it ([`FingerPath::resumed_or_new`]).
+    broken_off: Option<(usize, FingerPath)>,
+    classified: Option<Classified>,
+    /// Why the newest classification failed; `None` once one succeeds, and while fewer than
+    /// two classes are drawn. The last good result stays in `classified`.
+    failure: Option<String>,
+    /// The training data of the newest job started, so an unchanged set is not sent again.
+    requested: Option<StrokesFile>,
+    /// The display window of the slices and its name (a preset, or "Custom" after a drag).
+    window: DisplayWindow,
+    window_name: String,
+    /// The panel that fills the work area, if one does, with its zoom (1 = fits) and pan
+    /// (fractions of the visible area, from its centre).
+    enlarged: Option<usize>,
+    zoom: f32,
+    pan: [f32; 2],
+    /// Why the last path on a panel meant nothing, shown on that panel until the next touch.
+    feedback: Option<(usize, String)>,
+    /// The voxels the classifier is least sure of are striped on the slices (guidance.rs).
+    unsure_shown: bool,
+}
+
+impl Work {
+    /// The trained classifier and the survey of where it is unsure, for the classification
+    /// shown; `None` before one (or when its survey failed).
+    fn guidance(&self) -> Option<&jobs::Guidance> {
+        self.classified.as_ref()?.guidance.as_deref()
+    }
+
+    /// Work on a newly opened volume: no classes yet, each panel on its highest-ranked slice,
+    /// the volume's first display window.
+    fn new(loaded: LoadedVolume) -> Work {
+        let orientation = loaded.volume.orientation.as_ref();
+        let panels = volasso_core::slices::plane_axes(orientation).map(|axis| Panel {
+            axis,
+            rank: 0,
+            slice: loaded.entropies.axis(axis).top(),
+            layout: SliceLayout::new(orientation, axis),
+        });
+        let initial = loaded.windows.initial();
+        Work {
+            session: WorkSession::default(),
+            panels,
+            drawing: None,
+            broken_off: None,
+            classified: None,
+            failure: None,
+            requested: None,
+            window: initial.window,
+            window_name: initial.name.to_string(),
+            enlarged: None,
+            zoom: 1.0,
+            pan: [0.0; 2],
+            feedback: None,
+            unsure_shown: false,
+            loaded,
+        }
+    }
+}
+
+/// Everything the callbacks and the poll timer share (on the UI thread only).
+struct State {
+    config: AppConfig,
+    sources: Vec<VolumeSource>,
+    /// Polls since the data folder was last listed.
+    polls_since_scan: u32,
+    loader: Loader,
+    thumbnails_requested: bool,
+    /// Thumbnails asked for and not yet made.
+    thumbnails_pending: usize,
+    opening: Option<usize>,
+    /// The work on the open volume and its workers (classification, autosave, 3-D view).
+    ctl: Controller,
+    /// Draws the slice pictures off the UI thread.
+    painter: painter::SlicePainter,
+    /// Per panel, the volume (its address) and axis of the picture it shows, so a new picture
+    /// keeps the old one in place only while both are the same.
+    panel_pictures: Vec<(usize, Axis)>,
+    camera: Camera,
+    /// Where "Reset view" and a double tap take the camera: the volume's anterior view with
+    /// the head up when its orientation is known (`slices::HomeView`).
+    home_camera: Camera,
+    /// The last finger position of a one-finger orbit.
+    orbit_from: Option<[f32; 2]>,
+    /// A new 3-D frame is wanted (camera, classes or size changed).
+    view_dirty: bool,
+    /// The size the view was last drawn at.
+    view_size: [u32; 2],
+    banner: String,
+    status: String,
+    /// A session read at start-up, applied once its volume is open.
+    restore: Option<autosave::SavedSession>,
+    /// The restore marker is down (autosave.rs): the restored session has not yet shown that it
+    /// opens and classifies without stopping the app.
+    restore_unconfirmed: bool,
+    slices_model: Rc<slint::VecModel<ui::SliceView>>,
+    classes_model: Rc<slint::VecModel<ui::ClassEntry>>,
+    volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
+    /// The 3-D view's tools: clip plane by touch, the picture a snapshot writes.
+    tools: view_tools::Tools,
+    /// The gallery of kept results: its cards, a save in flight, a result being opened.
+    results: results::Results,
+    /// The start screen's turntable after the idle timeout.
+    attract: attract::Attract,
+    /// The PACS screen and "Send to PACS", with their worker.
+    pacs: pacs::view::Pacs,
+    /// Polls in a row without work for the user ([`State::works_for_user`]): the idle
+    /// timeout counts from the later of the last touch and the end of that work.
+    polls_without_work: u32,
+}
+
+impl State {
+    /// The classes the classifier is trained on: the defined ones, and the pending lassos as
+    /// a provisional next class.
+    fn training_class_count(&self) -> usize {
+        self.ctl.training_class_count()
+    }
+
+    /// The template in use for the current number of classes.
+    fn template(&self) -> HueTemplate {
+        self.ctl.template()
+    }
+
+    /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
+    fn is_idle(&self) -> bool {
+        !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy()
+    }
+
+    /// Work the user waits for: a volume or a kept result opening, a classification, the
+    /// slices or the 3-D view being drawn, a snapshot being written. The idle timeout does
+    /// not clear a session while it lasts.
+    fn works_for_user(&self) -> bool {
+        self.opening.is_some()
+            || self.ctl.jobs.busy()
+            || self.ctl.renderer.busy()
+            || !self.ctl.renderer.settled()
+            || self.painter.busy()
+            || self.tools.snapshots.busy()
+            || self.view_dirty
+            || self.results.busy()
+            || self.pacs.busy()
+    }
+}
+
+/// The running app: the window, its state, and the timers that drive it.
+pub struct App {
+    window: AppWindow,
+    state: Rc<RefCell<State>>,
+    _poll_timer: slint::Timer,
+    idle_timer: Rc<slint::Timer>,
+}
+
+impl Drop for App {
+    /// The render thread is joined here rather than when `State` goes: the window's callbacks
+    /// share `State`, and the process must not exit with the thread inside the GPU driver.
+    fn drop(&mut self) {
+        if let Ok(mut state) = self.state.try_borrow_mut() {
+            state.ctl.renderer.shut_down();
+            state.ctl.flush();
+        }
+    }
+}
+
+impl App {
+    /// Builds the UI on the current Slint platform. With a saved session in
+    /// `config.session_dir`, its volume opens and its classes come back. Volumes decode into
+    /// at most the kiosk's memory ceiling ([`memory`]) unless the options set one.
+    pub fn new(mut config: AppConfig) -> Result<App, slint::PlatformError> {
+        if config.open_options.max_decoded_bytes.is_none() {
+            config.open_options.max_decoded_bytes = memory::kiosk_memory_ceiling();
+        }
+        let window = AppWindow::new()?;
+        window.global::<ui::Theme>().set_dpi(dpi::resolve(config.dpi, None));
+        let sources = library::scan(config.data_dir.as_deref());
+        let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
+            Some(autosave::Restore::Session(session)) => (Some(session), String::new()),
+            Some(autosave::Restore::SetAside(set_aside)) => (None, set_aside.message()),
+            Some(autosave::Restore::Nothing) | None => (None, String::new()),
+        };
+        let state = State {
+            loader: Loader::new(config.open_options.clone()),
+            sources,
+            polls_since_scan: 0,
+            thumbnails_requested: false,
+            thumbnails_pending: 0,
+            opening: None,
+            ctl: Controller::new(config.session_dir.clone()),
+            painter: painter::SlicePainter::new(),
+            panel_pictures: Vec::new(),
+            camera: Camera::default(),
+            home_camera: Camera::default(),
+            orbit_from: None,
+            view_dirty: false,
+            view_size: [0, 0],
+            banner,
+            status: String::new(),
+            restore_unconfirmed: restore.is_some(),
+            restore,
+            slices_model: Rc::new(slint::VecModel::default()),
+            classes_model: Rc::new(slint::VecModel::default()),
+            volumes_model: Rc::new(slint::VecModel::default()),
+            tools: view_tools::Tools::default(),
+            results: results::Results::default(),
+            attract: attract::Attract::default(),
+            pacs: pacs::view::Pacs {
+                model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), outbox(&config)),
+                worker: pacs::jobs::threaded(),
+            },
+            polls_without_work: 0,
+            config,
+        };
+        let state = Rc::new(RefCell::new(state));
+        let app = App {
+            window,
+            state: state.clone(),
+            _poll_timer: slint::Timer::default(),
+            idle_timer: Rc::new(slint::Timer::default()),
+        };
+        {
+            let session = app.window.global::<ui::Session>();
+            let state = state.borrow();
+            session.set_slices(state.slices_model.clone().into());
+            session.set_classes(state.classes_model.clone().into());
+            session.set_volumes(state.volumes_model.clone().into());
+            session.set_results(state.results.model.clone().into());
+        }
+        callbacks::wire(&app.window, &state, &app.idle_timer);
+        pacs::view::push(&app.window, &state);
+        let weak = app.window.as_weak();
+        let polled = state.clone();
+        app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
+            if let Some(window) = weak.upgrade() {
+                poll::poll(&window, &polled);
+                let mut state = polled.borrow_mut();
+                state.polls_without_work =
+                    if state.works_for_user() { 0 } else { state.polls_without_work.saturating_add(1) };
+            }
+        });
+        app.start_up();
+        Ok(app)
+    }
+
+    fn start_up(&self) {
+        let mut state = self.state.borrow_mut();
+        let source = match (&state.restore, &state.config.initial_volume) {
+            (Some(saved), _) => Some(VolumeSource::from_key(&saved.volume)),
+            (None, Some(source)) => Some(source.clone()),
+            (None, None) => None,
+        };
+        if let Some(source) = source {
+            let index = match state.sources.iter().position(|s| *s == source) {
+                Some(index) => index,
+                None => {
+                    state.sources.push(source.clone());
+                    state.sources.len() - 1
+                }
+            };
+            state.loader.open(index, source);
+            state.opening = Some(index);
+            state.status = "Opening the volume...".into();
+        }
+        drop(state);
+        refresh::push_volumes(&self.window, &self.state);
+        refresh::push_status(&self.window, &self.state);
+        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
+    }
+
+    pub fn window(&self) -> &AppWindow {
+        &self.window
+    }
+
+    /// The pixel density the UI is sized for (`AppConfig::dpi`).
+    pub fn dpi(&self) -> f32 {
+        self.window.global::<ui::Theme>().get_dpi()
+    }
+
+    /// Shows the window (with Slint's own backend) and runs its event loop until it closes.
+    pub fn run(&self) -> Result<(), slint::PlatformError> {
+        self.window.run()
+    }
+
+    /// A touch happened somewhere: the idle timeout starts again.
+    pub fn note_input(&self) {
+        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
+    }
+
+    /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
+    pub fn is_idle(&self) -> bool {
+        self.state.borrow().is_idle()
+    }
+
+    /// The open volume, the label volume shown and the lassos it was trained on (replay
+    /// scripts' label expectations); `None` before the first classification.
+    pub fn classification(&self) -> Option<(Arc<volasso_core::volume::Volume>, Arc<Vec<u8>>, StrokesFile)> {
+        let state = self.state.borrow();
+        let work = state.ctl.work.as_ref()?;
+        let classified = work.classified.as_ref()?;
+        Some((work.loaded.volume.clone(), classified.labels.clone(), work.requested.clone()?))
+    }
+
+    /// The snapshots in the data folder's `snapshots/` (replay's `expect snapshots`), sorted.
+    pub fn snapshot_files(&self) -> Vec<PathBuf> {
+        let state = self.state.borrow();
+        let Some(folder) = state.config.data_dir.as_ref().map(|dir| dir.join(snapshot::SNAPSHOT_FOLDER)) else {
+            return Vec::new();
+        };
+        let mut files: Vec<PathBuf> = std::fs::read_dir(folder)
+            .map(|entries| entries.filter_map(|entry| entry.ok().map(|e| e.path())).collect())
+            .unwrap_or_default();
+        files.retain(|path| path.extension().is_some_and(|ext| ext == "png"));
+        files.sort();
+        files
+    }
+
+    /// The size of the 3-D view's newest picture, in pixels.
+    pub fn view_picture_size(&self) -> Option<[u32; 2]> {
+        self.state.borrow().tools.picture.as_ref().map(|picture| [picture.width(), picture.height()])
+    }
+
+    /// What a result is, in one line (replay's `same-result`; queries.rs).
+    pub fn result_digest(&self) -> String {
+        queries::result_digest(&self.state.borrow())
+    }
+
+    /// The 3-D view shows a whole frame at the size it is drawn at (not a smaller preview).
+    pub fn view_whole(&self) -> bool {
+        let size = self.window.global::<ui::Session>().get_view_picture().size();
+        let wanted = self.state.borrow().view_size;
+        let scale = (view3d::MAX_PICTURE_SIDE as f32 / wanted[0].max(wanted[1]).max(1) as f32).min(1.0);
+        let wanted = wanted.map(|side| ((side as f32 * scale) as u32).max(1));
+        [size.width, size.height] == wanted
+    }
+
+    /// A two-finger gesture on the 3-D view: `zoom` multiplies the zoom, `pan_pixels` moves the
+    /// picture, `turn_degrees` turns it about the view direction (as azimuth).
+    pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
+        // While clipping, the pan and the turn tilt the plane instead.
+        let (pan_pixels, turn_degrees) = view_tools::clip_gesture(&self.window, &self.state, pan_pixels, turn_degrees);
+        callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
+    }
+
+    /// A two-finger gesture on the slice normal to `axis`: `zoom` multiplies the zoom and
+    /// `pan` moves it (fractions of the slice's visible area) when that slice is enlarged;
+    /// otherwise `pan` drags the display window (windowing.rs).
+    pub fn slice_gesture(&self, axis: Axis, zoom: f32, pan: [f32; 2]) {
+        slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
+    }
+
+    /// The app's state by name, for replay scripts' `expect KEY VALUE` (the keys: queries.rs).
+    pub fn query(&self, key: &str) -> Option<String> {
+        let screen = self.window.global::<ui::Session>().get_screen();
+        queries::query(&self.state.borrow(), screen, key)
+    }
+}

@@ -1,0 +1,254 @@
+//! What the loader thread reports, applied to the app: thumbnails onto the chooser's cards, a
+//! file that cannot be opened onto its card ("Cannot open" and why) and the banner, an opened
+//! volume onto the work screen (with the saved session's classes, its panels in the
+//! radiological convention, the 3-D view's home position and a banner for what its reader
+//! tolerated, such as a missing slice under `--allow-gaps`), and the restore marker
+//! lifted once a restored session has opened and classified (autosave.rs). Also the periodic
+//! listing of the data folder, whose new volumes join the chooser.
+//!
+//! Never: opens files itself (library.rs does, on worker threads).
+
+use super::library::{LoadedVolume, LoaderEvent, VolumeSource};
+use super::refresh::{self, apply, show_screen, to_slint_image};
+use super::ui::{AppWindow, Session, VolumeCard};
+use super::{Screen, State, Work, autosave};
+use slint::{ComponentHandle, Model};
+use std::cell::RefCell;
+use std::rc::Rc;
+use volasso_core::render::Camera;
+use volasso_core::slices::HomeView;
+
+type Shared = Rc<RefCell<State>>;
+
+/// A restored session that opened and whose classification ended (or that had none to run)
+/// did not stop the app: the restore marker goes (autosave.rs).
+pub(super) fn confirm_restore(state: &Shared) {
+    let mut state = state.borrow_mut();
+    if !state.restore_unconfirmed || state.ctl.work.is_none() || state.ctl.jobs.busy() {
+        return;
+    }
+    state.restore_unconfirmed = false;
+    if let Some(dir) = &state.config.session_dir {
+        autosave::restored(dir);
+    }
+}
+
+/// Appends the volumes that appeared in the data folder since the last listing (with their
+/// thumbnails, once the chooser has asked for thumbnails). Counted in polls, so that the
+/// replay harness's clock drives it like every other timer.
+pub(super) fn rescan_data_folder(state: &Shared) {
+    let mut state = state.borrow_mut();
+    state.polls_since_scan += 1;
+    if state.polls_since_scan < super::RESCAN_POLLS || state.config.data_dir.is_none() {
+        return;
+    }
+    state.polls_since_scan = 0;
+    let found = super::library::scan(state.config.data_dir.as_deref());
+    let added = super::library::appeared(&state.sources, found);
+    if added.is_empty() {
+        return;
+    }
+    log::info!("{} new volume(s) in the data folder", added.len());
+    for (_, source) in &added {
+        state.sources.push(source.clone());
+        state.volumes_model.push(super::refresh::blank_card(source));
+    }
+    if state.thumbnails_requested {
+        state.thumbnails_pending += added.len();
+        state.loader.thumbnails(added);
+    }
+}
+
+/// The chooser index of `source`, added as a new card (its thumbnail asked for) when the
+/// chooser does not have it yet: a series just retrieved from the PACS.
+pub(super) fn add_source(state: &Shared, source: VolumeSource) -> usize {
+    let mut state = state.borrow_mut();
+    if let Some(index) = state.sources.iter().position(|known| *known == source) {
+        return index;
+    }
+    let index = state.sources.len();
+    state.sources.push(source.clone());
+    state.volumes_model.push(super::refresh::blank_card(&source));
+    if state.thumbnails_requested {
+        state.thumbnails_pending += 1;
+        state.loader.thumbnails(vec![(index, source)]);
+    }
+    index
+}
+
+/// A chooser card tapped: its volume opens on the loader thread (a folder of several series
+/// says to pick one of their cards).
+pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
+    {
+        let mut state = shared.borrow_mut();
+        let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
+        if state.opening.is_some() {
+            return;
+        }
+        let series = super::loading::series_cards(&state.sources, &source);
+        if series > 1 {
+            state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
+            drop(state);
+            refresh::push_status(window, shared);
+            return;
+        }
+        state.ctl.jobs.cancel();
+        state.status = format!("Opening {}...", source.name());
+        state.opening = Some(index as usize);
+        state.loader.open(index as usize, source);
+    }
+    refresh::push_status(window, shared);
+}
+
+pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
+    match event {
+        LoaderEvent::Thumbnail { index, result } => {
+            let model = state.borrow().volumes_model.clone();
+            {
+                let mut state = state.borrow_mut();
+                state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
+            }
+            let Some(mut card) = model.row_data(index) else { return };
+            match result {
+                Ok((image, detail)) => {
+                    card.thumbnail = to_slint_image(&image);
+                    card.detail = detail.into();
+                }
+                Err(error) => {
+                    let message = error.to_string();
+                    let source = state.borrow().sources.get(index).cloned();
+                    log::warn!("cannot open {}: {message}", source.as_ref().map_or(String::new(), |s| s.key()));
+                    mark_failed(&mut card, &reason(&message, source.as_ref()));
+                }
+            }
+            model.set_row_data(index, card);
+        }
+        LoaderEvent::Series { index, series } => show_series(state, index, series),
+        LoaderEvent::Opened { index, result } => {
+            let mut state_ref = state.borrow_mut();
+            if state_ref.opening != Some(index) {
+                return;
+            }
+            state_ref.opening = None;
+            state_ref.status.clear();
+            match result {
+                Ok(loaded) => {
+                    drop(state_ref);
+                    open_work(window, state, *loaded);
+                }
+                Err(error) => {
+                    let message = error.to_string();
+                    let source = state_ref.sources.get(index).cloned();
+                    let name = source.as_ref().map(|source| source.name()).unwrap_or_default();
+                    log::warn!("cannot open {name}: {message}");
+                    let message = reason(&message, source.as_ref());
+                    // The restore's volume: the session is set aside, and the banner says where.
+                    let restoring = state_ref.restore.take().is_some() && state_ref.restore_unconfirmed;
+                    state_ref.restore_unconfirmed = false;
+                    state_ref.banner = match (&state_ref.config.session_dir, restoring) {
+                        (Some(dir), true) => autosave::abandon(dir, name, message.clone()).message(),
+                        _ => format!("Cannot open {name}: {message}."),
+                    };
+                    let model = state_ref.volumes_model.clone();
+                    drop(state_ref);
+                    if let Some(mut card) = model.row_data(index) {
+                        mark_failed(&mut card, &message);
+                        model.set_row_data(index, card);
+                    }
+                }
+            }
+        }
+    }
+}
+
+/// A folder of several series: its card says so, and each series joins the chooser as a card of
+/// its own (appended, so the indices of cards in flight stay valid), with its thumbnail.
+fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
+    let mut state = state.borrow_mut();
+    state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
+    let model = state.volumes_model.clone();
+    if let Some(mut card) = model.row_data(index) {
+        card.detail = format!("{} series, a card each", series.len()).into();
+        card.thumbnail = slint::Image::default();
+        model.set_row_data(index, card);
+    }
+    let added = super::library::appeared(&state.sources, series);
+    log::info!("a folder holds {} series", added.len());
+    for (_, source) in &added {
+        state.sources.push(source.clone());
+        model.push(super::refresh::blank_card(source));
+    }
+    state.thumbnails_pending += added.len();
+    state.loader.thumbnails(added);
+}
+
+/// How many series of the folder `source` names have cards of their own.
+pub(super) fn series_cards(sources: &[VolumeSource], source: &VolumeSource) -> usize {
+    let VolumeSource::Path(path) = source else { return 0 };
+    sources.iter().filter(|s| matches!(s, VolumeSource::Series { folder, .. } if folder == path)).count()
+}
+
+/// A card whose file cannot be opened says so ("Cannot open"), and why.
+fn mark_failed(card: &mut VolumeCard, reason: &str) {
+    let mut characters = reason.chars();
+    let sentence: String =
+        characters.next().map(|first| first.to_uppercase().chain(characters).collect()).unwrap_or_default();
+    card.failed = true;
+    card.detail = sentence.into();
+    card.thumbnail = slint::Image::default();
+}
+
+fn reason(message: &str, source: Option<&VolumeSource>) -> String {
+    source.map_or_else(|| message.to_string(), |source| super::library::reason_for_display(message, source))
+}
+
+/// The work screen on a newly opened volume, with the saved session's classes if it was saved
+/// for this volume.
+fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
+    let caption;
+    let changed;
+    {
+        let mut state = state.borrow_mut();
+        let home = loaded.volume.orientation.as_ref().map(HomeView::of);
+        caption = home_caption(home.as_ref());
+        state.home_camera = match home {
+            Some(home) => Camera {
+                azimuth_degrees: home.azimuth_degrees,
+                elevation_degrees: home.elevation_degrees,
+                ..Camera::default()
+            },
+            None => Camera::default(),
+        };
+        state.camera = state.home_camera;
+        // A send's answer belongs to the volume it was sent from.
+        state.pacs.model.send_message.clear();
+        if !loaded.volume.warnings.is_empty() {
+            for warning in &loaded.volume.warnings {
+                log::warn!("{}: {warning}", loaded.source.name());
+            }
+            state.banner = format!("{}: {}", loaded.source.name(), loaded.volume.warnings.join("; "));
+        }
+        // Pictures of the last volume are never kept for this one (refresh::push_slice).
+        state.panel_pictures.clear();
+        let saved = state.restore.take();
+        changed = state.ctl.open(Work::new(loaded), saved);
+    }
+    let session = window.global::<Session>();
+    session.set_view_picture(slint::Image::default());
+    session.set_view_caption(caption.into());
+    show_screen(window, Screen::Work);
+    apply(window, state, changed);
+}
+
+/// What the 3-D view says about its home position: nothing when it shows the patient from the
+/// front with the head up; otherwise what it shows instead (`HomeView`'s flags).
+pub(super) fn home_caption(home: Option<&HomeView>) -> &'static str {
+    match home {
+        None => "Orientation unknown: stored axes",
+        Some(home) if home.mirrored => {
+            "Front view, mirrored: the patient's left is on the left (left-handed file axes)"
+        }
+        Some(home) if !home.exact => "Nearest front view with the head up",
+        Some(_) => "",
+    }
+}

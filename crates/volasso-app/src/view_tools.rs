@@ -1,0 +1,202 @@
+//! The 3-D view's tools as the UI calls them: a class's opacity slider, the clip plane moved
+//! and tilted by touch (the plane's geometry is in clip.rs), and the snapshot (snapshot.rs).
+//! Each turns a `Session` callback into a controller change and pushes what changed, without
+//! rebuilding the class rows a finger is dragging on.
+//!
+//! Never: draws, reads input devices or touches the disk itself.
+
+use super::State;
+use super::clip;
+use super::refresh;
+use super::snapshot::{Places, SnapshotWriter};
+use super::ui::{AppWindow, Session};
+use slint::{ComponentHandle, Model};
+use std::cell::RefCell;
+use std::rc::Rc;
+use volasso_core::render::ClipPlane;
+
+type Shared = Rc<RefCell<State>>;
+
+/// The opacity slider of class row `index` moved to `percent`: the 3-D view redraws, the row's
+/// knob follows, and the slices are redrawn only when the class appears or disappears there.
+pub(super) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, percent: i32) {
+    let Ok(index) = usize::try_from(index) else { return };
+    let changed = {
+        let mut state = state.borrow_mut();
+        let changed = state.ctl.set_class_opacity(index, percent);
+        if changed.view {
+            state.view_dirty = true;
+        }
+        let opacity = (state.ctl.class_opacity(index) * 100.0).round() as i32;
+        // The row is updated in place: replacing the model would end the finger's drag.
+        if let Some(mut entry) = state.classes_model.row_data(index)
+            && entry.opacity != opacity
+        {
+            entry.opacity = opacity;
+            state.classes_model.set_row_data(index, entry);
+        }
+        changed
+    };
+    if changed.classes {
+        for panel in 0..super::PANEL_COUNT {
+            refresh::push_slice(window, state, panel);
+        }
+    }
+}
+
+/// What the view's tools keep between callbacks.
+#[derive(Default)]
+pub(super) struct Tools {
+    /// The finger moving the clip plane: its last position.
+    clip_from: Option<[f32; 2]>,
+    /// The newest whole picture of the 3-D view (what a snapshot writes).
+    pub(super) picture: Option<image::RgbaImage>,
+    pub(super) snapshots: SnapshotWriter,
+    /// The confirmation shown over the view, and the timer that clears it.
+    toast_timer: Rc<slint::Timer>,
+}
+
+/// How long the snapshot's confirmation stays.
+const TOAST_TIME: std::time::Duration = std::time::Duration::from_secs(6);
+
+/// The volume's box in mm, when one is open.
+fn open_extent(state: &State) -> Option<[f32; 3]> {
+    let volume = &state.ctl.work.as_ref()?.loaded.volume;
+    Some(clip::extent_mm(volume.dims, volume.spacing_mm))
+}
+
+/// A new clip plane (or none): to the renderer, the slices and (when `save`) the session.
+fn set_clip(window: &AppWindow, state: &Shared, plane: Option<ClipPlane>, save: bool) {
+    {
+        let mut state = state.borrow_mut();
+        state.ctl.look.clip = plane;
+        state.ctl.renderer.set_clip(plane);
+        state.view_dirty = true;
+        if save {
+            state.ctl.save();
+        }
+    }
+    window.global::<Session>().set_clipping(plane.is_some());
+    for panel in 0..super::PANEL_COUNT {
+        refresh::push_slice(window, state, panel);
+    }
+}
+
+/// "Clip": on, the plane through the centre facing the viewer; off, nothing cut.
+pub(super) fn toggle_clip(window: &AppWindow, state: &Shared) {
+    let plane = {
+        let state = state.borrow();
+        match (state.ctl.look.clip, open_extent(&state)) {
+            (Some(_), _) | (None, None) => None,
+            (None, Some(extent)) => Some(clip::initial(&state.camera, extent)),
+        }
+    };
+    set_clip(window, state, plane, true);
+}
+
+/// "Reset clip": the plane back where "Clip" put it, for the current view.
+pub(super) fn reset_clip(window: &AppWindow, state: &Shared) {
+    let plane = {
+        let state = state.borrow();
+        state.ctl.look.clip.and(open_extent(&state)).map(|extent| clip::initial(&state.camera, extent))
+    };
+    if plane.is_some() {
+        set_clip(window, state, plane, true);
+    }
+}
+
+/// A finger down on the view: while clipping, it moves the plane (true); otherwise it orbits.
+pub(super) fn clip_press(state: &Shared, at: [f32; 2]) -> bool {
+    let mut state = state.borrow_mut();
+    let clipping = state.ctl.look.clip.is_some();
+    state.tools.clip_from = clipping.then_some(at);
+    clipping
+}
+
+/// The finger moved: the plane follows (true) while clipping.
+pub(super) fn clip_drag(window: &AppWindow, state: &Shared, to: [f32; 2]) -> bool {
+    let plane = {
+        let mut state = state.borrow_mut();
+        let (Some(from), Some(plane), Some(extent)) = (state.tools.clip_from, state.ctl.look.clip, open_extent(&state))
+        else {
+            return state.ctl.look.clip.is_some();
+        };
+        state.tools.clip_from = Some(to);
+        let height = window.global::<Session>().get_view_height().max(1.0) as u32;
+        clip::moved(plane, to[1] - from[1], height, extent)
+    };
+    set_clip(window, state, Some(plane), false);
+    true
+}
+
+/// The finger lifted: the plane's place is saved (true) while clipping.
+pub(super) fn clip_release(state: &Shared) -> bool {
+    let mut state = state.borrow_mut();
+    if state.tools.clip_from.take().is_none() {
+        return false;
+    }
+    state.ctl.save();
+    true
+}
+
+/// A two-finger gesture while clipping: its pan and turn tilt the plane (and are used up);
+/// returns what is left for the camera.
+pub(super) fn clip_gesture(
+    window: &AppWindow,
+    state: &Shared,
+    pan_pixels: [f32; 2],
+    turn_degrees: f32,
+) -> ([f32; 2], f32) {
+    if pan_pixels == [0.0; 2] && turn_degrees == 0.0 {
+        return (pan_pixels, turn_degrees);
+    }
+    let plane = {
+        let state = state.borrow();
+        let (Some(plane), Some(extent)) = (state.ctl.look.clip, open_extent(&state)) else {
+            return (pan_pixels, turn_degrees);
+        };
+        clip::tilted(plane, &state.camera, extent, pan_pixels, turn_degrees)
+    };
+    set_clip(window, state, Some(plane), true);
+    ([0.0; 2], 0.0)
+}
+
+/// "Snapshot": the 3-D view's newest picture to the data folder and any USB stick.
+pub(super) fn snapshot(window: &AppWindow, state: &Shared) {
+    let refused = {
+        let mut state = state.borrow_mut();
+        let volume = state.ctl.work.as_ref().map(|work| work.loaded.source.name());
+        let places = Places { data_dir: state.config.data_dir.clone(), media_roots: state.config.media_roots.clone() };
+        match (state.tools.picture.clone(), volume) {
+            (Some(picture), Some(volume)) => {
+                state.tools.snapshots.start(picture, volume, places);
+                None
+            }
+            _ => Some("Nothing to save yet: the 3-D view shows no picture".to_string()),
+        }
+    };
+    if let Some(message) = refused {
+        show_toast(window, state, message);
+    }
+}
+
+/// Collects finished snapshots (the poll timer): their confirmation is shown over the view.
+pub(super) fn poll(window: &AppWindow, state: &Shared) {
+    let outcome = state.borrow_mut().tools.snapshots.poll();
+    if let Some(outcome) = outcome {
+        let message = outcome.message();
+        log::info!("{message}");
+        show_toast(window, state, message);
+    }
+}
+
+fn show_toast(window: &AppWindow, state: &Shared, message: String) {
+    window.global::<Session>().set_view_toast(message.into());
+    let timer = state.borrow().tools.toast_timer.clone();
+    let weak = window.as_weak();
+    timer.start(slint::TimerMode::SingleShot, TOAST_TIME, move || {
+        if let Some(window) = weak.upgrade() {
+            window.global::<Session>().set_view_toast("".into());
+        }
+    });
+}
