@@ -222,15 +222,16 @@ impl PacsModel {
         None
     }
 
-    /// What `intent` changes, and the job it starts, if any.
-    pub fn update(&mut self, intent: PacsIntent, today: &str) -> Option<PacsJob> {
+    /// What `intent` changes, and the job it starts, if any; "today's studies" are those dated
+    /// `since` (`YYYYMMDD`) or later.
+    pub fn update(&mut self, intent: PacsIntent, since: &str) -> Option<PacsJob> {
         let peer = self.peers.get(self.peer).cloned()?;
         match intent {
             PacsIntent::Open | PacsIntent::Today if !self.busy() => {
                 self.typed.clear();
                 self.phase = Phase::Searching;
                 self.message = "Asking the PACS for today's studies...".into();
-                let query = FindQuery { since: Some(today.to_string()), ..FindQuery::default() };
+                let query = FindQuery { since: Some(since.to_string()), ..FindQuery::default() };
                 Some(PacsJob::Find { peer, query })
             }
             PacsIntent::Key(key) => {
@@ -282,7 +283,7 @@ impl PacsModel {
             PacsIntent::NextPeer if !self.busy() && self.peers.len() > 1 => {
                 self.peer = (self.peer + 1) % self.peers.len();
                 self.studies.clear();
-                self.update(PacsIntent::Today, today)
+                self.update(PacsIntent::Today, since)
             }
             PacsIntent::Send(request) if !self.sending => {
                 let Some(outbox) = self.outbox.clone() else {

@@ -30,10 +30,12 @@ impl Pacs {
     }
 }
 
-/// Today as the PACS writes dates, `YYYYMMDD` (UTC).
-fn today() -> String {
+/// The first date of "today's studies", as the PACS writes dates (`YYYYMMDD`): yesterday by the
+/// kiosk's clock (UTC), so that today's studies are listed whatever the hospital's time zone
+/// (a modality writes its local date; the kiosk may run on UTC).
+fn todays_studies_since() -> String {
     let seconds = std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-    let [year, month, day] = volasso_core::calendar::civil_from_days((seconds / 86_400) as i64);
+    let [year, month, day] = volasso_core::calendar::civil_from_days((seconds / 86_400) as i64 - 1);
     format!("{year:04}{month:02}{day:02}")
 }
 
@@ -43,7 +45,7 @@ pub(crate) fn intent(window: &AppWindow, shared: &Shared, intent: PacsIntent) {
     {
         let mut state = shared.borrow_mut();
         let pacs = &mut state.pacs;
-        if let Some(job) = pacs.model.update(intent, &today()) {
+        if let Some(job) = pacs.model.update(intent, &todays_studies_since()) {
             pacs.worker.send(job);
         }
     }

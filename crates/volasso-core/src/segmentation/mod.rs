@@ -18,8 +18,8 @@
 //! default, [`SegmentationOptions::default`]) or a random forest ([`SegmentationOptions::forest`]).
 //!
 //! Before training, the background rule (`background`) drops the air a lasso took in and
-//! decides which voxels are background: below a threshold, or in the air joined to the
-//! volume's faces ([`face_air`]).
+//! decides which voxels are background: below a threshold, or outside the scanned body (the
+//! dark voxels its outline does not ring, [`face_air`]); a class drawn in that air takes it.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
