@@ -185,6 +185,7 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             vec!["--data-dir".into(), work.join("data").display().to_string()]
         }
         "classification-fails.touch" => {
+            std::fs::create_dir_all(work).unwrap();
             let volume = work.join("nan-column.nrrd");
             crate::hostile_cli::write_nan_column(&volume);
             vec!["--volume".into(), volume.display().to_string()]

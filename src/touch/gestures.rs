@@ -23,7 +23,7 @@
 use super::contacts::{FingerEvent, FingerPhase};
 
 /// Movement within which a touch still counts as a tap, and beyond which it becomes a drag.
-pub const TAP_SLOP_PX: f32 = crate::app::drawing::TAP_EXTENT_PX;
+pub const TAP_SLOP_PX: f32 = crate::app::lasso::drawing::TAP_EXTENT_PX;
 /// A touch held longer than this is not a tap.
 pub const TAP_MAX_DURATION_MS: u64 = 500;
 /// Longest time from the first tap's lift to the second's touch for a double tap.

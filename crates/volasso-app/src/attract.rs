@@ -14,7 +14,6 @@
 
 use super::controller::Controller;
 use super::gallery::{self, Listed};
-use super::library::{self, LoadedVolume, OpenError, VolumeSource};
 use super::ui::{AppWindow, Session};
 use super::view3d::RenderReply;
 use super::worker::{Report, Task, Threaded, Ticket, Worker};
@@ -22,6 +21,7 @@ use super::{
     State, Work,
     autosave::{SavedLook, SavedSession},
 };
+use crate::chooser::library::{self, LoadedVolume, OpenError, VolumeSource};
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::{Rc, Weak};

@@ -3,9 +3,11 @@
 //! changed back to the UI (refresh.rs).
 
 use super::refresh;
-use super::slice_actions::{choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice};
 use super::ui::{AppWindow, Session};
 use super::{Screen, State};
+use crate::lasso::slice_actions::{
+    choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice,
+};
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -40,7 +42,7 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
     session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| {
-        super::loading::open_volume(&w, s, index)
+        crate::chooser::loading::open_volume(&w, s, index)
     }));
     wire_pacs(window, state, idle);
     session.on_lasso_down(handler!(
@@ -101,17 +103,17 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     }));
     // While clipping, one finger moves the clip plane instead of orbiting (view_tools.rs).
     session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
-        if !super::view_tools::clip_press(s, [x, y]) {
+        if !crate::view3d::tools::clip_press(s, [x, y]) {
             s.borrow_mut().orbit_from = Some([x, y]);
         }
     }));
     session.on_view_drag(handler!(window, state, idle, |w, s, x: f32, y: f32| {
-        if !super::view_tools::clip_drag(&w, s, [x, y]) {
+        if !crate::view3d::tools::clip_drag(&w, s, [x, y]) {
             orbit(s, [x, y])
         }
     }));
     session.on_view_release(handler!(window, state, idle, |_w, s| {
-        super::view_tools::clip_release(s);
+        crate::view3d::tools::clip_release(s);
         let mut state = s.borrow_mut();
         state.orbit_from = None;
         state.view_dirty = true;
@@ -124,14 +126,15 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     }));
     // The 3-D view's tools (per-class opacity, clip plane, snapshot).
     session.on_class_opacity(handler!(window, state, idle, |w, s, index: i32, percent: i32| {
-        super::view_tools::class_opacity(&w, s, index, percent)
+        crate::view3d::tools::class_opacity(&w, s, index, percent)
     }));
-    session.on_toggle_clip(handler!(window, state, idle, |w, s| { super::view_tools::toggle_clip(&w, s) }));
-    session.on_reset_clip(handler!(window, state, idle, |w, s| { super::view_tools::reset_clip(&w, s) }));
-    session.on_snapshot(handler!(window, state, idle, |w, s| { super::view_tools::snapshot(&w, s) }));
+    session.on_toggle_clip(handler!(window, state, idle, |w, s| { crate::view3d::tools::toggle_clip(&w, s) }));
+    session.on_reset_clip(handler!(window, state, idle, |w, s| { crate::view3d::tools::reset_clip(&w, s) }));
+    session.on_snapshot(handler!(window, state, idle, |w, s| { crate::view3d::tools::snapshot(&w, s) }));
     // The gallery: keep the current result, open a kept one (results.rs).
-    session.on_save_result(handler!(window, state, idle, |w, s| { super::results::save(&w, s) }));
-    session.on_open_result(handler!(window, state, idle, |w, s, index: i32| { super::results::open(&w, s, index) }));
+    session.on_save_result(handler!(window, state, idle, |w, s| { crate::gallery::view::save(&w, s) }));
+    session
+        .on_open_result(handler!(window, state, idle, |w, s, index: i32| { crate::gallery::view::open(&w, s, index) }));
 }
 
 /// Starts the idle timeout again; when it fires, the session is forgotten and the start
@@ -193,7 +196,7 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
         }
     }
     super::attract::end(window, state);
-    super::results::refresh_cards(state);
+    crate::gallery::view::refresh_cards(state);
     refresh::show_screen(window, Screen::Chooser);
 }
 

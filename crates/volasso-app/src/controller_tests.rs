@@ -3,7 +3,7 @@
 //! without sending the labels again, and a saved session comes back on its volume.
 
 use super::*;
-use crate::library::{LoadedVolume, VolumeSource};
+use crate::chooser::library::{LoadedVolume, VolumeSource};
 use crate::windowing::WindowChoices;
 use std::sync::Arc;
 use std::time::{Duration, Instant};

@@ -5,11 +5,11 @@
 //! thread (saver.rs), the slice pictures on a painter thread (painter.rs). The UI thread moves
 //! data between them and Slint and never waits for them, nor for the disk.
 //!
-//! Data flow: callbacks (callbacks.rs, and slice_actions.rs for what touches a slice) change
+//! Data flow: callbacks (callbacks.rs, and lasso/slice_actions.rs for what touches a slice) change
 //! `State`; what the user does to the classes goes to the Slint-free `Controller`
 //! (controller.rs: the work, the template and the classification, autosave and 3-D view
 //! workers), which says what changed; a 16 ms poll timer (`poll.rs`) collects finished work
-//! and each feature applies its own (`loading.rs` what the loader reports); `refresh.rs` pushes
+//! and each feature applies its own (`chooser/loading.rs` what the loader reports); `refresh.rs` pushes
 //! state into the `Session` global and depends on no feature, so the files' imports run one way
 //! (callbacks and poll -> features -> refresh). The PACS screen (`pacs/`) is the shape the rest
 //! is moving to: a Slint-free model updated by intents, its jobs behind the `Worker` trait
@@ -19,7 +19,7 @@
 //! sagittal panels with the patient's directions at their edges; the stored order and
 //! "orientation unknown" when the file says nothing), and the 3-D view starts from the front
 //! with the head up (`slices::HomeView`). Lassos are stored in voxel coordinates whatever the
-//! flips (drawing.rs), and display windows never reach the classifier (windowing.rs). Every volume file is treated as hostile: one that fails or panics its
+//! flips (lasso/drawing.rs), and display windows never reach the classifier (windowing.rs). Every volume file is treated as hostile: one that fails or panics its
 //! reader becomes a "Cannot open" card, and a saved session that cannot be restored (or that
 //! stopped the app while restoring) is set aside with a banner (`autosave.rs`).
 //!
@@ -34,40 +34,33 @@
 mod attract;
 pub mod autosave;
 mod callbacks;
-pub mod clip;
+pub mod chooser;
 mod controller;
 pub mod dpi;
-pub mod drawing;
 mod elements;
 pub use elements::Rect;
 pub mod gallery;
 mod guidance;
 pub mod jobs;
-pub mod library;
-mod loading;
+pub mod lasso;
 pub mod memory;
 pub mod pacs;
 mod painter;
-mod path_loops;
 pub mod pictures;
 mod poll;
 mod queries;
 mod refresh;
-mod results;
 mod saver;
 pub mod session;
-mod slice_actions;
-pub mod snapshot;
 pub mod ui;
 pub mod view3d;
-mod view_tools;
 pub mod windowing;
 pub mod worker;
 
+use chooser::library::{LoadedVolume, Loader, VolumeSource};
 use controller::Controller;
-use drawing::FingerPath;
 use jobs::Classified;
-use library::{LoadedVolume, Loader, VolumeSource};
+use lasso::drawing::FingerPath;
 use session::WorkSession;
 use slint::ComponentHandle;
 use std::cell::RefCell;
@@ -114,7 +107,7 @@ impl Default for AppConfig {
             initial_volume: None,
             open_options: OpenOptions::default(),
             dpi: None,
-            media_roots: snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
+            media_roots: view3d::snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
             pacs: Vec::new(),
         }
     }
@@ -271,9 +264,9 @@ struct State {
     classes_model: Rc<slint::VecModel<ui::ClassEntry>>,
     volumes_model: Rc<slint::VecModel<ui::VolumeCard>>,
     /// The 3-D view's tools: clip plane by touch, the picture a snapshot writes.
-    tools: view_tools::Tools,
+    tools: view3d::tools::Tools,
     /// The gallery of kept results: its cards, a save in flight, a result being opened.
-    results: results::Results,
+    results: gallery::view::Results,
     /// The start screen's turntable after the idle timeout.
     attract: attract::Attract,
     /// The PACS screen and "Send to PACS", with their worker.
@@ -345,7 +338,7 @@ impl App {
         }
         let window = AppWindow::new()?;
         window.global::<ui::Theme>().set_dpi(dpi::resolve(config.dpi, None));
-        let sources = library::scan(config.data_dir.as_deref());
+        let sources = chooser::library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {
             Some(autosave::Restore::Session(session)) => (Some(session), String::new()),
             Some(autosave::Restore::SetAside(set_aside)) => (None, set_aside.message()),
@@ -373,8 +366,8 @@ impl App {
             slices_model: Rc::new(slint::VecModel::default()),
             classes_model: Rc::new(slint::VecModel::default()),
             volumes_model: Rc::new(slint::VecModel::default()),
-            tools: view_tools::Tools::default(),
-            results: results::Results::default(),
+            tools: view3d::tools::Tools::default(),
+            results: gallery::view::Results::default(),
             attract: attract::Attract::default(),
             pacs: pacs::view::Pacs {
                 model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), outbox(&config)),
@@ -475,7 +468,7 @@ impl App {
     /// The snapshots in the data folder's `snapshots/` (replay's `expect snapshots`), sorted.
     pub fn snapshot_files(&self) -> Vec<PathBuf> {
         let state = self.state.borrow();
-        let Some(folder) = state.config.data_dir.as_ref().map(|dir| dir.join(snapshot::SNAPSHOT_FOLDER)) else {
+        let Some(folder) = state.config.data_dir.as_ref().map(|dir| dir.join(view3d::snapshot::SNAPSHOT_FOLDER)) else {
             return Vec::new();
         };
         let mut files: Vec<PathBuf> = std::fs::read_dir(folder)
@@ -509,7 +502,8 @@ impl App {
     /// picture, `turn_degrees` turns it about the view direction (as azimuth).
     pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
         // While clipping, the pan and the turn tilt the plane instead.
-        let (pan_pixels, turn_degrees) = view_tools::clip_gesture(&self.window, &self.state, pan_pixels, turn_degrees);
+        let (pan_pixels, turn_degrees) =
+            view3d::tools::clip_gesture(&self.window, &self.state, pan_pixels, turn_degrees);
         callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
     }
 
@@ -517,7 +511,7 @@ impl App {
     /// `pan` moves it (fractions of the slice's visible area) when that slice is enlarged;
     /// otherwise `pan` drags the display window (windowing.rs).
     pub fn slice_gesture(&self, axis: Axis, zoom: f32, pan: [f32; 2]) {
-        slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
+        lasso::slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
     }
 
     /// The app's state by name, for replay scripts' `expect KEY VALUE` (the keys: queries.rs).

@@ -63,7 +63,7 @@ impl PictureRequest {
         )?;
         if let Some(plane) = &self.clip {
             let volume = &self.volume;
-            super::clip::dim_cut(&mut picture, &self.layout, volume.dims, volume.spacing_mm, self.slice, plane);
+            crate::view3d::clip::dim_cut(&mut picture, &self.layout, volume.dims, volume.spacing_mm, self.slice, plane);
         }
         Ok(picture)
     }

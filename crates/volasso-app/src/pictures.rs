@@ -118,7 +118,7 @@ pub fn class_colour(style: Option<&ClassStyle>, template: &HueTemplate, index: u
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::drawing::{FingerPath, PathMeaning};
+    use crate::lasso::drawing::{FingerPath, PathMeaning};
     use volasso_core::phantom::demo_foot_with;
     use volasso_core::slices::Axis;
     use volasso_core::volume::PatientOrientation;

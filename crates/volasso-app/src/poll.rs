@@ -7,10 +7,10 @@
 
 use super::State;
 use super::controller::Changed;
-use super::loading;
 use super::refresh::{apply, push_status, to_slint_image};
 use super::ui::{AppWindow, Session};
 use super::view3d::RenderReply;
+use crate::chooser::loading;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -25,7 +25,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         let Some(event) = event else { break };
         loading::loader_event(window, state, event);
     }
-    super::results::poll(window, state);
+    crate::gallery::view::poll(window, state);
     let changed = state.borrow_mut().ctl.poll();
     if changed != Changed::default() {
         apply(window, state, changed);
@@ -52,7 +52,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         None => {}
     }
     request_frame_if_needed(window, state);
-    super::view_tools::poll(window, state);
+    crate::view3d::tools::poll(window, state);
     super::pacs::view::poll(window, state);
     super::pacs::view::push_send(window, state);
     push_status(window, state);

@@ -22,7 +22,8 @@
 //!
 //! Never: changes anything.
 
-use super::{State, results, windowing};
+use super::gallery::view as results;
+use super::{State, windowing};
 use slint::Model;
 use volasso_core::slices::Axis;
 

@@ -270,6 +270,6 @@ fn to_colour([r, g, b]: [u8; 3]) -> slint::Color {
 }
 
 /// A volume's card before its thumbnail and details arrive: its name alone.
-pub(super) fn blank_card(source: &super::library::VolumeSource) -> VolumeCard {
+pub(super) fn blank_card(source: &crate::chooser::library::VolumeSource) -> VolumeCard {
     VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default(), failed: false }
 }

@@ -105,8 +105,8 @@ pub(crate) fn poll(window: &AppWindow, shared: &Shared) {
         std::mem::take(&mut state.pacs.model.retrieved)
     };
     if let Some(folder) = retrieved.first() {
-        let index = crate::loading::add_source(shared, VolumeSource::Path(folder.clone()));
-        crate::loading::open_volume(window, shared, index as i32);
+        let index = crate::chooser::loading::add_source(shared, VolumeSource::Path(folder.clone()));
+        crate::chooser::loading::open_volume(window, shared, index as i32);
     }
     if changed {
         push(window, shared);

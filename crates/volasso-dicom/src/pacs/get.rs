@@ -22,7 +22,7 @@ use super::{
     retrieve_identifier, send_message,
 };
 use crate::receive::dimse::{self, Command, status};
-use crate::receive::store::{Published, Store, remove_path, used_fraction};
+use crate::receive::store::{ImageCounts, Published, Store, remove_path, used_fraction};
 use crate::receive::{STORAGE_SOP_CLASSES, SeriesReport, accepted_transfer_syntaxes};
 use dicom_dictionary_std::uids;
 use dicom_object::FileMetaTableBuilder;
@@ -102,19 +102,11 @@ pub fn get_counting(
     let mut reports = Vec::new();
     for (name, series_uid) in retrieval.series {
         reports.push(match store.publish(&name, &series_uid) {
-            Ok(Published::Stored { check, images, received, replaced, .. }) => SeriesReport::Stored {
-                path: data_dir.join(&name),
-                name,
-                series_uid,
-                modality: check.modality,
-                description: check.description,
-                images,
-                received,
-                dims: check.dims,
-                replaced,
-                calling_ae: peer.ae_title.clone(),
-                warnings: check.warnings,
-            },
+            Ok(Published::Stored { check, images, received, replaced, .. }) => {
+                let path = data_dir.join(&name);
+                let counts = ImageCounts { images, received };
+                SeriesReport::stored(name, path, series_uid, check, counts, replaced, peer.ae_title.clone())
+            }
             Ok(Published::Held { images, received, reason }) => SeriesReport::Incomplete {
                 name,
                 series_uid,

@@ -14,7 +14,7 @@ use super::{
     retrieve_identifier, send_message,
 };
 use crate::receive::SeriesReport;
-use crate::receive::store::{check_series, series_name};
+use crate::receive::store::{ImageCounts, check_series, series_name};
 use dicom_core::{DataElement, PrimitiveValue, VR};
 use dicom_dictionary_std::{tags, uids};
 use std::path::Path;
@@ -124,19 +124,10 @@ fn wait_for_receiver(
             // Read back as the receiver checked it before publishing (the dims for the report).
             let uid = series.series_uid.clone();
             *report = Some(match check_series(&path, &uid, &ReadLimits::default()) {
-                Ok(check) => SeriesReport::Stored {
-                    name,
-                    path,
-                    series_uid: uid,
-                    modality: check.modality,
-                    description: check.description,
-                    images: count,
-                    received: count,
-                    dims: check.dims,
-                    replaced: false,
-                    calling_ae: peer.ae_title.clone(),
-                    warnings: check.warnings,
-                },
+                Ok(check) => {
+                    let counts = ImageCounts { images: count, received: count };
+                    SeriesReport::stored(name, path, uid, check, counts, false, peer.ae_title.clone())
+                }
                 Err(error) => SeriesReport::Incomplete {
                     name,
                     series_uid: uid,

@@ -16,7 +16,7 @@
 //! Never: publishes a series while an open association is still sending it (unless the data
 //! say it is complete), or twice for the same arrivals.
 
-use super::store::{AcceptedImage, Published, SeriesReport, Store};
+use super::store::{AcceptedImage, ImageCounts, Published, SeriesReport, Store};
 use dicom_dictionary_std::tags;
 use std::collections::BTreeMap;
 use std::ffi::OsString;
@@ -261,19 +261,9 @@ impl Tracker {
                         }
                     }
                     log::info!("series {name} published: {images} images");
-                    Some(SeriesReport::Stored {
-                        path: store.data_dir().join(&name),
-                        name,
-                        series_uid,
-                        modality: check.modality,
-                        description: check.description,
-                        images,
-                        received,
-                        dims: check.dims,
-                        replaced,
-                        calling_ae,
-                        warnings: check.warnings,
-                    })
+                    let path = store.data_dir().join(&name);
+                    let counts = ImageCounts { images, received };
+                    Some(SeriesReport::stored(name, path, series_uid, check, counts, replaced, calling_ae))
                 }
                 Ok(Published::Held { images, received, reason }) => {
                     log::warn!("series {name} is held back until it imports cleanly: {reason}");

@@ -60,6 +60,42 @@ const ASIDE_SUFFIX: &str = ".old";
 /// each step it counts.
 pub const KILL_AT_STEP_VARIABLE: &str = "VOLASSO_RECEIVE_KILL_AT_STEP";
 
+/// How many images a published series holds and how many this publish brought.
+#[derive(Clone, Copy, Debug)]
+pub struct ImageCounts {
+    /// Image files in the series.
+    pub images: usize,
+    /// Images added or replaced by this publish.
+    pub received: usize,
+}
+
+impl SeriesReport {
+    /// The report of the series `name` published at `path`, as `check` read it back.
+    pub fn stored(
+        name: String,
+        path: PathBuf,
+        series_uid: String,
+        check: dicom::SeriesCheck,
+        counts: ImageCounts,
+        replaced: bool,
+        calling_ae: String,
+    ) -> SeriesReport {
+        SeriesReport::Stored {
+            name,
+            path,
+            series_uid,
+            modality: check.modality,
+            description: check.description,
+            images: counts.images,
+            received: counts.received,
+            dims: check.dims,
+            replaced,
+            calling_ae,
+            warnings: check.warnings,
+        }
+    }
+}
+
 /// One image acknowledged: where it lies in its pending series.
 #[derive(Clone, Debug)]
 pub struct AcceptedImage {

@@ -20,7 +20,7 @@
 //! before its loops are looked for, and a [`PathLoop`] found on the steadied path is drawn
 //! through the points the finger gave.
 //!
-//! The caller ([`super::drawing`]) weighs them with the whole path.
+//! The caller ([`crate::lasso::drawing`]) weighs them with the whole path.
 //!
 //! Never: decides what a path means, or knows about slices and voxels.
 

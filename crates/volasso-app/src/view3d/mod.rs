@@ -18,6 +18,10 @@
 //!
 //! Never: touches Slint; never renders on the UI thread.
 
+pub mod clip;
+pub mod snapshot;
+pub(crate) mod tools;
+
 use std::sync::Arc;
 use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
 use std::time::{Duration, Instant};

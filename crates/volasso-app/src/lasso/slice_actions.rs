@@ -6,10 +6,10 @@
 //! Never: changes what the classifier sees other than through lassos (windows are display
 //! only), or draws.
 
-use super::drawing::{FingerPath, PathMeaning, Unclear};
-use super::ui::AppWindow;
-use super::windowing::{self, CUSTOM};
-use super::{State, refresh};
+use crate::lasso::drawing::{FingerPath, PathMeaning, Unclear};
+use crate::ui::AppWindow;
+use crate::windowing::{self, CUSTOM};
+use crate::{State, refresh};
 use std::cell::RefCell;
 use std::rc::Rc;
 use volasso_core::slices::Axis;
@@ -19,7 +19,7 @@ type Shared = Rc<RefCell<State>>;
 /// The zoom of an enlarged slice: 1 fits the work area.
 pub const ZOOM_RANGE: (f32, f32) = (1.0, 8.0);
 
-pub(super) fn lasso_down(
+pub(crate) fn lasso_down(
     window: &AppWindow,
     state: &Shared,
     panel: i32,
@@ -40,7 +40,7 @@ pub(super) fn lasso_down(
     refresh::push_lasso(window, state);
 }
 
-pub(super) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
+pub(crate) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
     let mut state_ref = state.borrow_mut();
     let Some((drawn_on, path)) = state_ref.ctl.work.as_mut().and_then(|work| work.drawing.as_mut()) else { return };
     if *drawn_on != panel.max(0) as usize {
@@ -54,7 +54,7 @@ pub(super) fn lasso_move(window: &AppWindow, state: &Shared, panel: i32, point: 
 /// The finger lifted (or the touch was cancelled: a negative point, e.g. a second finger
 /// turned it into a two-finger gesture, which is not a path). A path that broke off open is
 /// kept a moment, for the finger to land again and go on with it.
-pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
+pub(crate) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f32; 2], ms: f64) {
     let meaning = {
         let mut state_ref = state.borrow_mut();
         let Some(work) = state_ref.ctl.work.as_mut() else { return };
@@ -96,7 +96,7 @@ pub(super) fn lasso_up(window: &AppWindow, state: &Shared, panel: i32, point: [f
 }
 
 /// The slice `delta` ranks further along the panel's ranking (a swipe, ◀ ▶).
-pub(super) fn step_slice(window: &AppWindow, state: &Shared, panel: i32, delta: i32) {
+pub(crate) fn step_slice(window: &AppWindow, state: &Shared, panel: i32, delta: i32) {
     move_slice(window, state, panel, |rank, order| {
         let rank = (rank as i64 + delta as i64).clamp(0, order.len() as i64 - 1) as usize;
         (rank, order[rank])
@@ -104,7 +104,7 @@ pub(super) fn step_slice(window: &AppWindow, state: &Shared, panel: i32, delta: 
 }
 
 /// Slice `slice` of the panel's axis (the scrubber).
-pub(super) fn scrub_slice(window: &AppWindow, state: &Shared, panel: i32, slice: i32) {
+pub(crate) fn scrub_slice(window: &AppWindow, state: &Shared, panel: i32, slice: i32) {
     move_slice(window, state, panel, |_, order| {
         let slice = (slice.max(0) as usize).min(order.len() - 1);
         (order.iter().position(|&s| s == slice).unwrap_or(0), slice)
@@ -127,7 +127,7 @@ fn move_slice(window: &AppWindow, state: &Shared, panel: i32, choose: impl FnOnc
 }
 
 /// The slice of `panel` fills the work area, at zoom 1.
-pub(super) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
+pub(crate) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
     {
         let mut state = state.borrow_mut();
         let Some(work) = state.ctl.work.as_mut() else { return };
@@ -145,7 +145,7 @@ pub(super) fn enlarge(window: &AppWindow, state: &Shared, panel: i32) {
 }
 
 /// Back to the three slices.
-pub(super) fn shrink(window: &AppWindow, state: &Shared) {
+pub(crate) fn shrink(window: &AppWindow, state: &Shared) {
     if let Some(work) = state.borrow_mut().ctl.work.as_mut() {
         work.enlarged = None;
         work.drawing = None;
@@ -154,7 +154,7 @@ pub(super) fn shrink(window: &AppWindow, state: &Shared) {
     refresh::push_slice_layout(window, state);
 }
 
-pub(super) fn choose_window(window: &AppWindow, state: &Shared, name: &str) {
+pub(crate) fn choose_window(window: &AppWindow, state: &Shared, name: &str) {
     {
         let mut state = state.borrow_mut();
         let Some(work) = state.ctl.work.as_mut() else { return };
@@ -169,7 +169,7 @@ pub(super) fn choose_window(window: &AppWindow, state: &Shared, name: &str) {
 /// Two fingers on the slice normal to `axis`: on the enlarged slice they zoom (`zoom`
 /// multiplies) and pan (`pan` in fractions of the visible area); on a slice of the grid they
 /// drag the display window (windowing.rs).
-pub(super) fn slice_gesture(window: &AppWindow, state: &Shared, axis: Axis, zoom: f32, pan: [f32; 2]) {
+pub(crate) fn slice_gesture(window: &AppWindow, state: &Shared, axis: Axis, zoom: f32, pan: [f32; 2]) {
     if !(zoom.is_finite() && zoom > 0.0 && pan.iter().all(|p| p.is_finite())) {
         return;
     }

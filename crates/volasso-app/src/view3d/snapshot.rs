@@ -5,7 +5,7 @@
 //! of their own: a slow or stuck stick never holds up the UI.
 //!
 //! A stick is a file system mounted under one of the media roots (`/media`, `/run/media` by
-//! default, as udisks and desktop automounters mount them; [`AppConfig`](super::AppConfig)
+//! default, as udisks and desktop automounters mount them; [`AppConfig`](crate::AppConfig)
 //! sets others), read from `/proc/self/mounts`. The appliance's import unit (deploy/) mounts
 //! its stick read-only in a namespace of its own, so there a stick appears only when one is
 //! mounted for the kiosk.
@@ -13,7 +13,7 @@
 //! Never: fails the app. A read-only or full stick, a missing data folder, a picture not yet
 //! drawn: each becomes a sentence in the confirmation.
 
-use super::worker::{Report, Task, Threaded, Ticket, Worker};
+use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::io::Write;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -32,7 +32,7 @@
 //!
 //! Never: touches the UI or the volume.
 
-use super::path_loops::{enclosed_area, loops_within, steadied, uncurled};
+use crate::lasso::path_loops::{enclosed_area, loops_within, steadied, uncurled};
 use volasso_core::slices::{Axis, SliceGeometry, SliceLayout};
 use volasso_core::strokes::Lasso;
 

@@ -5,11 +5,11 @@
 //!
 //! Never: draws, reads input devices or touches the disk itself.
 
-use super::State;
-use super::clip;
-use super::refresh;
-use super::snapshot::{Places, SnapshotWriter};
-use super::ui::{AppWindow, Session};
+use crate::State;
+use crate::refresh;
+use crate::ui::{AppWindow, Session};
+use crate::view3d::clip;
+use crate::view3d::snapshot::{Places, SnapshotWriter};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -19,7 +19,7 @@ type Shared = Rc<RefCell<State>>;
 
 /// The opacity slider of class row `index` moved to `percent`: the 3-D view redraws, the row's
 /// knob follows, and the slices are redrawn only when the class appears or disappears there.
-pub(super) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, percent: i32) {
+pub(crate) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, percent: i32) {
     let Ok(index) = usize::try_from(index) else { return };
     let changed = {
         let mut state = state.borrow_mut();
@@ -38,7 +38,7 @@ pub(super) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, perc
         changed
     };
     if changed.classes {
-        for panel in 0..super::PANEL_COUNT {
+        for panel in 0..crate::PANEL_COUNT {
             refresh::push_slice(window, state, panel);
         }
     }
@@ -46,12 +46,12 @@ pub(super) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, perc
 
 /// What the view's tools keep between callbacks.
 #[derive(Default)]
-pub(super) struct Tools {
+pub(crate) struct Tools {
     /// The finger moving the clip plane: its last position.
     clip_from: Option<[f32; 2]>,
     /// The newest whole picture of the 3-D view (what a snapshot writes).
-    pub(super) picture: Option<image::RgbaImage>,
-    pub(super) snapshots: SnapshotWriter,
+    pub(crate) picture: Option<image::RgbaImage>,
+    pub(crate) snapshots: SnapshotWriter,
     /// The confirmation shown over the view, and the timer that clears it.
     toast_timer: Rc<slint::Timer>,
 }
@@ -77,13 +77,13 @@ fn set_clip(window: &AppWindow, state: &Shared, plane: Option<ClipPlane>, save: 
         }
     }
     window.global::<Session>().set_clipping(plane.is_some());
-    for panel in 0..super::PANEL_COUNT {
+    for panel in 0..crate::PANEL_COUNT {
         refresh::push_slice(window, state, panel);
     }
 }
 
 /// "Clip": on, the plane through the centre facing the viewer; off, nothing cut.
-pub(super) fn toggle_clip(window: &AppWindow, state: &Shared) {
+pub(crate) fn toggle_clip(window: &AppWindow, state: &Shared) {
     let plane = {
         let state = state.borrow();
         match (state.ctl.look.clip, open_extent(&state)) {
@@ -95,7 +95,7 @@ pub(super) fn toggle_clip(window: &AppWindow, state: &Shared) {
 }
 
 /// "Reset clip": the plane back where "Clip" put it, for the current view.
-pub(super) fn reset_clip(window: &AppWindow, state: &Shared) {
+pub(crate) fn reset_clip(window: &AppWindow, state: &Shared) {
     let plane = {
         let state = state.borrow();
         state.ctl.look.clip.and(open_extent(&state)).map(|extent| clip::initial(&state.camera, extent))
@@ -106,7 +106,7 @@ pub(super) fn reset_clip(window: &AppWindow, state: &Shared) {
 }
 
 /// A finger down on the view: while clipping, it moves the plane (true); otherwise it orbits.
-pub(super) fn clip_press(state: &Shared, at: [f32; 2]) -> bool {
+pub(crate) fn clip_press(state: &Shared, at: [f32; 2]) -> bool {
     let mut state = state.borrow_mut();
     let clipping = state.ctl.look.clip.is_some();
     state.tools.clip_from = clipping.then_some(at);
@@ -114,7 +114,7 @@ pub(super) fn clip_press(state: &Shared, at: [f32; 2]) -> bool {
 }
 
 /// The finger moved: the plane follows (true) while clipping.
-pub(super) fn clip_drag(window: &AppWindow, state: &Shared, to: [f32; 2]) -> bool {
+pub(crate) fn clip_drag(window: &AppWindow, state: &Shared, to: [f32; 2]) -> bool {
     let plane = {
         let mut state = state.borrow_mut();
         let (Some(from), Some(plane), Some(extent)) = (state.tools.clip_from, state.ctl.look.clip, open_extent(&state))
@@ -130,7 +130,7 @@ pub(super) fn clip_drag(window: &AppWindow, state: &Shared, to: [f32; 2]) -> boo
 }
 
 /// The finger lifted: the plane's place is saved (true) while clipping.
-pub(super) fn clip_release(state: &Shared) -> bool {
+pub(crate) fn clip_release(state: &Shared) -> bool {
     let mut state = state.borrow_mut();
     if state.tools.clip_from.take().is_none() {
         return false;
@@ -141,7 +141,7 @@ pub(super) fn clip_release(state: &Shared) -> bool {
 
 /// A two-finger gesture while clipping: its pan and turn tilt the plane (and are used up);
 /// returns what is left for the camera.
-pub(super) fn clip_gesture(
+pub(crate) fn clip_gesture(
     window: &AppWindow,
     state: &Shared,
     pan_pixels: [f32; 2],
@@ -162,7 +162,7 @@ pub(super) fn clip_gesture(
 }
 
 /// "Snapshot": the 3-D view's newest picture to the data folder and any USB stick.
-pub(super) fn snapshot(window: &AppWindow, state: &Shared) {
+pub(crate) fn snapshot(window: &AppWindow, state: &Shared) {
     let refused = {
         let mut state = state.borrow_mut();
         let volume = state.ctl.work.as_ref().map(|work| work.loaded.source.name());
@@ -181,7 +181,7 @@ pub(super) fn snapshot(window: &AppWindow, state: &Shared) {
 }
 
 /// Collects finished snapshots (the poll timer): their confirmation is shown over the view.
-pub(super) fn poll(window: &AppWindow, state: &Shared) {
+pub(crate) fn poll(window: &AppWindow, state: &Shared) {
     let outcome = state.borrow_mut().tools.snapshots.poll();
     if let Some(outcome) = outcome {
         let message = outcome.message();

@@ -8,10 +8,10 @@
 //!
 //! Never: opens files itself (library.rs does, on worker threads).
 
-use super::library::{LoadedVolume, LoaderEvent, VolumeSource};
-use super::refresh::{self, apply, show_screen, to_slint_image};
-use super::ui::{AppWindow, Session, VolumeCard};
-use super::{Screen, State, Work, autosave};
+use crate::chooser::library::{LoadedVolume, LoaderEvent, VolumeSource};
+use crate::refresh::{self, apply, show_screen, to_slint_image};
+use crate::ui::{AppWindow, Session, VolumeCard};
+use crate::{Screen, State, Work, autosave};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::rc::Rc;
@@ -22,7 +22,7 @@ type Shared = Rc<RefCell<State>>;
 
 /// A restored session that opened and whose classification ended (or that had none to run)
 /// did not stop the app: the restore marker goes (autosave.rs).
-pub(super) fn confirm_restore(state: &Shared) {
+pub(crate) fn confirm_restore(state: &Shared) {
     let mut state = state.borrow_mut();
     if !state.restore_unconfirmed || state.ctl.work.is_none() || state.ctl.jobs.busy() {
         return;
@@ -36,22 +36,22 @@ pub(super) fn confirm_restore(state: &Shared) {
 /// Appends the volumes that appeared in the data folder since the last listing (with their
 /// thumbnails, once the chooser has asked for thumbnails). Counted in polls, so that the
 /// replay harness's clock drives it like every other timer.
-pub(super) fn rescan_data_folder(state: &Shared) {
+pub(crate) fn rescan_data_folder(state: &Shared) {
     let mut state = state.borrow_mut();
     state.polls_since_scan += 1;
-    if state.polls_since_scan < super::RESCAN_POLLS || state.config.data_dir.is_none() {
+    if state.polls_since_scan < crate::RESCAN_POLLS || state.config.data_dir.is_none() {
         return;
     }
     state.polls_since_scan = 0;
-    let found = super::library::scan(state.config.data_dir.as_deref());
-    let added = super::library::appeared(&state.sources, found);
+    let found = crate::chooser::library::scan(state.config.data_dir.as_deref());
+    let added = crate::chooser::library::appeared(&state.sources, found);
     if added.is_empty() {
         return;
     }
     log::info!("{} new volume(s) in the data folder", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        state.volumes_model.push(super::refresh::blank_card(source));
+        state.volumes_model.push(crate::refresh::blank_card(source));
     }
     if state.thumbnails_requested {
         state.thumbnails_pending += added.len();
@@ -61,14 +61,14 @@ pub(super) fn rescan_data_folder(state: &Shared) {
 
 /// The chooser index of `source`, added as a new card (its thumbnail asked for) when the
 /// chooser does not have it yet: a series just retrieved from the PACS.
-pub(super) fn add_source(state: &Shared, source: VolumeSource) -> usize {
+pub(crate) fn add_source(state: &Shared, source: VolumeSource) -> usize {
     let mut state = state.borrow_mut();
     if let Some(index) = state.sources.iter().position(|known| *known == source) {
         return index;
     }
     let index = state.sources.len();
     state.sources.push(source.clone());
-    state.volumes_model.push(super::refresh::blank_card(&source));
+    state.volumes_model.push(crate::refresh::blank_card(&source));
     if state.thumbnails_requested {
         state.thumbnails_pending += 1;
         state.loader.thumbnails(vec![(index, source)]);
@@ -78,14 +78,14 @@ pub(super) fn add_source(state: &Shared, source: VolumeSource) -> usize {
 
 /// A chooser card tapped: its volume opens on the loader thread (a folder of several series
 /// says to pick one of their cards).
-pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
+pub(crate) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
     {
         let mut state = shared.borrow_mut();
         let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
         if state.opening.is_some() {
             return;
         }
-        let series = super::loading::series_cards(&state.sources, &source);
+        let series = crate::chooser::loading::series_cards(&state.sources, &source);
         if series > 1 {
             state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
             drop(state);
@@ -100,7 +100,7 @@ pub(super) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
     refresh::push_status(window, shared);
 }
 
-pub(super) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
+pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
     match event {
         LoaderEvent::Thumbnail { index, result } => {
             let model = state.borrow().volumes_model.clone();
@@ -172,18 +172,18 @@ fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
         card.thumbnail = slint::Image::default();
         model.set_row_data(index, card);
     }
-    let added = super::library::appeared(&state.sources, series);
+    let added = crate::chooser::library::appeared(&state.sources, series);
     log::info!("a folder holds {} series", added.len());
     for (_, source) in &added {
         state.sources.push(source.clone());
-        model.push(super::refresh::blank_card(source));
+        model.push(crate::refresh::blank_card(source));
     }
     state.thumbnails_pending += added.len();
     state.loader.thumbnails(added);
 }
 
 /// How many series of the folder `source` names have cards of their own.
-pub(super) fn series_cards(sources: &[VolumeSource], source: &VolumeSource) -> usize {
+pub(crate) fn series_cards(sources: &[VolumeSource], source: &VolumeSource) -> usize {
     let VolumeSource::Path(path) = source else { return 0 };
     sources.iter().filter(|s| matches!(s, VolumeSource::Series { folder, .. } if folder == path)).count()
 }
@@ -199,7 +199,7 @@ fn mark_failed(card: &mut VolumeCard, reason: &str) {
 }
 
 fn reason(message: &str, source: Option<&VolumeSource>) -> String {
-    source.map_or_else(|| message.to_string(), |source| super::library::reason_for_display(message, source))
+    source.map_or_else(|| message.to_string(), |source| crate::chooser::library::reason_for_display(message, source))
 }
 
 /// The work screen on a newly opened volume, with the saved session's classes if it was saved
@@ -242,7 +242,7 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
 
 /// What the 3-D view says about its home position: nothing when it shows the patient from the
 /// front with the head up; otherwise what it shows instead (`HomeView`'s flags).
-pub(super) fn home_caption(home: Option<&HomeView>) -> &'static str {
+pub(crate) fn home_caption(home: Option<&HomeView>) -> &'static str {
     match home {
         None => "Orientation unknown: stored axes",
         Some(home) if home.mirrored => {

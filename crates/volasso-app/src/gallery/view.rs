@@ -7,12 +7,12 @@
 //!
 //! Never: writes on the UI thread, or opens a result whose volume is missing.
 
-use super::State;
-use super::gallery::{self, GalleryEntry, GalleryError, Listed};
-use super::library::VolumeSource;
-use super::refresh;
-use super::ui::{AppWindow, ResultCard, Session};
-use super::worker::{Report, Task, Threaded, Ticket, Worker};
+use crate::State;
+use crate::chooser::library::VolumeSource;
+use crate::gallery::{self, GalleryEntry, GalleryError, Listed};
+use crate::refresh;
+use crate::ui::{AppWindow, ResultCard, Session};
+use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
 use std::path::PathBuf;
@@ -23,14 +23,14 @@ use volasso_core::render::Camera;
 type Shared = Rc<RefCell<State>>;
 
 /// One kept result to write: where, what, and the 3-D view's picture.
-pub(super) struct SaveJob {
+pub(crate) struct SaveJob {
     data_dir: PathBuf,
     entry: GalleryEntry,
     picture: image::RgbaImage,
 }
 
 /// The gallery's part of the app's state.
-pub(super) struct Results {
+pub(crate) struct Results {
     /// The gallery as last listed, in card order.
     listed: Vec<Listed>,
     /// Writes a kept result off the UI thread, a thread per save.
@@ -39,7 +39,7 @@ pub(super) struct Results {
     saving: bool,
     /// A result being opened: its volume key, camera and visibility, put back once it is open.
     pending: Option<(String, Camera, Vec<bool>)>,
-    pub(super) model: Rc<slint::VecModel<ResultCard>>,
+    pub(crate) model: Rc<slint::VecModel<ResultCard>>,
 }
 
 impl Default for Results {
@@ -60,13 +60,13 @@ impl Default for Results {
 
 impl Results {
     /// A save is still being written.
-    pub(super) fn busy(&self) -> bool {
+    pub(crate) fn busy(&self) -> bool {
         self.saving
     }
 }
 
 /// Lists the gallery again onto the chooser's result cards.
-pub(super) fn refresh_cards(state: &Shared) {
+pub(crate) fn refresh_cards(state: &Shared) {
     let mut state = state.borrow_mut();
     let listed = state.config.data_dir.as_deref().map(gallery::list).unwrap_or_default();
     let cards: Vec<ResultCard> = listed.iter().map(card).collect();
@@ -99,7 +99,7 @@ fn card(listed: &Listed) -> ResultCard {
 }
 
 /// "Save": the current result to the gallery, written on a thread of its own.
-pub(super) fn save(window: &AppWindow, state: &Shared) {
+pub(crate) fn save(window: &AppWindow, state: &Shared) {
     let picture = window.global::<Session>().get_view_picture().to_rgba8();
     let mut state_ref = state.borrow_mut();
     let message = match prepare(&state_ref, picture) {
@@ -146,7 +146,7 @@ fn prepare(state: &State, picture: Option<slint::SharedPixelBuffer<slint::Rgba8P
 
 /// Collects a finished save, and puts back a result's camera and visibility once its volume
 /// is open; called by the poll timer.
-pub(super) fn poll(window: &AppWindow, state: &Shared) {
+pub(crate) fn poll(window: &AppWindow, state: &Shared) {
     let finished = {
         let mut state = state.borrow_mut();
         let results = &mut state.results;
@@ -207,7 +207,7 @@ fn put_back(window: &AppWindow, state: &Shared) {
 }
 
 /// A result card tapped: its volume opens with its classes; its camera and visibility follow.
-pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
+pub(crate) fn open(window: &AppWindow, state: &Shared, index: i32) {
     let entry = {
         let mut state = state.borrow_mut();
         if state.opening.is_some() {
@@ -224,7 +224,7 @@ pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
     };
     let source = VolumeSource::from_key(&entry.session.volume);
     // A scan outside the data folder joins the chooser, so indices stay aligned.
-    let index = super::loading::add_source(state, source.clone());
+    let index = crate::chooser::loading::add_source(state, source.clone());
     {
         let mut state = state.borrow_mut();
         state.ctl.jobs.cancel();
@@ -239,7 +239,7 @@ pub(super) fn open(window: &AppWindow, state: &Shared, index: i32) {
 
 /// Replay keys: `results` (cards), `result-problem-N` (the message on card N, from 1; empty
 /// when it opens).
-pub(super) fn query(state: &State, key: &str) -> Option<String> {
+pub(crate) fn query(state: &State, key: &str) -> Option<String> {
     if key == "results" {
         return Some(state.results.model.row_count().to_string());
     }

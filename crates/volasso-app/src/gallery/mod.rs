@@ -14,7 +14,9 @@
 //!
 //! Never: overwrites or deletes an entry; touches Slint.
 
-use super::autosave::{self, AutosaveError, SavedSession};
+pub(crate) mod view;
+
+use crate::autosave::{self, AutosaveError, SavedSession};
 use serde::{Deserialize, Serialize};
 use std::io::Write;
 use std::path::{Path, PathBuf};
@@ -301,5 +303,4 @@ pub fn date_text(unix_seconds: u64) -> String {
 }
 
 #[cfg(test)]
-#[path = "gallery_tests.rs"]
 mod tests;

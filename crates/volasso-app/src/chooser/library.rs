@@ -14,8 +14,8 @@
 //!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
-use super::windowing::WindowChoices;
-use super::worker::{Report, Task, Threaded, Ticket, Worker};
+use crate::windowing::WindowChoices;
+use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::collections::{HashMap, VecDeque};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
@@ -53,7 +53,7 @@ pub const MAX_ENTRIES: usize = 200;
 
 /// Folders of the data folder that hold the app's own output, never a DICOM series: kept
 /// results (gallery.rs) and snapshots.
-pub const RESERVED_FOLDERS: [&str; 2] = [super::gallery::FOLDER, "snapshots"];
+pub const RESERVED_FOLDERS: [&str; 2] = [crate::gallery::FOLDER, "snapshots"];
 
 /// The volumes to offer: the demo first, then the data folder's volumes by name.
 pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
