@@ -15,6 +15,7 @@
 //!   255 classes, constant volumes, camera options out of range, a failed classification's
 //!   banner), each within 30 s and 1 GB; the 12-class kiosk under a 3 GB address-space limit
 //!   is `.ci/memory`'s (over a minute).
+//! * `architecture`: no file of the app imports a file that imports it back.
 //! * `accuracy`: the accuracy harness on small phantoms: the default classifier
 //!   beats a random forest on the paper's features and is not below the plain SVM.
 //! * `classification`: accuracy on the demo phantom, coarse-to-fine against exact, loops in a
@@ -47,6 +48,7 @@
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
 mod accuracy;
+mod architecture;
 mod classification;
 mod cli;
 mod deploy;

@@ -11,7 +11,7 @@
 //! workers), which says what changed; a 16 ms poll timer (`poll.rs`) collects finished work
 //! and each feature applies its own (`chooser/loading.rs` what the loader reports); `refresh.rs` pushes
 //! state into the `Session` global and depends on no feature, so the files' imports run one way
-//! (callbacks and poll -> features -> refresh). The PACS screen (`pacs/`) is the shape the rest
+//! (callbacks and poll -> features -> refresh; `tests/architecture.rs` fails on a cycle). The PACS screen (`pacs/`) is the shape the rest
 //! is moving to: a Slint-free model updated by intents, its jobs behind the `Worker` trait
 //! (`worker.rs`), one glue file.
 //!

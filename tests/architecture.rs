@@ -1,0 +1,141 @@
+//! The app's files import one way: no file of `crates/volasso-app/src` reaches, through its
+//! `crate::` and `super::` imports, a file that reaches it back (the crate root, which declares
+//! them all and holds the shared state, aside). Cargo enforces the boundaries between crates;
+//! this test the one inside the app, so that a feature's glue never needs the poll timer's or
+//! another feature's internals that need it in turn.
+
+use std::collections::{BTreeMap, BTreeSet};
+use std::path::{Path, PathBuf};
+
+/// The app crate's source folder.
+fn app_source() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("crates/volasso-app/src")
+}
+
+fn rust_files(folder: &Path, found: &mut Vec<PathBuf>) {
+    for entry in std::fs::read_dir(folder).unwrap() {
+        let path = entry.unwrap().path();
+        if path.is_dir() {
+            rust_files(&path, found);
+        } else if path.extension().is_some_and(|extension| extension == "rs") {
+            found.push(path);
+        }
+    }
+}
+
+/// A file's module path (`lasso::drawing`); `None` for the crate root and test files.
+fn module_of(root: &Path, file: &Path) -> Option<String> {
+    let relative = file.strip_prefix(root).ok()?.with_extension("");
+    let mut parts: Vec<String> = relative.iter().map(|part| part.to_string_lossy().into_owned()).collect();
+    if parts.last().is_some_and(|last| last == "mod") {
+        parts.pop();
+    }
+    let last = parts.last()?;
+    if parts == ["lib"] || last == "tests" || last.ends_with("_tests") {
+        return None;
+    }
+    Some(parts.join("::"))
+}
+
+/// The words of `text` after `prefix` joined by `::` (`crate::a::b::C` gives `a::b::C`).
+fn paths_after<'a>(text: &'a str, prefix: &str) -> Vec<&'a str> {
+    let mut found = Vec::new();
+    let mut rest = text;
+    while let Some(at) = rest.find(prefix) {
+        let before = rest[..at].chars().last();
+        rest = &rest[at + prefix.len()..];
+        if before.is_some_and(|c| c.is_alphanumeric() || c == '_' || c == ':') {
+            continue;
+        }
+        let end = rest.find(|c: char| !(c.is_alphanumeric() || c == '_' || c == ':')).unwrap_or(rest.len());
+        found.push(rest[..end].trim_end_matches(':'));
+    }
+    found
+}
+
+/// The module among `modules` that `path` names or lies in (the longest match).
+fn resolve(modules: &BTreeSet<String>, path: &str) -> Option<String> {
+    let parts: Vec<&str> = path.split("::").collect();
+    (1..=parts.len()).rev().map(|n| parts[..n].join("::")).find(|candidate| modules.contains(candidate))
+}
+
+/// Each module's imports of the others: `crate::` paths, `super::` paths and `super::{...}` groups.
+fn import_graph() -> BTreeMap<String, BTreeSet<String>> {
+    let root = app_source();
+    let mut files = Vec::new();
+    rust_files(&root, &mut files);
+    let modules: BTreeMap<String, PathBuf> =
+        files.iter().filter_map(|file| module_of(&root, file).map(|module| (module, file.clone()))).collect();
+    let names: BTreeSet<String> = modules.keys().cloned().collect();
+    let mut graph = BTreeMap::new();
+    for (module, file) in &modules {
+        let text = std::fs::read_to_string(file).unwrap();
+        // The code, without its tests and comments.
+        let code = text.split("\n#[cfg(test)]\n").next().unwrap_or_default();
+        let code: String =
+            code.lines().filter(|line| !line.trim_start().starts_with("//")).collect::<Vec<_>>().join("\n");
+        // What `super` names: the module's parent (for `lasso/drawing.rs` and `lasso/mod.rs`
+        // alike, `lasso` and the crate root).
+        let parent = module.rsplit_once("::").map_or("", |(parent, _)| parent);
+        let within = |path: &str| if parent.is_empty() { path.to_string() } else { format!("{parent}::{path}") };
+        let mut imports = BTreeSet::new();
+        for path in paths_after(&code, "crate::") {
+            imports.extend(resolve(&names, path));
+        }
+        for path in paths_after(&code, "super::") {
+            imports.extend(resolve(&names, &within(path)));
+        }
+        for group in code.split("super::{").skip(1) {
+            let inside = group.split('}').next().unwrap_or_default();
+            for name in inside.split([',', ' ', '\n']).map(|word| word.split("::").next().unwrap_or_default()) {
+                if !name.is_empty() {
+                    imports.extend(resolve(&names, &within(name)));
+                }
+            }
+        }
+        imports.remove(module);
+        graph.insert(module.clone(), imports);
+    }
+    graph
+}
+
+/// A cycle through `start`, if there is one: the modules along it.
+fn cycle_through(graph: &BTreeMap<String, BTreeSet<String>>, start: &str) -> Option<Vec<String>> {
+    let mut stack = vec![(start.to_string(), vec![start.to_string()])];
+    let mut seen = BTreeSet::new();
+    while let Some((module, path)) = stack.pop() {
+        for next in graph.get(&module).into_iter().flatten() {
+            if next == start {
+                return Some([path.clone(), vec![start.to_string()]].concat());
+            }
+            if seen.insert(next.clone()) {
+                stack.push((next.clone(), [path.clone(), vec![next.clone()]].concat()));
+            }
+        }
+    }
+    None
+}
+
+#[test]
+fn no_file_of_the_app_imports_a_file_that_imports_it_back() {
+    let graph = import_graph();
+    assert!(graph.len() > 30, "the app's files were not found: {graph:?}");
+    // The graph is real: the poll timer reaches the chooser's loading, which reaches refresh.
+    assert!(graph["poll"].contains("chooser::loading"), "{:?}", graph["poll"]);
+    assert!(graph["chooser::loading"].contains("refresh"), "{:?}", graph["chooser::loading"]);
+    let cycles: Vec<Vec<String>> = graph.keys().filter_map(|module| cycle_through(&graph, module)).collect();
+    assert!(cycles.is_empty(), "import cycles: {cycles:?}");
+}
+
+#[test]
+fn the_cycle_finder_finds_a_cycle() {
+    let graph: BTreeMap<String, BTreeSet<String>> = [
+        ("a".to_string(), BTreeSet::from(["b".to_string()])),
+        ("b".to_string(), BTreeSet::from(["c".to_string()])),
+        ("c".to_string(), BTreeSet::from(["a".to_string()])),
+        ("d".to_string(), BTreeSet::from(["a".to_string()])),
+    ]
+    .into();
+    assert_eq!(cycle_through(&graph, "a"), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
+    assert_eq!(cycle_through(&graph, "d"), None);
+}
