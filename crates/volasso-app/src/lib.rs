@@ -5,15 +5,16 @@
 //! thread (saver.rs), the slice pictures on a painter thread (painter.rs). The UI thread moves
 //! data between them and Slint and never waits for them, nor for the disk.
 //!
-//! Data flow: callbacks (callbacks.rs, and lasso/slice_actions.rs for what touches a slice) change
-//! `State`; what the user does to the classes goes to the Slint-free `Controller`
+//! Data flow: callbacks (callbacks.rs, and lasso/slice_actions.rs for what touches a slice)
+//! change `State`; what the user does to the classes goes to the Slint-free `Controller`
 //! (controller.rs: the work, the template and the classification, autosave and 3-D view
 //! workers), which says what changed; a 16 ms poll timer (`poll.rs`) collects finished work
-//! and each feature applies its own (`chooser/loading.rs` what the loader reports); `refresh.rs` pushes
-//! state into the `Session` global and depends on no feature, so the files' imports run one way
-//! (callbacks and poll -> features -> refresh; `tests/architecture.rs` fails on a cycle). The PACS screen (`pacs/`) is the shape the rest
-//! is moving to: a Slint-free model updated by intents, its jobs behind the `Worker` trait
-//! (`worker.rs`), one glue file.
+//! and each feature applies its own (`chooser/loading.rs` what the loader reports);
+//! `refresh.rs` pushes state into the `Session` global and depends on no feature, so the files'
+//! imports run one way (callbacks and poll -> features -> refresh; `tests/architecture.rs`
+//! fails on a cycle). The PACS screen (`pacs/`) is the shape the rest is moving to: a
+//! Slint-free model updated by intents, its jobs behind the `Worker` trait (`worker.rs`), one
+//! glue file.
 //!
 //! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
 //! sagittal panels with the patient's directions at their edges; the stored order and
