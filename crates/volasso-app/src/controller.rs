@@ -231,7 +231,7 @@ impl Controller {
     /// failure banner cleared.
     fn show_classified(
         &mut self,
-        classified: super::jobs::Classified,
+        classified: super::jobs::ClassificationResult,
         status: Option<String>,
         first_look: bool,
     ) -> Changed {

@@ -19,9 +19,11 @@ use volasso_core::strokes::StrokesFile;
 use volasso_core::transfer::{ClassTable, HueTemplate};
 use volasso_core::volume::Volume;
 
-/// A finished classification.
+/// A finished classification as the kiosk holds it (the labels shared with the 3-D view and
+/// the slices, how long it took, where it is unsure); the pipeline's own result is
+/// `pipeline::Classified`.
 #[derive(Clone, Debug)]
-pub struct Classified {
+pub struct ClassificationResult {
     pub labels: Arc<Vec<u8>>,
     pub table: ClassTable,
     /// From "define class" to the result, training and labelling included.
@@ -49,9 +51,9 @@ impl std::fmt::Debug for Guidance {
 #[derive(Debug)]
 pub enum JobOutcome {
     /// A first look: the coarse grid's labels, the exact ones still to come.
-    Preview(Classified),
+    Preview(ClassificationResult),
     /// The exact classification (without its guidance, which follows).
-    Done(Classified),
+    Done(ClassificationResult),
     /// Where the classifier of the last [`JobOutcome::Done`] is unsure.
     Guidance(Arc<Guidance>),
     Failed(String),
@@ -179,7 +181,7 @@ fn classify(
     options: &SegmentationOptions,
     ticket: &Ticket,
     report: &Report<'_, JobOutcome>,
-) -> Result<(Classified, Segmenter), String> {
+) -> Result<(ClassificationResult, Segmenter), String> {
     let started = Instant::now();
     // Training is about a tenth of the work; labelling reports the rest.
     let progressed = |fraction: f32| ticket.set_progress(0.1 + 0.9 * fraction.clamp(0.0, 1.0));
@@ -187,7 +189,7 @@ fn classify(
     let preview = |coarse: &LabelVolume| match ClassTable::compute(volume, &coarse.labels, class_count, template) {
         Ok(table) => {
             log::info!("first look in {:.0} ms", started.elapsed().as_secs_f64() * 1000.0);
-            report(JobOutcome::Preview(Classified {
+            report(JobOutcome::Preview(ClassificationResult {
                 labels: Arc::new(coarse.labels.clone()),
                 table,
                 seconds: started.elapsed().as_secs_f64(),
@@ -201,7 +203,7 @@ fn classify(
     let classified =
         pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
     let labelled = classified.labels;
-    let result = Classified {
+    let result = ClassificationResult {
         labels: Arc::new(labelled.labels),
         table: classified.table,
         seconds: started.elapsed().as_secs_f64(),

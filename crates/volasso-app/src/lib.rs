@@ -60,7 +60,7 @@ pub mod worker;
 
 use chooser::library::{LoadedVolume, Loader, VolumeSource};
 use controller::Controller;
-use jobs::Classified;
+use jobs::ClassificationResult;
 use lasso::drawing::FingerPath;
 use session::WorkSession;
 use slint::ComponentHandle;
@@ -168,7 +168,7 @@ struct Work {
     /// The last path that broke off open, on which panel: a finger landing again where it left
     /// goes on with it ([`FingerPath::resumed_or_new`]).
     broken_off: Option<(usize, FingerPath)>,
-    classified: Option<Classified>,
+    classified: Option<ClassificationResult>,
     /// Why the newest classification failed; `None` once one succeeds, and while fewer than
     /// two classes are drawn. The last good result stays in `classified`.
     failure: Option<String>,
