@@ -220,8 +220,8 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
             None => Camera::default(),
         };
         state.camera = state.home_camera;
-        // A send's answer belongs to the volume it was sent from.
-        state.pacs.model.send_message.clear();
+        // Whether the scan can go back to the PACS; a send's answer belongs to the scan before.
+        state.pacs.model.opened(&loaded.source);
         if !loaded.volume.warnings.is_empty() {
             for warning in &loaded.volume.warnings {
                 log::warn!("{}: {warning}", loaded.source.name());

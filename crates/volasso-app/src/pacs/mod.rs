@@ -145,6 +145,9 @@ pub struct PacsModel {
     /// Series retrieved and not yet opened: the app opens the first and clears this.
     pub retrieved: Vec<PathBuf>,
     last_failed: bool,
+    /// The open scan came from DICOM (a folder or one series of it), so it has a study to
+    /// join; decided once when it opens ([`Self::opened`]).
+    from_dicom: bool,
 }
 
 impl PacsModel {
@@ -163,6 +166,7 @@ impl PacsModel {
             send_message: String::new(),
             retrieved: Vec::new(),
             last_failed: false,
+            from_dicom: false,
         }
     }
 
@@ -199,18 +203,25 @@ impl PacsModel {
         self.studies.iter().map(row).collect()
     }
 
-    /// Why "Send to PACS" cannot be used for `source` with a classification shown or not;
-    /// `None`: it can.
-    pub fn send_blocked(&self, source: Option<&VolumeSource>, classified: bool) -> Option<&'static str> {
+    /// A scan opened from `source`: whether it can go back to the PACS (only a DICOM folder or
+    /// series has a study to join: every other format is a file, the demo none), and no
+    /// answer of a send from the scan before.
+    pub fn opened(&mut self, source: &VolumeSource) {
+        self.from_dicom = match source {
+            VolumeSource::Series { .. } => true,
+            VolumeSource::Path(path) => path.is_dir(),
+            VolumeSource::Demo => false,
+        };
+        self.send_message.clear();
+    }
+
+    /// Why "Send to PACS" cannot be used for the scan opened last, with a classification shown
+    /// or not; `None`: it can.
+    pub fn send_blocked(&self, classified: bool) -> Option<&'static str> {
         if self.peers.is_empty() {
             return Some("No PACS is configured");
         }
-        let from_dicom = match source {
-            Some(VolumeSource::Series { .. }) => true,
-            Some(VolumeSource::Path(path)) => path.is_dir(),
-            _ => false,
-        };
-        if !from_dicom {
+        if !self.from_dicom {
             return Some("Only a scan from DICOM can go back to the PACS");
         }
         if !classified {

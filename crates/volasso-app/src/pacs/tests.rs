@@ -131,19 +131,17 @@ fn send_to_pacs_says_why_it_cannot_and_reports_only_what_the_pacs_answered() {
     let nrrd = dicom.path().join("scan.nrrd");
     std::fs::write(&nrrd, b"").unwrap();
     let from_dicom = VolumeSource::Path(dicom.path().to_path_buf());
-    let model_without = PacsModel::new(Vec::new(), None, None);
-    assert_eq!(model_without.send_blocked(Some(&from_dicom), true), Some("No PACS is configured"));
+    let mut model_without = PacsModel::new(Vec::new(), None, None);
+    model_without.opened(&from_dicom);
+    assert_eq!(model_without.send_blocked(true), Some("No PACS is configured"));
     let mut model = model();
-    assert_eq!(
-        model.send_blocked(Some(&VolumeSource::Demo), true),
-        Some("Only a scan from DICOM can go back to the PACS")
-    );
-    assert_eq!(
-        model.send_blocked(Some(&VolumeSource::Path(nrrd)), true),
-        Some("Only a scan from DICOM can go back to the PACS")
-    );
-    assert_eq!(model.send_blocked(Some(&from_dicom), false), Some("Classify first: draw two classes"));
-    assert_eq!(model.send_blocked(Some(&from_dicom), true), None);
+    model.opened(&VolumeSource::Demo);
+    assert_eq!(model.send_blocked(true), Some("Only a scan from DICOM can go back to the PACS"));
+    model.opened(&VolumeSource::Path(nrrd));
+    assert_eq!(model.send_blocked(true), Some("Only a scan from DICOM can go back to the PACS"));
+    model.opened(&from_dicom);
+    assert_eq!(model.send_blocked(false), Some("Classify first: draw two classes"));
+    assert_eq!(model.send_blocked(true), None);
     let request = SendRequest {
         folder: dicom.path().to_path_buf(),
         series_uid: None,
@@ -155,11 +153,14 @@ fn send_to_pacs_says_why_it_cannot_and_reports_only_what_the_pacs_answered() {
         panic!("a send")
     };
     assert_eq!(outbox, PathBuf::from("/session/outbox"));
-    assert_eq!(model.send_blocked(Some(&from_dicom), true), Some("Sending..."));
+    assert_eq!(model.send_blocked(true), Some("Sending..."));
     assert!(model.update(PacsIntent::Send(request.clone()), TODAY).is_none(), "one send at a time");
     model.apply(PacsReport::Sent(Err("ORTHANC refused 1 of 2 objects: no space".into())));
     assert_eq!(model.send_message, "Not sent: ORTHANC refused 1 of 2 objects: no space");
-    assert_eq!(model.send_blocked(Some(&from_dicom), true), None, "it can be sent again");
+    assert_eq!(model.send_blocked(true), None, "it can be sent again");
+    // The next scan opened starts without the last one's answer.
+    model.opened(&from_dicom);
+    assert_eq!(model.send_message, "");
 }
 
 #[test]

@@ -59,11 +59,9 @@ pub(crate) fn intent(window: &AppWindow, shared: &Shared, intent: PacsIntent) {
 pub(crate) fn send(window: &AppWindow, shared: &Shared) {
     let request = {
         let mut state = shared.borrow_mut();
-        let picture = state.tools.picture.clone();
         let work = state.ctl.work.as_ref();
-        let source = work.map(|work| &work.loaded.source);
         let classified = work.and_then(|work| work.classified.as_ref());
-        if let Some(reason) = state.pacs.model.send_blocked(source, classified.is_some()) {
+        if let Some(reason) = state.pacs.model.send_blocked(classified.is_some()) {
             state.pacs.model.send_message = reason.to_string();
             None
         } else {
@@ -83,6 +81,7 @@ pub(crate) fn send(window: &AppWindow, shared: &Shared) {
                 let classes = (classified.table.styles.iter().enumerate())
                     .map(|(index, s)| (name(index), hsv_to_rgb(s.hue_degrees[0], s.saturation, s.value)))
                     .collect();
+                let picture = state.tools.picture.clone();
                 Some(SendRequest { folder, series_uid, labels: classified.labels.clone(), classes, picture })
             })
         }
@@ -147,7 +146,7 @@ pub(crate) fn push_send(window: &AppWindow, shared: &Shared) {
     let model = &state.pacs.model;
     let session = window.global::<Session>();
     let work = state.ctl.work.as_ref();
-    let blocked = model.send_blocked(work.map(|w| &w.loaded.source), work.is_some_and(|w| w.classified.is_some()));
+    let blocked = model.send_blocked(work.is_some_and(|w| w.classified.is_some()));
     session.set_send_blocked(blocked.unwrap_or_default().into());
     session.set_send_message(model.send_message.clone().into());
 }
