@@ -53,7 +53,7 @@ pub fn classify_series(folder: &Path, series: &Path) -> PathBuf {
 }
 
 /// Runs `volasso export` on the Philips series.
-fn export(folder: &Path, source: &Path, labels: &Path, extra: &[&str]) -> std::process::Output {
+pub(crate) fn export(folder: &Path, source: &Path, labels: &Path, extra: &[&str]) -> std::process::Output {
     let mut args = vec!["export", source.to_str().unwrap(), "--labels", labels.to_str().unwrap()];
     args.extend_from_slice(extra);
     volasso(&args, &folder.join("cache"))

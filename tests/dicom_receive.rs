@@ -12,7 +12,7 @@ mod tls;
 mod truth;
 
 use crate::dicom_codecs::dcmtk_available;
-use crate::support::data;
+use crate::support::{data, run_within};
 use std::io::{BufRead, BufReader};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -101,7 +101,7 @@ impl Scp {
     fn client(&self, program: &str, options: &[&str], files: &[PathBuf]) -> Output {
         let mut command = Command::new(program);
         command.args(options).args(["-aec", "VOLASSO", "127.0.0.1", &self.port.to_string()]).args(files);
-        run_with_timeout(command)
+        run_within(&mut command, PATIENCE)
     }
 
     /// The entries of the data folder that the chooser would see (not dot-names).
@@ -130,19 +130,6 @@ fn visible_entries(data_dir: &Path) -> Vec<String> {
         .collect();
     names.sort();
     names
-}
-
-fn run_with_timeout(mut command: Command) -> Output {
-    let mut child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("the dcmtk client runs");
-    let deadline = Instant::now() + PATIENCE;
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("{command:?} ran longer than {PATIENCE:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
 }
 
 fn text(output: &Output) -> String {

@@ -6,8 +6,8 @@
 //! (`.ci/run` installs both).
 
 use crate::dicom_codecs::dcmtk_available;
-use crate::dicom_export::{attribute, classify_philips, classify_series, philips};
-use crate::support::{assert_clean_error, volasso};
+use crate::dicom_export::{attribute, classify_philips, classify_series, export, philips};
+use crate::support::{assert_clean_error, run_within};
 use dicom_dictionary_std::tags::{SERIES_INSTANCE_UID, SOP_INSTANCE_UID, STUDY_INSTANCE_UID};
 use std::path::{Path, PathBuf};
 use std::process::{Child, Command, Output, Stdio};
@@ -129,8 +129,9 @@ impl Orthanc {
             .map(|entry| entry.unwrap().path())
             .filter(|path| path.file_name().is_some_and(|name| name != "DIRFILE"))
             .collect();
-        let output = run_bounded(
+        let output = run_within(
             Command::new("storescu").args(["-aec", "ORTHANC", "127.0.0.1", &self.dicom_port.to_string()]).args(&files),
+            PATIENCE,
         );
         assert!(output.status.success(), "storescu: {}", String::from_utf8_lossy(&output.stderr));
         assert_eq!(self.rest("/statistics").unwrap()["CountInstances"], 28, "{}", self.log());
@@ -144,25 +145,11 @@ impl Drop for Orthanc {
     }
 }
 
-/// Runs a command, killing it after [`PATIENCE`].
-fn run_bounded(command: &mut Command) -> Output {
-    let mut child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("the command runs");
-    let deadline = Instant::now() + PATIENCE;
-    while child.try_wait().unwrap().is_none() {
-        if Instant::now() > deadline {
-            let _ = child.kill();
-            panic!("{command:?} ran longer than {PATIENCE:?}");
-        }
-        std::thread::sleep(Duration::from_millis(20));
-    }
-    child.wait_with_output().unwrap()
-}
-
 /// `volasso pacs ARGS` with a bounded run time.
 fn pacs(args: &[&str], cache: &Path) -> Output {
     let mut command = Command::new(env!("CARGO_BIN_EXE_volasso"));
     command.arg("pacs").args(args).env("VOLASSO_CACHE_DIR", cache).env_remove("RUST_LOG").env_remove("VOLASSO_PACS");
-    run_bounded(&mut command)
+    run_within(&mut command, PATIENCE)
 }
 
 fn json_lines(output: &Output) -> Vec<serde_json::Value> {
@@ -240,21 +227,8 @@ fn a_study_found_retrieved_classified_exported_and_sent_back_lands_in_the_pacs_s
     let labels = classify_series(folder.path(), &retrieved);
     let (seg, sc, png) = (folder.path().join("seg.dcm"), folder.path().join("sc.dcm"), folder.path().join("view.png"));
     picture(&png);
-    let output = volasso(
-        &[
-            "export",
-            retrieved.to_str().unwrap(),
-            "--labels",
-            labels.to_str().unwrap(),
-            "--seg",
-            seg.to_str().unwrap(),
-            "--sc",
-            sc.to_str().unwrap(),
-            "--sc-image",
-            png.to_str().unwrap(),
-        ],
-        &cache,
-    );
+    let outputs = ["--seg", seg.to_str().unwrap(), "--sc", sc.to_str().unwrap(), "--sc-image", png.to_str().unwrap()];
+    let output = export(folder.path(), &retrieved, &labels, &outputs);
     assert!(output.status.success(), "export: {}", String::from_utf8_lossy(&output.stderr));
     let output = pacs(&["send", "--pacs", &orthanc.address(), seg.to_str().unwrap(), sc.to_str().unwrap()], &cache);
     assert!(output.status.success(), "send: {}", String::from_utf8_lossy(&output.stderr));
@@ -292,21 +266,8 @@ fn a_pacs_that_is_down_refuses_or_fails_a_store_gives_one_error_and_nothing_half
     let labels = classify_philips(folder.path());
     let (seg, sc, png) = (folder.path().join("seg.dcm"), folder.path().join("sc.dcm"), folder.path().join("view.png"));
     picture(&png);
-    let output = volasso(
-        &[
-            "export",
-            philips().to_str().unwrap(),
-            "--labels",
-            labels.to_str().unwrap(),
-            "--seg",
-            seg.to_str().unwrap(),
-            "--sc",
-            sc.to_str().unwrap(),
-            "--sc-image",
-            png.to_str().unwrap(),
-        ],
-        &cache,
-    );
+    let outputs = ["--seg", seg.to_str().unwrap(), "--sc", sc.to_str().unwrap(), "--sc-image", png.to_str().unwrap()];
+    let output = export(folder.path(), &philips(), &labels, &outputs);
     assert!(output.status.success(), "export: {}", String::from_utf8_lossy(&output.stderr));
     let (seg_text, sc_text) = (seg.to_str().unwrap(), sc.to_str().unwrap());
 

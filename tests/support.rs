@@ -3,6 +3,22 @@
 use std::path::{Path, PathBuf};
 use std::process::Output;
 
+/// Runs `command` with its output captured, killing it (and failing the test) once it has run
+/// longer than `limit`: a client or peer that hangs ends the test instead of the run.
+pub fn run_within(command: &mut std::process::Command, limit: std::time::Duration) -> Output {
+    use std::process::Stdio;
+    let mut child = command.stdout(Stdio::piped()).stderr(Stdio::piped()).spawn().expect("the command runs");
+    let deadline = std::time::Instant::now() + limit;
+    while child.try_wait().unwrap().is_none() {
+        if std::time::Instant::now() > deadline {
+            let _ = child.kill();
+            panic!("{command:?} ran longer than {limit:?}");
+        }
+        std::thread::sleep(std::time::Duration::from_millis(20));
+    }
+    child.wait_with_output().unwrap()
+}
+
 /// A file or folder of `../shared/data` (how CI sees the shared data beside the checkout).
 pub fn data(name: &str) -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("../shared/data").join(name)
