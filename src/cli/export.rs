@@ -19,7 +19,7 @@ use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::dicom_out::{ExportError, Segment, SourceSeries, secondary_capture, segmentation, write_object};
 use crate::render::headless::{Scene, render_to_image};
 use crate::render::{Camera, RenderSettings, gpu};
-use crate::transfer::{CLASS_TABLE_FORMAT, ClassStyle, class_table_path, hsv_to_rgb};
+use crate::transfer::{CLASS_TABLE_FORMAT, ClassStyle, class_table_path};
 use crate::volume::VoxelType;
 use clap::Args;
 use serde_json::json;
@@ -93,14 +93,8 @@ pub fn run(args: &ExportArgs) -> Result<(), CliError> {
     let label_bytes = labels.raw_bytes();
     let table = read_table(&table_path, label_bytes, labels_run(&args.labels).as_deref())?;
     let names = table.classes.unwrap_or_default();
-    let segments: Vec<Segment> = names
-        .iter()
-        .zip(&table.styles)
-        .map(|(name, style)| Segment {
-            label: name.clone(),
-            rgb: hsv_to_rgb(style.hue_degrees[0], style.saturation, style.value),
-        })
-        .collect();
+    let segments: Vec<Segment> =
+        names.iter().zip(&table.styles).map(|(name, style)| Segment::of_class(name.clone(), style)).collect();
     let seg = segmentation(&source, label_bytes, &segments)?;
     let sc = match &args.sc {
         None => None,

@@ -10,7 +10,7 @@ use super::{PacsJob, PacsReport, SendRequest};
 use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use volasso_dicom::dicom_out::{Segment, SourceSeries, secondary_capture, segmentation, write_object};
+use volasso_dicom::dicom_out::{SourceSeries, secondary_capture, segmentation, write_object};
 use volasso_dicom::pacs::{Peer, get_counting};
 use volasso_dicom::receive::SeriesReport;
 
@@ -74,9 +74,7 @@ fn published(reports: Vec<SeriesReport>) -> Result<Vec<PathBuf>, String> {
 /// `peer`, and removes the folder; the sentence for the screen.
 fn send(peer: &Peer, outbox: &Path, request: &SendRequest) -> Result<String, String> {
     let source = SourceSeries::read(&request.folder, request.series_uid.as_deref()).map_err(|e| e.to_string())?;
-    let segments: Vec<Segment> =
-        request.classes.iter().map(|(name, rgb)| Segment { label: name.clone(), rgb: *rgb }).collect();
-    let seg = segmentation(&source, &request.labels, &segments).map_err(|e| e.to_string())?;
+    let seg = segmentation(&source, &request.labels, &request.segments).map_err(|e| e.to_string())?;
     let sc = match &request.picture {
         Some(picture) => Some(secondary_capture(&source, picture).map_err(|e| e.to_string())?),
         None => None,

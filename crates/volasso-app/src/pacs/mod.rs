@@ -61,8 +61,8 @@ pub struct SendRequest {
     pub series_uid: Option<String>,
     /// One label per voxel in the series' order (0: no class).
     pub labels: std::sync::Arc<Vec<u8>>,
-    /// Per class (label 1, 2, ...): its name and sRGB colour in 0..=1.
-    pub classes: Vec<(String, [f32; 3])>,
+    /// Per class (label 1, 2, ...): its segment, name and colour.
+    pub segments: Vec<volasso_dicom::dicom_out::Segment>,
     /// The 3-D view as shown, for the Secondary Capture; `None`: the SEG alone.
     pub picture: Option<image::RgbaImage>,
 }

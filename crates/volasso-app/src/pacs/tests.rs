@@ -5,6 +5,7 @@ use super::*;
 use crate::worker::{Inline, Report, Task, Ticket, Worker};
 use std::sync::Arc;
 use std::time::Duration;
+use volasso_dicom::dicom_out::Segment;
 use volasso_dicom::pacs::SeriesFound;
 
 const TODAY: &str = "20261206";
@@ -146,7 +147,10 @@ fn send_to_pacs_says_why_it_cannot_and_reports_only_what_the_pacs_answered() {
         folder: dicom.path().to_path_buf(),
         series_uid: None,
         labels: Arc::new(vec![0, 1, 2]),
-        classes: vec![("Class 1".into(), [1.0, 0.0, 0.0]), ("Class 2".into(), [0.0, 1.0, 0.0])],
+        segments: vec![
+            Segment { label: "Class 1".into(), rgb: [1.0, 0.0, 0.0] },
+            Segment { label: "Class 2".into(), rgb: [0.0, 1.0, 0.0] },
+        ],
         picture: None,
     };
     let Some(PacsJob::Send { outbox, .. }) = model.update(PacsIntent::Send(request.clone()), TODAY) else {

@@ -13,7 +13,7 @@ use slint::{ComponentHandle, ModelRc, VecModel};
 use std::cell::RefCell;
 use std::rc::Rc;
 use volasso_core::phantom::source::VolumeSource;
-use volasso_core::transfer::style::hsv_to_rgb;
+use volasso_dicom::dicom_out::Segment;
 
 type Shared = Rc<RefCell<State>>;
 
@@ -78,11 +78,11 @@ pub(crate) fn send(window: &AppWindow, shared: &Shared) {
                         .get(index)
                         .map_or_else(|| format!("Class {} (not defined)", index + 1), |c| c.name.clone())
                 };
-                let classes = (classified.table.styles.iter().enumerate())
-                    .map(|(index, s)| (name(index), hsv_to_rgb(s.hue_degrees[0], s.saturation, s.value)))
+                let segments = (classified.table.styles.iter().enumerate())
+                    .map(|(index, style)| Segment::of_class(name(index), style))
                     .collect();
                 let picture = state.tools.picture.clone();
-                Some(SendRequest { folder, series_uid, labels: classified.labels.clone(), classes, picture })
+                Some(SendRequest { folder, series_uid, labels: classified.labels.clone(), segments, picture })
             })
         }
     };

@@ -25,6 +25,14 @@ pub struct Segment {
     pub rgb: [f32; 3],
 }
 
+impl Segment {
+    /// The segment of a class named `label` drawn with `style`: the colour at the start of its
+    /// hue range, at its saturation and value.
+    pub fn of_class(label: String, style: &volasso_core::transfer::ClassStyle) -> Segment {
+        Segment { label, rgb: volasso_core::transfer::hsv_to_rgb(style.hue_degrees[0], style.saturation, style.value) }
+    }
+}
+
 /// sRGB in [0, 1] to DICOM's scaled CIELab (PS3.3 C.10.7.1.1): L* 0..100 and a*, b* -128..127
 /// each mapped onto 0..65535; D65 white, as highdicom and dcmqi convert.
 pub fn cielab_value(rgb: [f32; 3]) -> [u16; 3] {
