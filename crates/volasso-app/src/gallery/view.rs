@@ -35,8 +35,6 @@ pub(crate) struct Results {
     listed: Vec<Listed>,
     /// Writes a kept result off the UI thread, a thread per save.
     writer: Box<dyn Worker<SaveJob, Result<PathBuf, GalleryError>>>,
-    /// A save was sent and its outcome not yet collected.
-    saving: bool,
     /// A result being opened: its volume key, camera and visibility, put back once it is open.
     pending: Option<(String, Camera, Vec<bool>)>,
     pub(crate) model: Rc<slint::VecModel<ResultCard>>,
@@ -51,7 +49,6 @@ impl Default for Results {
         Results {
             listed: Vec::new(),
             writer: Box::new(Threaded::new("gallery", task)),
-            saving: false,
             pending: None,
             model: Rc::default(),
         }
@@ -61,7 +58,7 @@ impl Default for Results {
 impl Results {
     /// A save is still being written.
     pub(crate) fn busy(&self) -> bool {
-        self.saving
+        self.writer.busy()
     }
 }
 
@@ -106,7 +103,6 @@ pub(crate) fn save(window: &AppWindow, state: &Shared) {
         Err(message) => message,
         Ok((data_dir, entry, picture)) => {
             state_ref.results.writer.send(SaveJob { data_dir, entry, picture });
-            state_ref.results.saving = true;
             "Saving to the gallery...".to_string()
         }
     };
@@ -150,13 +146,11 @@ pub(crate) fn poll(window: &AppWindow, state: &Shared) {
     let finished = {
         let mut state = state.borrow_mut();
         let results = &mut state.results;
-        let finished = match results.writer.poll() {
+        match results.writer.poll() {
             Some(delivery) => Some(delivery.output.map_err(|error| error.to_string())),
             // Its thread could not start, or stopped without a word (logged).
             None => results.writer.ended_silently().map(|_| Err("the gallery writer stopped".to_string())),
-        };
-        results.saving &= finished.is_none();
-        finished
+        }
     };
     if let Some(result) = finished {
         {

@@ -193,8 +193,6 @@ pub struct SnapshotJob {
 /// Takes snapshots on a thread per press and hands back their outcomes.
 pub struct SnapshotWriter {
     worker: Box<dyn Worker<SnapshotJob, Outcome>>,
-    /// Snapshots started whose outcome has not been polled.
-    in_flight: usize,
 }
 
 impl Default for SnapshotWriter {
@@ -203,7 +201,7 @@ impl Default for SnapshotWriter {
             Arc::new(|job: SnapshotJob, _: &Ticket, report: &Report<'_, Outcome>| {
                 report(take(&job.image, &job.volume, &job.places, job.time))
             });
-        SnapshotWriter { worker: Box::new(Threaded::new("snapshot", task)), in_flight: 0 }
+        SnapshotWriter { worker: Box::new(Threaded::new("snapshot", task)) }
     }
 }
 
@@ -211,18 +209,15 @@ impl SnapshotWriter {
     /// Starts writing `image`; the outcome comes from [`Self::poll`].
     pub fn start(&mut self, image: image::RgbaImage, volume: String, places: Places) {
         self.worker.send(SnapshotJob { image, volume, places, time: SystemTime::now() });
-        self.in_flight += 1;
     }
 
     /// A finished snapshot's outcome, if one is ready; never blocks.
     pub fn poll(&mut self) -> Option<Outcome> {
         if let Some(delivery) = self.worker.poll() {
-            self.in_flight = self.in_flight.saturating_sub(1);
             return Some(delivery.output);
         }
         if self.worker.ended_silently().is_some() {
             // Its writer could not start or stopped without an outcome (logged).
-            self.in_flight = self.in_flight.saturating_sub(1);
             return Some(Outcome {
                 written: Vec::new(),
                 problems: vec!["Snapshot not saved: its writer stopped".into()],
@@ -233,7 +228,7 @@ impl SnapshotWriter {
 
     /// True while a snapshot is being written.
     pub fn busy(&self) -> bool {
-        self.in_flight > 0
+        self.worker.busy()
     }
 }
 
