@@ -373,6 +373,7 @@ impl App {
             pacs: pacs::view::Pacs {
                 model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), outbox(&config)),
                 worker: pacs::jobs::threaded(),
+                shown_rows: Vec::new(),
             },
             polls_without_work: 0,
             config,

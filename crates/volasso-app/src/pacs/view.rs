@@ -21,6 +21,9 @@ type Shared = Rc<RefCell<State>>;
 pub(crate) struct Pacs {
     pub(crate) model: PacsModel,
     pub(crate) worker: Box<dyn Worker<super::PacsJob, super::PacsReport>>,
+    /// The study rows last written into Session: the list is set again only when they change
+    /// (a keypad key changes none).
+    pub(crate) shown_rows: Vec<super::StudyRow>,
 }
 
 impl Pacs {
@@ -114,23 +117,29 @@ pub(crate) fn poll(window: &AppWindow, shared: &Shared) {
 
 /// Writes the model into Session.
 pub(crate) fn push(window: &AppWindow, shared: &Shared) {
+    let session = window.global::<Session>();
+    {
+        let mut state = shared.borrow_mut();
+        let rows = state.pacs.model.rows();
+        if rows != state.pacs.shown_rows {
+            let shown: Vec<StudyRow> = rows
+                .iter()
+                .map(|row| StudyRow {
+                    name: row.name.clone().into(),
+                    patient_id: row.patient_id.clone().into(),
+                    date: row.date.clone().into(),
+                    description: row.description.clone().into(),
+                    detail: row.detail.clone().into(),
+                })
+                .collect();
+            session.set_pacs_studies(ModelRc::new(VecModel::from(shown)));
+            state.pacs.shown_rows = rows;
+        }
+    }
     let state = shared.borrow();
     let model = &state.pacs.model;
-    let session = window.global::<Session>();
     session.set_pacs_name(model.peer_name().into());
     session.set_pacs_several(model.has_several_peers());
-    let rows: Vec<StudyRow> = model
-        .rows()
-        .into_iter()
-        .map(|row| StudyRow {
-            name: row.name.into(),
-            patient_id: row.patient_id.into(),
-            date: row.date.into(),
-            description: row.description.into(),
-            detail: row.detail.into(),
-        })
-        .collect();
-    session.set_pacs_studies(ModelRc::new(VecModel::from(rows)));
     session.set_pacs_typed(model.typed.clone().into());
     session.set_pacs_by_accession(model.field == super::SearchField::Accession);
     session.set_pacs_message(model.message.clone().into());
