@@ -8,16 +8,13 @@ use super::{Screen, State};
 use crate::lasso::slice_actions::{
     choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice,
 };
+use crate::view3d::interaction::ViewIntent;
+use crate::view3d::tools::view_intent;
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::Rc;
 use std::time::Duration;
-use volasso_core::render::Camera;
 use volasso_core::transfer::{HueTemplate, TemplateType};
-
-/// Degrees the volume turns per pixel of one-finger drag.
-const ORBIT_DEGREES_PER_PIXEL: f32 = 0.4;
-const ZOOM_RANGE: (f32, f32) = (0.25, 8.0);
 
 type Shared = Rc<RefCell<State>>;
 
@@ -96,30 +93,20 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
         let template = s.borrow().template().template;
         set_template(&w, s, HueTemplate::new(template, degrees as f32));
     }));
-    session.on_reset_view(handler!(window, state, idle, |_w, s| {
-        let mut state = s.borrow_mut();
-        state.camera = state.home_camera;
-        state.view_dirty = true;
-    }));
-    // While clipping, one finger moves the clip plane instead of orbiting (view_tools.rs).
-    session.on_view_press(handler!(window, state, idle, |_w, s, x: f32, y: f32| {
-        if !crate::view3d::tools::clip_press(s, [x, y]) {
-            s.borrow_mut().orbit_from = Some([x, y]);
-        }
+    // The 3-D view's touches and buttons are intents of its model (view3d/interaction.rs);
+    // while clipping, one finger moves the clip plane instead of orbiting.
+    session.on_reset_view(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ResetView) }));
+    session.on_view_press(handler!(window, state, idle, |w, s, x: f32, y: f32| {
+        view_intent(&w, s, ViewIntent::Press([x, y]))
     }));
     session.on_view_drag(handler!(window, state, idle, |w, s, x: f32, y: f32| {
-        if !crate::view3d::tools::clip_drag(&w, s, [x, y]) {
-            orbit(s, [x, y])
-        }
+        let view_height = w.global::<Session>().get_view_height().max(1.0) as u32;
+        view_intent(&w, s, ViewIntent::Drag { to: [x, y], view_height })
     }));
-    session.on_view_release(handler!(window, state, idle, |_w, s| {
-        crate::view3d::tools::clip_release(s);
-        let mut state = s.borrow_mut();
-        state.orbit_from = None;
-        state.view_dirty = true;
+    session.on_view_release(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::Release) }));
+    session.on_view_zoom(handler!(window, state, idle, |w, s, zoom: f32| {
+        view_intent(&w, s, ViewIntent::Gesture { zoom, pan_pixels: [0.0; 2], turn_degrees: 0.0 })
     }));
-    session
-        .on_view_zoom(handler!(window, state, idle, |_w, s, factor: f32| { view_gesture(s, factor, [0.0; 2], 0.0) }));
     session.on_dismiss_banner(handler!(window, state, idle, |w, s| {
         s.borrow_mut().banner.clear();
         refresh::push_status(&w, s);
@@ -128,8 +115,8 @@ pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) 
     session.on_class_opacity(handler!(window, state, idle, |w, s, index: i32, percent: i32| {
         crate::view3d::tools::class_opacity(&w, s, index, percent)
     }));
-    session.on_toggle_clip(handler!(window, state, idle, |w, s| { crate::view3d::tools::toggle_clip(&w, s) }));
-    session.on_reset_clip(handler!(window, state, idle, |w, s| { crate::view3d::tools::reset_clip(&w, s) }));
+    session.on_toggle_clip(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ToggleClip) }));
+    session.on_reset_clip(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ResetClip) }));
     session.on_snapshot(handler!(window, state, idle, |w, s| { crate::view3d::tools::snapshot(&w, s) }));
     // The gallery: keep the current result, open a kept one (results.rs).
     session.on_save_result(handler!(window, state, idle, |w, s| { crate::gallery::view::save(&w, s) }));
@@ -173,8 +160,7 @@ fn reset_to_start(window: &AppWindow, state: &Shared) {
         state.panel_pictures.clear();
         state.restore = None;
         state.restore_unconfirmed = false;
-        state.camera = Camera::default();
-        state.home_camera = Camera::default();
+        state.view.forget();
         state.banner.clear();
         state.status.clear();
     }
@@ -230,38 +216,4 @@ fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {
 fn set_template(window: &AppWindow, state: &Shared, template: HueTemplate) {
     let changed = state.borrow_mut().ctl.choose_template(template);
     refresh::apply(window, state, changed);
-}
-
-fn orbit(state: &Shared, to: [f32; 2]) {
-    let mut state = state.borrow_mut();
-    let Some(from) = state.orbit_from else { return };
-    let camera = &mut state.camera;
-    camera.azimuth_degrees -= (to[0] - from[0]) * ORBIT_DEGREES_PER_PIXEL;
-    camera.elevation_degrees =
-        (camera.elevation_degrees + (to[1] - from[1]) * ORBIT_DEGREES_PER_PIXEL).clamp(-89.0, 89.0);
-    state.orbit_from = Some(to);
-    state.view_dirty = true;
-}
-
-pub(super) fn view_gesture(state: &Shared, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
-    let mut state = state.borrow_mut();
-    let extent_mm = state.ctl.work.as_ref().map(|work| {
-        let volume = &work.loaded.volume;
-        std::array::from_fn::<f32, 3, _>(|a| (volume.dims[a] as f64 * volume.spacing_mm[a]) as f32)
-    });
-    let [width, height] = state.view_size;
-    let camera = &mut state.camera;
-    if zoom.is_finite() && zoom > 0.0 {
-        camera.zoom = (camera.zoom * zoom).clamp(ZOOM_RANGE.0, ZOOM_RANGE.1);
-    }
-    if let Some(extent_mm) = extent_mm
-        && pan_pixels.iter().all(|p| p.is_finite())
-        && width > 0
-    {
-        camera.pan_by_pixels(pan_pixels[0], pan_pixels[1], extent_mm, width, height);
-    }
-    if turn_degrees.is_finite() {
-        camera.azimuth_degrees -= turn_degrees;
-    }
-    state.view_dirty = true;
 }

@@ -70,7 +70,6 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
 use ui::AppWindow;
-use volasso_core::render::Camera;
 use volasso_core::slices::{Axis, DisplayWindow, SliceLayout};
 use volasso_core::strokes::StrokesFile;
 use volasso_core::transfer::HueTemplate;
@@ -244,16 +243,8 @@ struct State {
     /// Per panel, the volume (its address) and axis of the picture it shows, so a new picture
     /// keeps the old one in place only while both are the same.
     panel_pictures: Vec<(usize, Axis)>,
-    camera: Camera,
-    /// Where "Reset view" and a double tap take the camera: the volume's anterior view with
-    /// the head up when its orientation is known (`slices::HomeView`).
-    home_camera: Camera,
-    /// The last finger position of a one-finger orbit.
-    orbit_from: Option<[f32; 2]>,
-    /// A new 3-D frame is wanted (camera, classes or size changed).
-    view_dirty: bool,
-    /// The size the view was last drawn at.
-    view_size: [u32; 2],
+    /// The 3-D view's camera, what a finger on it does, its size and whether it needs a frame.
+    view: view3d::interaction::ViewModel,
     banner: String,
     status: String,
     /// A session read at start-up, applied once its volume is open.
@@ -304,7 +295,7 @@ impl State {
             || !self.ctl.renderer.settled()
             || self.painter.busy()
             || self.tools.snapshots.busy()
-            || self.view_dirty
+            || self.view.dirty
             || self.results.busy()
             || self.pacs.busy()
     }
@@ -355,11 +346,7 @@ impl App {
             ctl: Controller::new(config.session_dir.clone()),
             painter: painter::SlicePainter::new(),
             panel_pictures: Vec::new(),
-            camera: Camera::default(),
-            home_camera: Camera::default(),
-            orbit_from: None,
-            view_dirty: false,
-            view_size: [0, 0],
+            view: view3d::interaction::ViewModel::default(),
             banner,
             status: String::new(),
             restore_unconfirmed: restore.is_some(),
@@ -494,7 +481,7 @@ impl App {
     /// The 3-D view shows a whole frame at the size it is drawn at (not a smaller preview).
     pub fn view_whole(&self) -> bool {
         let size = self.window.global::<ui::Session>().get_view_picture().size();
-        let wanted = self.state.borrow().view_size;
+        let wanted = self.state.borrow().view.size;
         let scale = (view3d::MAX_PICTURE_SIDE as f32 / wanted[0].max(wanted[1]).max(1) as f32).min(1.0);
         let wanted = wanted.map(|side| ((side as f32 * scale) as u32).max(1));
         [size.width, size.height] == wanted
@@ -504,9 +491,8 @@ impl App {
     /// picture, `turn_degrees` turns it about the view direction (as azimuth).
     pub fn view_gesture(&self, zoom: f32, pan_pixels: [f32; 2], turn_degrees: f32) {
         // While clipping, the pan and the turn tilt the plane instead.
-        let (pan_pixels, turn_degrees) =
-            view3d::tools::clip_gesture(&self.window, &self.state, pan_pixels, turn_degrees);
-        callbacks::view_gesture(&self.state, zoom, pan_pixels, turn_degrees);
+        let gesture = view3d::interaction::ViewIntent::Gesture { zoom, pan_pixels, turn_degrees };
+        view3d::tools::view_intent(&self.window, &self.state, gesture);
     }
 
     /// A two-finger gesture on the slice normal to `axis`: `zoom` multiplies the zoom and

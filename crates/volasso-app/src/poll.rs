@@ -10,6 +10,7 @@ use super::controller::Changed;
 use super::refresh::{apply, push_status, to_slint_image};
 use super::ui::{AppWindow, Session};
 use super::view3d::RenderReply;
+use super::view3d::interaction::{Scene, ViewIntent};
 use crate::chooser::loading;
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
@@ -93,19 +94,16 @@ fn request_frame_if_needed(window: &AppWindow, state: &Shared) {
     let scale = window.window().scale_factor();
     let size = [session.get_view_width(), session.get_view_height()].map(|logical| (logical * scale).round() as u32);
     let mut state = state.borrow_mut();
-    if size != state.view_size {
-        state.view_size = size;
-        state.view_dirty = true;
-    }
+    state.view.update(ViewIntent::Resized(size), Scene::default());
     let classified = state.ctl.work.as_ref().is_some_and(|work| work.classified.is_some());
-    if !state.view_dirty || state.ctl.renderer.busy() || !classified || size[0] == 0 || size[1] == 0 {
+    if !state.view.dirty || state.ctl.renderer.busy() || !classified || size[0] == 0 || size[1] == 0 {
         if !classified {
-            state.view_dirty = false;
+            state.view.dirty = false;
         }
         return;
     }
-    state.view_dirty = false;
-    let size = if state.orbit_from.is_some() { size.map(|side| (side / 2).max(1)) } else { size };
-    let camera = state.camera;
+    state.view.dirty = false;
+    let size = if state.view.orbiting() { size.map(|side| (side / 2).max(1)) } else { size };
+    let camera = state.view.camera;
     state.ctl.renderer.request_frame(camera, size);
 }

@@ -58,7 +58,7 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         }
         "zoom" => format!("{:.1}", work.map_or(1.0, |w| w.zoom)),
         "feedback" => work.and_then(|w| w.feedback.as_ref()).map_or(String::new(), |(_, m)| m.clone()),
-        "camera" => format!("{:.1} {:.1}", state.camera.azimuth_degrees, state.camera.elevation_degrees),
+        "camera" => format!("{:.1} {:.1}", state.view.camera.azimuth_degrees, state.view.camera.elevation_degrees),
         "label-uploads" => state.ctl.renderer.label_uploads().to_string(),
         "clip" => state.ctl.look.clip.map_or("off".to_string(), |plane| {
             let [x, y, z] = plane.normal;
@@ -113,7 +113,7 @@ pub(super) fn result_digest(state: &State) -> String {
         })
     });
     let template = state.template();
-    let camera = &state.camera;
+    let camera = &state.view.camera;
     format!(
         "{}; classes {}; template {} {}; labels {labels:016x}; camera {:.1} {:.1} {:.2} {:.1},{:.1}",
         work.loaded.source.key(),

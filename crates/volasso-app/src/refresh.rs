@@ -42,7 +42,7 @@ pub(super) fn apply(window: &AppWindow, state: &Shared, changed: Changed) {
             Failure::Cleared | Failure::Unchanged => {}
         }
         if changed.view {
-            state.view_dirty = true;
+            state.view.dirty = true;
         }
     }
     if changed.view_cleared {

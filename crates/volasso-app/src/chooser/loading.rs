@@ -211,15 +211,14 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
         let mut state = state.borrow_mut();
         let home = loaded.volume.orientation.as_ref().map(HomeView::of);
         caption = home_caption(home.as_ref());
-        state.home_camera = match home {
+        state.view.open(match home {
             Some(home) => Camera {
                 azimuth_degrees: home.azimuth_degrees,
                 elevation_degrees: home.elevation_degrees,
                 ..Camera::default()
             },
             None => Camera::default(),
-        };
-        state.camera = state.home_camera;
+        });
         // Whether the scan can go back to the PACS; a send's answer belongs to the scan before.
         state.pacs.model.opened(&loaded.source);
         if !loaded.volume.warnings.is_empty() {

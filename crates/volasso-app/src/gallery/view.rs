@@ -134,7 +134,7 @@ fn prepare(state: &State, picture: Option<slint::SharedPixelBuffer<slint::Rgba8P
         session,
         volume_name: work.loaded.source.name(),
         saved_unix,
-        camera: state.camera,
+        camera: state.view.camera,
         visible: work.session.classes.iter().map(|class| class.visible).collect(),
     };
     Ok((data_dir, entry, picture))
@@ -185,8 +185,8 @@ fn put_back(window: &AppWindow, state: &Shared) {
         // The volume did not open (its card and the banner say why).
         return;
     }
-    state_ref.camera = camera;
-    state_ref.view_dirty = true;
+    state_ref.view.camera = camera;
+    state_ref.view.dirty = true;
     let mut changed = None;
     for (index, shown) in visible.into_iter().enumerate() {
         let class_shown = state_ref.ctl.work.as_ref().and_then(|w| w.session.classes.get(index)).map(|c| c.visible);

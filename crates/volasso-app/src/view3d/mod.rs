@@ -19,6 +19,7 @@
 //! Never: touches Slint; never renders on the UI thread.
 
 pub mod clip;
+pub mod interaction;
 pub mod snapshot;
 pub(crate) mod tools;
 

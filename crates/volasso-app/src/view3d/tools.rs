@@ -1,7 +1,7 @@
-//! The 3-D view's tools as the UI calls them: a class's opacity slider, the clip plane moved
-//! and tilted by touch (the plane's geometry is in clip.rs), and the snapshot (snapshot.rs).
-//! Each turns a `Session` callback into a controller change and pushes what changed, without
-//! rebuilding the class rows a finger is dragging on.
+//! The 3-D view's tools as the UI calls them: a class's opacity slider, the view's touches and
+//! buttons (camera and clip plane, decided by interaction.rs), and the snapshot (snapshot.rs).
+//! Each turns a `Session` callback into a change and pushes what changed, without rebuilding
+//! the class rows a finger is dragging on.
 //!
 //! Never: draws, reads input devices or touches the disk itself.
 
@@ -9,6 +9,7 @@ use crate::State;
 use crate::refresh;
 use crate::ui::{AppWindow, Session};
 use crate::view3d::clip;
+use crate::view3d::interaction::{Scene, ViewIntent};
 use crate::view3d::snapshot::{Places, SnapshotWriter};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
@@ -25,7 +26,7 @@ pub(crate) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, perc
         let mut state = state.borrow_mut();
         let changed = state.ctl.set_class_opacity(index, percent);
         if changed.view {
-            state.view_dirty = true;
+            state.view.dirty = true;
         }
         let opacity = (state.ctl.class_opacity(index) * 100.0).round() as i32;
         // The row is updated in place: replacing the model would end the finger's drag.
@@ -47,8 +48,6 @@ pub(crate) fn class_opacity(window: &AppWindow, state: &Shared, index: i32, perc
 /// What the view's tools keep between callbacks.
 #[derive(Default)]
 pub(crate) struct Tools {
-    /// The finger moving the clip plane: its last position.
-    clip_from: Option<[f32; 2]>,
     /// The newest whole picture of the 3-D view (what a snapshot writes).
     pub(crate) picture: Option<image::RgbaImage>,
     pub(crate) snapshots: SnapshotWriter,
@@ -71,7 +70,7 @@ fn set_clip(window: &AppWindow, state: &Shared, plane: Option<ClipPlane>, save: 
         let mut state = state.borrow_mut();
         state.ctl.look.clip = plane;
         state.ctl.renderer.set_clip(plane);
-        state.view_dirty = true;
+        state.view.dirty = true;
         if save {
             state.ctl.save();
         }
@@ -82,83 +81,20 @@ fn set_clip(window: &AppWindow, state: &Shared, plane: Option<ClipPlane>, save: 
     }
 }
 
-/// "Clip": on, the plane through the centre facing the viewer; off, nothing cut.
-pub(crate) fn toggle_clip(window: &AppWindow, state: &Shared) {
-    let plane = {
-        let state = state.borrow();
-        match (state.ctl.look.clip, open_extent(&state)) {
-            (Some(_), _) | (None, None) => None,
-            (None, Some(extent)) => Some(clip::initial(&state.camera, extent)),
-        }
-    };
-    set_clip(window, state, plane, true);
-}
-
-/// "Reset clip": the plane back where "Clip" put it, for the current view.
-pub(crate) fn reset_clip(window: &AppWindow, state: &Shared) {
-    let plane = {
-        let state = state.borrow();
-        state.ctl.look.clip.and(open_extent(&state)).map(|extent| clip::initial(&state.camera, extent))
-    };
-    if plane.is_some() {
-        set_clip(window, state, plane, true);
-    }
-}
-
-/// A finger down on the view: while clipping, it moves the plane (true); otherwise it orbits.
-pub(crate) fn clip_press(state: &Shared, at: [f32; 2]) -> bool {
-    let mut state = state.borrow_mut();
-    let clipping = state.ctl.look.clip.is_some();
-    state.tools.clip_from = clipping.then_some(at);
-    clipping
-}
-
-/// The finger moved: the plane follows (true) while clipping.
-pub(crate) fn clip_drag(window: &AppWindow, state: &Shared, to: [f32; 2]) -> bool {
-    let plane = {
+/// A touch or button on the 3-D view (`interaction::ViewIntent`): the model moves the camera
+/// or the clip plane; a new plane goes to the renderer, the slices and, once final, the session.
+pub(crate) fn view_intent(window: &AppWindow, state: &Shared, intent: ViewIntent) {
+    let effects = {
         let mut state = state.borrow_mut();
-        let (Some(from), Some(plane), Some(extent)) = (state.tools.clip_from, state.ctl.look.clip, open_extent(&state))
-        else {
-            return state.ctl.look.clip.is_some();
-        };
-        state.tools.clip_from = Some(to);
-        let height = window.global::<Session>().get_view_height().max(1.0) as u32;
-        clip::moved(plane, to[1] - from[1], height, extent)
+        let scene = Scene { extent_mm: open_extent(&state), clip: state.ctl.look.clip };
+        state.view.update(intent, scene)
     };
-    set_clip(window, state, Some(plane), false);
-    true
-}
-
-/// The finger lifted: the plane's place is saved (true) while clipping.
-pub(crate) fn clip_release(state: &Shared) -> bool {
-    let mut state = state.borrow_mut();
-    if state.tools.clip_from.take().is_none() {
-        return false;
+    if let Some(change) = effects.clip {
+        set_clip(window, state, change.plane, change.save);
     }
-    state.ctl.save();
-    true
-}
-
-/// A two-finger gesture while clipping: its pan and turn tilt the plane (and are used up);
-/// returns what is left for the camera.
-pub(crate) fn clip_gesture(
-    window: &AppWindow,
-    state: &Shared,
-    pan_pixels: [f32; 2],
-    turn_degrees: f32,
-) -> ([f32; 2], f32) {
-    if pan_pixels == [0.0; 2] && turn_degrees == 0.0 {
-        return (pan_pixels, turn_degrees);
+    if effects.save {
+        state.borrow_mut().ctl.save();
     }
-    let plane = {
-        let state = state.borrow();
-        let (Some(plane), Some(extent)) = (state.ctl.look.clip, open_extent(&state)) else {
-            return (pan_pixels, turn_degrees);
-        };
-        clip::tilted(plane, &state.camera, extent, pan_pixels, turn_degrees)
-    };
-    set_clip(window, state, Some(plane), true);
-    ([0.0; 2], 0.0)
 }
 
 /// "Snapshot": the 3-D view's newest picture to the data folder and any USB stick.
