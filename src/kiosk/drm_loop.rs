@@ -43,7 +43,8 @@ pub fn run(mut config: AppConfig, card: Option<PathBuf>, touch: TouchOptions) ->
     let panel_dpi = display.physical_size_mm().and_then(|mm| crate::app::dpi::from_physical_size(size, mm));
     config.dpi = Some(crate::app::dpi::resolve(config.dpi, panel_dpi));
     log::info!("panel {:?} mm, UI at {:.0} dpi", display.physical_size_mm(), config.dpi.unwrap_or_default());
-    let window = KioskWindow::install(size, Clock::Real(Instant::now()))?;
+    config.clock = Clock::Real(Instant::now());
+    let window = KioskWindow::install(size, config.clock.clone())?;
     let app = App::new(config).map_err(KioskError::StartUi)?;
     use slint::ComponentHandle;
     app.window().show().map_err(KioskError::ShowUi)?;

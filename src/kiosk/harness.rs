@@ -59,9 +59,10 @@ pub struct Harness {
 
 impl Harness {
     /// Installs the kiosk platform (once per process) and starts the app at `size` pixels.
-    pub fn new(config: AppConfig, size: [u32; 2]) -> Result<Harness, KioskError> {
+    pub fn new(mut config: AppConfig, size: [u32; 2]) -> Result<Harness, KioskError> {
         let now = Rc::new(Cell::new(Duration::ZERO));
-        let window = KioskWindow::install(size, Clock::Manual(now.clone()))?;
+        config.clock = Clock::Manual(now.clone());
+        let window = KioskWindow::install(size, config.clock.clone())?;
         let app = App::new(config).map_err(KioskError::StartUi)?;
         use slint::ComponentHandle;
         app.window().show().map_err(KioskError::ShowUi)?;

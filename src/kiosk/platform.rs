@@ -13,26 +13,12 @@ use super::KioskError;
 use slint::platform::software_renderer::{MinimalSoftwareWindow, RepaintBufferType, TargetPixel};
 use slint::platform::{Platform, WindowAdapter, WindowEvent};
 use slint::{PhysicalSize, PlatformError};
-use std::cell::Cell;
 use std::rc::Rc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
-/// Where Slint's timers and animations get the time from.
-#[derive(Clone, Debug)]
-pub enum Clock {
-    Real(Instant),
-    /// Advanced by the replay harness: scripted time, deterministic timers.
-    Manual(Rc<Cell<Duration>>),
-}
-
-impl Clock {
-    pub fn now(&self) -> Duration {
-        match self {
-            Clock::Real(start) => start.elapsed(),
-            Clock::Manual(now) => now.get(),
-        }
-    }
-}
+/// Where Slint's timers and animations get the time from: the app's clock, so its own
+/// accounting (the idle timeout) runs on the same time.
+pub use crate::app::clock::Clock;
 
 struct KioskPlatform {
     window: Rc<MinimalSoftwareWindow>,

@@ -13,147 +13,122 @@ use crate::view3d::tools::view_intent;
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::rc::Rc;
-use std::time::Duration;
 use volasso_core::transfer::{HueTemplate, TemplateType};
 
 type Shared = Rc<RefCell<State>>;
 
-/// Makes a callback closure that upgrades the window, restarts the idle timer and runs `body`.
+/// Makes a callback closure that upgrades the window, restarts the idle timeout and runs `body`.
 macro_rules! handler {
-    ($window:expr, $state:expr, $idle:expr, |$w:ident, $s:ident $(, $arg:ident : $ty:ty)*| $body:block) => {{
+    ($window:expr, $state:expr, |$w:ident, $s:ident $(, $arg:ident : $ty:ty)*| $body:block) => {{
         let weak = $window.as_weak();
         let state = $state.clone();
-        let idle = $idle.clone();
         move |$($arg: $ty),*| {
             if let Some($w) = weak.upgrade() {
                 let $s: &Shared = &state;
-                restart_idle_timer(&$w, $s, &idle);
+                touched($s);
                 $body
             }
         }
     }};
 }
 
-pub(super) fn wire(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+pub(super) fn wire(window: &AppWindow, state: &Shared) {
     let session = window.global::<Session>();
-    session.on_start(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
-    session.on_show_chooser(handler!(window, state, idle, |w, s| { show_chooser(&w, s) }));
-    session.on_open_volume(handler!(window, state, idle, |w, s, index: i32| {
+    session.on_start(handler!(window, state, |w, s| { show_chooser(&w, s) }));
+    session.on_show_chooser(handler!(window, state, |w, s| { show_chooser(&w, s) }));
+    session.on_open_volume(handler!(window, state, |w, s, index: i32| {
         crate::chooser::loading::open_volume(&w, s, index)
     }));
-    wire_pacs(window, state, idle);
-    session.on_lasso_down(handler!(
-        window,
-        state,
-        idle,
-        |w, s, panel: i32, x: f32, y: f32, width: f32, height: f32, ms: f32| {
-            lasso_down(&w, s, panel, [x, y], [width, height], ms as f64)
-        }
-    ));
-    session.on_lasso_move(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+    wire_pacs(window, state);
+    session.on_lasso_down(handler!(window, state, |w,
+                                                   s,
+                                                   panel: i32,
+                                                   x: f32,
+                                                   y: f32,
+                                                   width: f32,
+                                                   height: f32,
+                                                   ms: f32| {
+        lasso_down(&w, s, panel, [x, y], [width, height], ms as f64)
+    }));
+    session.on_lasso_move(handler!(window, state, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
         lasso_move(&w, s, panel, [x, y], ms as f64)
     }));
-    session.on_lasso_up(handler!(window, state, idle, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
+    session.on_lasso_up(handler!(window, state, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
         lasso_up(&w, s, panel, [x, y], ms as f64)
     }));
-    session.on_enlarge(handler!(window, state, idle, |w, s, panel: i32| { enlarge(&w, s, panel) }));
-    session.on_shrink(handler!(window, state, idle, |w, s| { shrink(&w, s) }));
-    session.on_choose_window(handler!(window, state, idle, |w, s, name: slint::SharedString| {
-        choose_window(&w, s, &name)
-    }));
-    session.on_step_slice(handler!(window, state, idle, |w, s, panel: i32, delta: i32| {
-        step_slice(&w, s, panel, delta)
-    }));
-    session.on_scrub_slice(handler!(window, state, idle, |w, s, panel: i32, slice: i32| {
-        scrub_slice(&w, s, panel, slice)
-    }));
-    session.on_define_class(handler!(window, state, idle, |w, s| {
+    session.on_enlarge(handler!(window, state, |w, s, panel: i32| { enlarge(&w, s, panel) }));
+    session.on_shrink(handler!(window, state, |w, s| { shrink(&w, s) }));
+    session
+        .on_choose_window(handler!(window, state, |w, s, name: slint::SharedString| { choose_window(&w, s, &name) }));
+    session.on_step_slice(handler!(window, state, |w, s, panel: i32, delta: i32| { step_slice(&w, s, panel, delta) }));
+    session
+        .on_scrub_slice(handler!(window, state, |w, s, panel: i32, slice: i32| { scrub_slice(&w, s, panel, slice) }));
+    session.on_define_class(handler!(window, state, |w, s| {
         refresh::edit_session(&w, s, |session| session.define_class().map(|_| ()))
     }));
-    session.on_undo(handler!(window, state, idle, |w, s| { refresh::edit_session(&w, s, |session| session.undo()) }));
-    session.on_clear(handler!(window, state, idle, |w, s| {
+    session.on_undo(handler!(window, state, |w, s| { refresh::edit_session(&w, s, |session| session.undo()) }));
+    session.on_clear(handler!(window, state, |w, s| {
         refresh::edit_session(&w, s, |session| {
             session.clear();
             Ok(())
         })
     }));
-    session.on_delete_class(handler!(window, state, idle, |w, s, index: i32| {
+    session.on_delete_class(handler!(window, state, |w, s, index: i32| {
         refresh::edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
     }));
-    session.on_toggle_class(handler!(window, state, idle, |w, s, index: i32| { toggle_class(&w, s, index) }));
-    session.on_toggle_unsure(handler!(window, state, idle, |w, s| { super::guidance::toggle_unsure(&w, s) }));
-    session.on_draw_here_next(handler!(window, state, idle, |w, s| { super::guidance::draw_here_next(&w, s) }));
-    session.on_choose_template(handler!(window, state, idle, |w, s, name: slint::SharedString| {
+    session.on_toggle_class(handler!(window, state, |w, s, index: i32| { toggle_class(&w, s, index) }));
+    session.on_toggle_unsure(handler!(window, state, |w, s| { super::guidance::toggle_unsure(&w, s) }));
+    session.on_draw_here_next(handler!(window, state, |w, s| { super::guidance::draw_here_next(&w, s) }));
+    session.on_choose_template(handler!(window, state, |w, s, name: slint::SharedString| {
         let rotation = s.borrow().template().rotation_degrees;
         if let Some(template) = TemplateType::from_name(&name) {
             set_template(&w, s, HueTemplate::new(template, rotation));
         }
     }));
-    session.on_rotate_template(handler!(window, state, idle, |w, s, degrees: i32| {
+    session.on_rotate_template(handler!(window, state, |w, s, degrees: i32| {
         let template = s.borrow().template().template;
         set_template(&w, s, HueTemplate::new(template, degrees as f32));
     }));
     // The 3-D view's touches and buttons are intents of its model (view3d/interaction.rs);
     // while clipping, one finger moves the clip plane instead of orbiting.
-    session.on_reset_view(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ResetView) }));
-    session.on_view_press(handler!(window, state, idle, |w, s, x: f32, y: f32| {
+    session.on_reset_view(handler!(window, state, |w, s| { view_intent(&w, s, ViewIntent::ResetView) }));
+    session.on_view_press(handler!(window, state, |w, s, x: f32, y: f32| {
         view_intent(&w, s, ViewIntent::Press([x, y]))
     }));
-    session.on_view_drag(handler!(window, state, idle, |w, s, x: f32, y: f32| {
+    session.on_view_drag(handler!(window, state, |w, s, x: f32, y: f32| {
         let view_height = w.global::<Session>().get_view_height().max(1.0) as u32;
         view_intent(&w, s, ViewIntent::Drag { to: [x, y], view_height })
     }));
-    session.on_view_release(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::Release) }));
-    session.on_view_zoom(handler!(window, state, idle, |w, s, zoom: f32| {
+    session.on_view_release(handler!(window, state, |w, s| { view_intent(&w, s, ViewIntent::Release) }));
+    session.on_view_zoom(handler!(window, state, |w, s, zoom: f32| {
         view_intent(&w, s, ViewIntent::Gesture { zoom, pan_pixels: [0.0; 2], turn_degrees: 0.0 })
     }));
-    session.on_dismiss_banner(handler!(window, state, idle, |w, s| {
+    session.on_dismiss_banner(handler!(window, state, |w, s| {
         s.borrow_mut().banner.clear();
         refresh::push_status(&w, s);
     }));
     // The 3-D view's tools (per-class opacity, clip plane, snapshot).
-    session.on_class_opacity(handler!(window, state, idle, |w, s, index: i32, percent: i32| {
+    session.on_class_opacity(handler!(window, state, |w, s, index: i32, percent: i32| {
         crate::view3d::tools::class_opacity(&w, s, index, percent)
     }));
-    session.on_toggle_clip(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ToggleClip) }));
-    session.on_reset_clip(handler!(window, state, idle, |w, s| { view_intent(&w, s, ViewIntent::ResetClip) }));
-    session.on_snapshot(handler!(window, state, idle, |w, s| { crate::view3d::tools::snapshot(&w, s) }));
+    session.on_toggle_clip(handler!(window, state, |w, s| { view_intent(&w, s, ViewIntent::ToggleClip) }));
+    session.on_reset_clip(handler!(window, state, |w, s| { view_intent(&w, s, ViewIntent::ResetClip) }));
+    session.on_snapshot(handler!(window, state, |w, s| { crate::view3d::tools::snapshot(&w, s) }));
     // The gallery: keep the current result, open a kept one (results.rs).
-    session.on_save_result(handler!(window, state, idle, |w, s| { crate::gallery::view::save(&w, s) }));
-    session
-        .on_open_result(handler!(window, state, idle, |w, s, index: i32| { crate::gallery::view::open(&w, s, index) }));
+    session.on_save_result(handler!(window, state, |w, s| { crate::gallery::view::save(&w, s) }));
+    session.on_open_result(handler!(window, state, |w, s, index: i32| { crate::gallery::view::open(&w, s, index) }));
 }
 
-/// Starts the idle timeout again; when it fires, the session is forgotten and the start
-/// screen comes back. The timeout counts from the later of the last touch and the end of the
-/// last work the user waits for (a volume opening, a classification, the 3-D view being
-/// drawn): a slow panel must not throw away the result the user is waiting for.
-pub(super) fn restart_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
-    let Some(timeout) = state.borrow().config.idle_timeout else { return };
-    start_idle_timer(window, state, idle, timeout, timeout);
+/// A touch: the idle timeout starts again (idle.rs).
+pub(super) fn touched(state: &Shared) {
+    let mut state = state.borrow_mut();
+    let now = state.config.clock.now();
+    state.idle.touched(now);
 }
 
-/// Starts the idle timer to fire after `wait`, for a timeout of `timeout`.
-fn start_idle_timer(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>, wait: Duration, timeout: Duration) {
-    let weak = window.as_weak();
-    let timer = Rc::downgrade(idle);
-    let state = state.clone();
-    idle.start(slint::TimerMode::SingleShot, wait, move || {
-        let Some(window) = weak.upgrade() else { return };
-        let without_work = {
-            let state = state.borrow();
-            if state.works_for_user() { Duration::ZERO } else { super::POLL_INTERVAL * state.polls_without_work }
-        };
-        match timer.upgrade() {
-            Some(timer) if without_work < timeout => {
-                start_idle_timer(&window, &state, &timer, timeout - without_work, timeout)
-            }
-            _ => reset_to_start(&window, &state),
-        }
-    });
-}
-
-fn reset_to_start(window: &AppWindow, state: &Shared) {
+/// The idle timeout passed: the session is forgotten and the start screen comes back, with
+/// its turntable.
+pub(super) fn reset_to_start(window: &AppWindow, state: &Shared) {
     {
         let mut state = state.borrow_mut();
         state.ctl.forget();
@@ -187,25 +162,25 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
 }
 
 /// The PACS screen's callbacks and "Send to PACS", each an intent of `pacs::PacsModel`.
-fn wire_pacs(window: &AppWindow, state: &Shared, idle: &Rc<slint::Timer>) {
+fn wire_pacs(window: &AppWindow, state: &Shared) {
     use super::pacs::view::{intent, send};
     use super::pacs::{PacsIntent, SearchField};
     let session = window.global::<Session>();
-    session.on_pacs_open(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Open) }));
-    session.on_pacs_key(handler!(window, state, idle, |w, s, key: slint::SharedString| {
+    session.on_pacs_open(handler!(window, state, |w, s| { intent(&w, s, PacsIntent::Open) }));
+    session.on_pacs_key(handler!(window, state, |w, s, key: slint::SharedString| {
         intent(&w, s, PacsIntent::Key(key.to_string()))
     }));
-    session.on_pacs_field(handler!(window, state, idle, |w, s, accession: bool| {
+    session.on_pacs_field(handler!(window, state, |w, s, accession: bool| {
         let field = if accession { SearchField::Accession } else { SearchField::PatientId };
         intent(&w, s, PacsIntent::Field(field))
     }));
-    session.on_pacs_search(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Search) }));
-    session.on_pacs_today(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::Today) }));
-    session.on_pacs_retrieve(handler!(window, state, idle, |w, s, row: i32| {
+    session.on_pacs_search(handler!(window, state, |w, s| { intent(&w, s, PacsIntent::Search) }));
+    session.on_pacs_today(handler!(window, state, |w, s| { intent(&w, s, PacsIntent::Today) }));
+    session.on_pacs_retrieve(handler!(window, state, |w, s, row: i32| {
         intent(&w, s, PacsIntent::Retrieve(row.max(0) as usize))
     }));
-    session.on_pacs_next(handler!(window, state, idle, |w, s| { intent(&w, s, PacsIntent::NextPeer) }));
-    session.on_send_to_pacs(handler!(window, state, idle, |w, s| { send(&w, s) }));
+    session.on_pacs_next(handler!(window, state, |w, s| { intent(&w, s, PacsIntent::NextPeer) }));
+    session.on_send_to_pacs(handler!(window, state, |w, s| { send(&w, s) }));
 }
 
 fn toggle_class(window: &AppWindow, state: &Shared, index: i32) {

@@ -36,12 +36,14 @@ mod attract;
 pub mod autosave;
 mod callbacks;
 pub mod chooser;
+pub mod clock;
 mod controller;
 pub mod dpi;
 mod elements;
 pub use elements::Rect;
 pub mod gallery;
 mod guidance;
+mod idle;
 pub mod jobs;
 pub mod lasso;
 pub mod memory;
@@ -96,6 +98,8 @@ pub struct AppConfig {
     /// The PACS peers to query, retrieve from and send results to (`--pacs`); none: no PACS
     /// button.
     pub pacs: Vec<volasso_dicom::pacs::Peer>,
+    /// The clock of the platform's timers (scripted in the replay harness).
+    pub clock: clock::Clock,
 }
 
 impl Default for AppConfig {
@@ -109,6 +113,7 @@ impl Default for AppConfig {
             dpi: None,
             media_roots: view3d::snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
             pacs: Vec::new(),
+            clock: clock::Clock::default(),
         }
     }
 }
@@ -263,9 +268,9 @@ struct State {
     attract: attract::Attract,
     /// The PACS screen and "Send to PACS", with their worker.
     pacs: pacs::view::Pacs,
-    /// Polls in a row without work for the user ([`State::works_for_user`]): the idle
-    /// timeout counts from the later of the last touch and the end of that work.
-    polls_without_work: u32,
+    /// The idle timeout, counted from the later of the last touch and the end of the work
+    /// the user waits for ([`State::works_for_user`]).
+    idle: idle::Idle,
 }
 
 impl State {
@@ -306,7 +311,6 @@ pub struct App {
     window: AppWindow,
     state: Rc<RefCell<State>>,
     _poll_timer: slint::Timer,
-    idle_timer: Rc<slint::Timer>,
 }
 
 impl Drop for App {
@@ -362,16 +366,11 @@ impl App {
                 worker: pacs::jobs::threaded(),
                 shown_rows: Vec::new(),
             },
-            polls_without_work: 0,
+            idle: idle::Idle::new(config.idle_timeout, config.clock.now()),
             config,
         };
         let state = Rc::new(RefCell::new(state));
-        let app = App {
-            window,
-            state: state.clone(),
-            _poll_timer: slint::Timer::default(),
-            idle_timer: Rc::new(slint::Timer::default()),
-        };
+        let app = App { window, state: state.clone(), _poll_timer: slint::Timer::default() };
         {
             let session = app.window.global::<ui::Session>();
             let state = state.borrow();
@@ -380,16 +379,21 @@ impl App {
             session.set_volumes(state.volumes_model.clone().into());
             session.set_results(state.results.model.clone().into());
         }
-        callbacks::wire(&app.window, &state, &app.idle_timer);
+        callbacks::wire(&app.window, &state);
         pacs::view::push(&app.window, &state);
         let weak = app.window.as_weak();
         let polled = state.clone();
         app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
             if let Some(window) = weak.upgrade() {
                 poll::poll(&window, &polled);
-                let mut state = polled.borrow_mut();
-                state.polls_without_work =
-                    if state.works_for_user() { 0 } else { state.polls_without_work.saturating_add(1) };
+                let timed_out = {
+                    let mut state = polled.borrow_mut();
+                    let (now, working) = (state.config.clock.now(), state.works_for_user());
+                    state.idle.tick(now, working)
+                };
+                if timed_out {
+                    callbacks::reset_to_start(&window, &polled);
+                }
             }
         });
         app.start_up();
@@ -418,7 +422,6 @@ impl App {
         drop(state);
         refresh::push_volumes(&self.window, &self.state);
         refresh::push_status(&self.window, &self.state);
-        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
     }
 
     pub fn window(&self) -> &AppWindow {
@@ -437,7 +440,7 @@ impl App {
 
     /// A touch happened somewhere: the idle timeout starts again.
     pub fn note_input(&self) {
-        callbacks::restart_idle_timer(&self.window, &self.state, &self.idle_timer);
+        callbacks::touched(&self.state);
     }
 
     /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
