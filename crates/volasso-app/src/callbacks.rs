@@ -143,7 +143,7 @@ pub(super) fn reset_to_start(window: &AppWindow, state: &Shared) {
     window.global::<Session>().set_view_picture(slint::Image::default());
     refresh::push_work(window, state);
     refresh::show_screen(window, Screen::Start);
-    super::attract::begin(window, state);
+    super::attract::view::begin(window, state);
 }
 
 fn show_chooser(window: &AppWindow, state: &Shared) {
@@ -156,7 +156,7 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
             state.loader.thumbnails(sources);
         }
     }
-    super::attract::end(window, state);
+    super::attract::view::end(window, state);
     crate::gallery::view::refresh_cards(state);
     refresh::show_screen(window, Screen::Chooser);
 }

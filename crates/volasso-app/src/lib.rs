@@ -14,7 +14,10 @@
 //! imports run one way (callbacks and poll -> features -> refresh; `tests/architecture.rs`
 //! fails on a cycle). The PACS screen (`pacs/`) is the shape the rest is moving to: a
 //! Slint-free model updated by intents, its jobs behind the `Worker` trait (`worker.rs`), one
-//! glue file.
+//! glue file. So are the 3-D view's camera and clip plane (`view3d/interaction.rs`), the idle
+//! timeout (`idle.rs`, on the app's `clock.rs`) and the attract mode (`attract/`), each tested
+//! without a window, a thread or a GPU; the work on an open volume is plain data (`work.rs`),
+//! the set-up too (`config.rs`).
 //!
 //! Slices are shown as a radiologist expects them (`slices::SliceLayout`: axial, coronal and
 //! sagittal panels with the patient's directions at their edges; the stored order and
@@ -37,6 +40,8 @@ pub mod autosave;
 mod callbacks;
 pub mod chooser;
 pub mod clock;
+mod config;
+pub use config::{AppConfig, DEFAULT_IDLE_TIMEOUT};
 mod controller;
 pub mod dpi;
 mod elements;
@@ -58,13 +63,12 @@ pub mod session;
 pub mod ui;
 pub mod view3d;
 pub mod windowing;
+mod work;
 pub mod worker;
+use work::{PANEL_COUNT, Work};
 
-use chooser::library::{LoadedVolume, Loader, VolumeSource};
+use chooser::library::{Loader, VolumeSource};
 use controller::Controller;
-use jobs::ClassificationResult;
-use lasso::drawing::FingerPath;
-use session::WorkSession;
 use slint::ComponentHandle;
 use std::cell::RefCell;
 use std::path::PathBuf;
@@ -72,65 +76,9 @@ use std::rc::Rc;
 use std::sync::Arc;
 use std::time::Duration;
 use ui::AppWindow;
-use volasso_core::slices::{Axis, DisplayWindow, SliceLayout};
+use volasso_core::slices::Axis;
 use volasso_core::strokes::StrokesFile;
 use volasso_core::transfer::HueTemplate;
-use volasso_core::volume::OpenOptions;
-
-/// How the app is set up (`volasso ui` options).
-#[derive(Clone, Debug)]
-pub struct AppConfig {
-    /// The folder whose volumes the chooser offers (besides the demo).
-    pub data_dir: Option<PathBuf>,
-    /// Where the session is autosaved; `None`: no autosave.
-    pub session_dir: Option<PathBuf>,
-    /// After this long without a touch the app returns to the start screen and forgets the
-    /// session; `None`: never.
-    pub idle_timeout: Option<Duration>,
-    /// Open this volume at once instead of showing the start screen.
-    pub initial_volume: Option<VolumeSource>,
-    pub open_options: OpenOptions,
-    /// The panel's pixel density, which sizes touch targets and text ([`dpi`]); `None`:
-    /// [`dpi::DEFAULT_DPI`].
-    pub dpi: Option<f32>,
-    /// Where USB sticks are mounted (snapshots are copied onto each one found).
-    pub media_roots: Vec<PathBuf>,
-    /// The PACS peers to query, retrieve from and send results to (`--pacs`); none: no PACS
-    /// button.
-    pub pacs: Vec<volasso_dicom::pacs::Peer>,
-    /// The clock of the platform's timers (scripted in the replay harness).
-    pub clock: clock::Clock,
-}
-
-impl Default for AppConfig {
-    fn default() -> Self {
-        AppConfig {
-            data_dir: None,
-            session_dir: None,
-            idle_timeout: Some(DEFAULT_IDLE_TIMEOUT),
-            initial_volume: None,
-            open_options: OpenOptions::default(),
-            dpi: None,
-            media_roots: view3d::snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
-            pacs: Vec::new(),
-            clock: clock::Clock::default(),
-        }
-    }
-}
-
-/// Where results are written before they are sent to the PACS: the session folder's
-/// `outbox`, else the data folder's hidden `.outbox` (the chooser skips hidden folders).
-fn outbox(config: &AppConfig) -> Option<PathBuf> {
-    match (&config.session_dir, &config.data_dir) {
-        (Some(session_dir), _) => Some(session_dir.join("outbox")),
-        (None, Some(data_dir)) => Some(data_dir.join(".outbox")),
-        (None, None) => None,
-    }
-}
-
-/// Two minutes: long enough to think between lassos, short enough that a demo station is
-/// fresh for the next visitor.
-pub const DEFAULT_IDLE_TIMEOUT: Duration = Duration::from_secs(120);
 
 /// How often finished work is collected.
 pub(crate) const POLL_INTERVAL: Duration = Duration::from_millis(16);
@@ -146,88 +94,6 @@ pub enum Screen {
     Chooser = 1,
     Work = 2,
     Pacs = 3,
-}
-
-/// The panels of the work screen: axial, coronal, sagittal (`slices::plane_axes`).
-const PANEL_COUNT: usize = 3;
-
-/// One slice panel: which axis, where in that axis's ranking it stands, and how it lies on the
-/// screen.
-#[derive(Clone, Copy, Debug)]
-struct Panel {
-    axis: Axis,
-    /// 0 = the highest-ranked slice.
-    rank: usize,
-    slice: usize,
-    layout: SliceLayout,
-}
-
-/// An open volume and the user's work on it.
-struct Work {
-    loaded: LoadedVolume,
-    session: WorkSession,
-    panels: [Panel; PANEL_COUNT],
-    /// The finger path being drawn, on which panel.
-    drawing: Option<(usize, FingerPath)>,
-    /// The last path that broke off open, on which panel: a finger landing again where it left
-    /// goes on with it ([`FingerPath::resumed_or_new`]).
-    broken_off: Option<(usize, FingerPath)>,
-    classified: Option<ClassificationResult>,
-    /// Why the newest classification failed; `None` once one succeeds, and while fewer than
-    /// two classes are drawn. The last good result stays in `classified`.
-    failure: Option<String>,
-    /// The training data of the newest job started, so an unchanged set is not sent again.
-    requested: Option<StrokesFile>,
-    /// The display window of the slices and its name (a preset, or "Custom" after a drag).
-    window: DisplayWindow,
-    window_name: String,
-    /// The panel that fills the work area, if one does, with its zoom (1 = fits) and pan
-    /// (fractions of the visible area, from its centre).
-    enlarged: Option<usize>,
-    zoom: f32,
-    pan: [f32; 2],
-    /// Why the last path on a panel meant nothing, shown on that panel until the next touch.
-    feedback: Option<(usize, String)>,
-    /// The voxels the classifier is least sure of are striped on the slices (guidance.rs).
-    unsure_shown: bool,
-}
-
-impl Work {
-    /// The trained classifier and the survey of where it is unsure, for the classification
-    /// shown; `None` before one (or when its survey failed).
-    fn guidance(&self) -> Option<&jobs::Guidance> {
-        self.classified.as_ref()?.guidance.as_deref()
-    }
-
-    /// Work on a newly opened volume: no classes yet, each panel on its highest-ranked slice,
-    /// the volume's first display window.
-    fn new(loaded: LoadedVolume) -> Work {
-        let orientation = loaded.volume.orientation.as_ref();
-        let panels = volasso_core::slices::plane_axes(orientation).map(|axis| Panel {
-            axis,
-            rank: 0,
-            slice: loaded.entropies.axis(axis).top(),
-            layout: SliceLayout::new(orientation, axis),
-        });
-        let initial = loaded.windows.initial();
-        Work {
-            session: WorkSession::default(),
-            panels,
-            drawing: None,
-            broken_off: None,
-            classified: None,
-            failure: None,
-            requested: None,
-            window: initial.window,
-            window_name: initial.name.to_string(),
-            enlarged: None,
-            zoom: 1.0,
-            pan: [0.0; 2],
-            feedback: None,
-            unsure_shown: false,
-            loaded,
-        }
-    }
 }
 
 /// Everything the callbacks and the poll timer share (on the UI thread only).
@@ -362,7 +228,7 @@ impl App {
             results: gallery::view::Results::default(),
             attract: attract::Attract::default(),
             pacs: pacs::view::Pacs {
-                model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), outbox(&config)),
+                model: pacs::PacsModel::new(config.pacs.clone(), config.data_dir.clone(), config::outbox(&config)),
                 worker: pacs::jobs::threaded(),
                 shown_rows: Vec::new(),
             },

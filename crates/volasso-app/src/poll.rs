@@ -7,7 +7,7 @@
 
 use super::State;
 use super::controller::Changed;
-use super::refresh::{apply, push_status, to_slint_image};
+use super::refresh::{apply, push_status, rgba_to_slint_image, to_slint_image};
 use super::ui::{AppWindow, Session};
 use super::view3d::RenderReply;
 use super::view3d::interaction::{Scene, ViewIntent};
@@ -27,6 +27,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         loading::loader_event(window, state, event);
     }
     crate::gallery::view::poll(window, state);
+    crate::attract::view::tick(window, state);
     let changed = state.borrow_mut().ctl.poll();
     if changed != Changed::default() {
         apply(window, state, changed);
@@ -36,13 +37,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     let reply = state.borrow_mut().ctl.renderer.poll();
     match reply {
         Some(RenderReply::Picture(picture)) => {
-            let image = &picture.image;
-            let buffer = slint::SharedPixelBuffer::<slint::Rgba8Pixel>::clone_from_slice(
-                image.as_raw(),
-                image.width(),
-                image.height(),
-            );
-            window.global::<Session>().set_view_picture(slint::Image::from_rgba8(buffer));
+            window.global::<Session>().set_view_picture(rgba_to_slint_image(&picture.image));
             state.borrow_mut().tools.picture = Some(picture.image);
         }
         Some(RenderReply::Failed(error)) => {

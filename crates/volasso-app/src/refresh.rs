@@ -253,6 +253,13 @@ pub(super) fn push_lasso(window: &AppWindow, state: &Shared) {
     let _ = window;
 }
 
+/// A rendered picture (the 3-D view's, a turntable's) as Slint shows it.
+pub(crate) fn rgba_to_slint_image(image: &image::RgbaImage) -> slint::Image {
+    let buffer =
+        slint::SharedPixelBuffer::<slint::Rgba8Pixel>::clone_from_slice(image.as_raw(), image.width(), image.height());
+    slint::Image::from_rgba8(buffer)
+}
+
 pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {
     if image.width == 0 || image.height == 0 {
         return slint::Image::default();

@@ -103,6 +103,8 @@ pub struct ViewRenderer {
     /// Without a render thread ([`ViewRenderer::without_gpu`]): the requests wait here unread
     /// (held so that sending them succeeds).
     _unread: Option<Receiver<Request>>,
+    /// With [`ViewRenderer::blank_pictures`]: where every frame asked for is answered at once.
+    blank: Option<Sender<RenderReply>>,
 }
 
 impl Default for ViewRenderer {
@@ -130,6 +132,17 @@ impl ViewRenderer {
         ViewRenderer::over(requests, channel().1, None, Some(unread))
     }
 
+    /// A renderer with no thread and no GPU that answers every frame at once with a blank
+    /// picture of the size asked, filled with a grey from the camera's azimuth (so frames from
+    /// different sides differ). For the tests of logic that waits for pictures.
+    pub fn blank_pictures() -> ViewRenderer {
+        let (replies_sender, replies) = channel();
+        let (requests, unread) = channel();
+        let mut renderer = ViewRenderer::over(requests, replies, None, Some(unread));
+        renderer.blank = Some(replies_sender);
+        renderer
+    }
+
     /// A renderer that has asked for nothing yet, over these channels.
     fn over(
         requests: Sender<Request>,
@@ -146,6 +159,7 @@ impl ViewRenderer {
             settled: true,
             thread,
             _unread: unread,
+            blank: None,
         }
     }
 
@@ -218,6 +232,11 @@ impl ViewRenderer {
         let scale = (MAX_PICTURE_SIDE as f32 / size[0].max(size[1]).max(1) as f32).min(1.0);
         let size = size.map(|side| ((side as f32 * scale) as u32).max(1));
         let _ = self.requests.send(Request::Frame(FrameRequest { id: self.next_id, camera, size, preview }));
+        if let Some(blank) = &self.blank {
+            let grey = (camera.azimuth_degrees.rem_euclid(360.0) / 2.0) as u8;
+            let image = image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([grey, grey, grey, 255]));
+            let _ = blank.send(RenderReply::Picture(Picture { id: self.next_id, image, seconds: 0.0, whole: true }));
+        }
         self.awaited = Some(self.next_id);
         self.settled = false;
         self.next_id
