@@ -243,7 +243,7 @@ impl App {
             session.set_slices(state.slices_model.clone().into());
             session.set_classes(state.classes_model.clone().into());
             session.set_volumes(state.volumes_model.clone().into());
-            session.set_results(state.results.model.clone().into());
+            session.set_results(state.results.cards.clone().into());
         }
         callbacks::wire(&app.window, &state);
         pacs::view::push(&app.window, &state);
