@@ -79,29 +79,46 @@ pub struct Controller {
 /// The class opacity slider's range, in percent of the default rule's opacity.
 pub const MAX_OPACITY_PERCENT: i32 = 200;
 
-impl Controller {
-    /// A controller whose 3-D view renders on the GPU, on its render thread.
-    pub fn new(session_dir: Option<PathBuf>) -> Controller {
-        Controller::with_renderer(session_dir, ViewRenderer::new())
-    }
+/// The workers a controller drives: on the panel each on a thread of its own (the renderer on
+/// the GPU); in tests [`ControllerWorkers::inline`], which starts no thread and opens no GPU.
+pub struct ControllerWorkers {
+    pub renderer: ViewRenderer,
+    pub jobs: ClassificationJobs,
+    pub saver: AutosaveWriter,
+}
 
-    /// A controller that sends the 3-D view's requests to `renderer` (tests pass
-    /// [`ViewRenderer::without_gpu`]).
-    pub fn with_renderer(session_dir: Option<PathBuf>, renderer: ViewRenderer) -> Controller {
-        Controller::with_workers(session_dir, renderer, ClassificationJobs::default())
-    }
-
-    /// A controller over these workers (tests pass [`ClassificationJobs::inline`]).
-    pub fn with_workers(session_dir: Option<PathBuf>, renderer: ViewRenderer, jobs: ClassificationJobs) -> Controller {
-        Controller {
-            work: None,
-            jobs,
-            renderer,
+impl ControllerWorkers {
+    /// A render thread (the GPU opened there), a thread per classification, an autosave thread.
+    pub fn threaded() -> ControllerWorkers {
+        ControllerWorkers {
+            renderer: ViewRenderer::new(),
+            jobs: ClassificationJobs::default(),
             saver: AutosaveWriter::new(),
-            chosen_template: None,
-            session_dir,
-            look: SavedLook::default(),
         }
+    }
+
+    /// No thread and no GPU: classifications run at the next poll, the renderer takes requests
+    /// and draws nothing ([`ViewRenderer::without_gpu`]), the session is written at once.
+    #[cfg(test)]
+    pub fn inline() -> ControllerWorkers {
+        ControllerWorkers {
+            renderer: ViewRenderer::without_gpu(),
+            jobs: ClassificationJobs::inline(),
+            saver: AutosaveWriter::inline(),
+        }
+    }
+}
+
+impl Controller {
+    /// A controller whose workers run on threads and whose 3-D view renders on the GPU.
+    pub fn new(session_dir: Option<PathBuf>) -> Controller {
+        Controller::with_workers(session_dir, ControllerWorkers::threaded())
+    }
+
+    /// A controller over these workers.
+    pub fn with_workers(session_dir: Option<PathBuf>, workers: ControllerWorkers) -> Controller {
+        let ControllerWorkers { renderer, jobs, saver } = workers;
+        Controller { work: None, jobs, renderer, saver, chosen_template: None, session_dir, look: SavedLook::default() }
     }
 
     /// The classes the classifier is trained on: the defined ones, and the pending lassos as

@@ -26,11 +26,11 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
     (loaded, soft, bone)
 }
 
-/// A controller whose 3-D view opens no GPU (the tests check what it is sent) and whose
-/// classifications run on the test's thread, at the poll after they are asked for.
-fn without_gpu(session_dir: Option<std::path::PathBuf>) -> Controller {
-    let renderer = crate::view3d::ViewRenderer::without_gpu();
-    Controller::with_workers(session_dir, renderer, crate::jobs::ClassificationJobs::inline())
+/// A controller that starts no thread and opens no GPU: its 3-D view takes requests (the
+/// tests check what it is sent), its classifications run on the test's thread at the poll
+/// after they are asked for, and its session is written as it is handed over.
+fn inline(session_dir: Option<std::path::PathBuf>) -> Controller {
+    Controller::with_workers(session_dir, crate::controller::ControllerWorkers::inline())
 }
 
 fn draw(controller: &mut Controller, lassos: &[Lasso]) -> Changed {
@@ -81,7 +81,7 @@ fn requested_names(controller: &Controller) -> Vec<String> {
 #[test]
 fn lassos_become_classes_and_two_classes_are_classified() {
     let (loaded, soft, bone) = demo();
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     let opened = controller.open(Work::new(loaded), None);
     assert!(opened.classes && opened.view_cleared);
     assert!(!controller.jobs.busy());
@@ -123,7 +123,7 @@ fn a_loop_drawn_inside_another_class_s_loop_is_a_class_of_its_own() {
         points: vec![around(-8.0, -8.0), around(8.0, -8.0), around(8.0, 8.0), around(-8.0, 8.0)],
         ..inner.clone()
     };
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     controller.open(Work::new(loaded), None);
     draw(&mut controller, &[outer]);
     define(&mut controller);
@@ -137,7 +137,7 @@ fn a_loop_drawn_inside_another_class_s_loop_is_a_class_of_its_own() {
 #[test]
 fn undo_takes_back_lassos_and_the_classification_they_asked_for() {
     let (loaded, soft, bone) = demo();
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     controller.open(Work::new(loaded), None);
     draw(&mut controller, &soft);
     define(&mut controller);
@@ -168,7 +168,7 @@ fn undo_takes_back_lassos_and_the_classification_they_asked_for() {
 #[test]
 fn hiding_and_showing_a_class_restyles_without_sending_the_labels_again() {
     let (loaded, soft, bone) = demo();
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     controller.open(Work::new(loaded), None);
     draw(&mut controller, &soft);
     define(&mut controller);
@@ -200,7 +200,7 @@ fn a_saved_session_comes_back_on_its_volume_only() {
     let dir = folder.path().join("session");
     let (loaded, soft, bone) = demo();
     {
-        let mut controller = without_gpu(Some(dir.clone()));
+        let mut controller = inline(Some(dir.clone()));
         controller.open(Work::new(loaded), None);
         draw(&mut controller, &soft);
         define(&mut controller);
@@ -216,7 +216,7 @@ fn a_saved_session_comes_back_on_its_volume_only() {
 
     // Restored on the same volume: classes, template, and a classification on its way.
     let (loaded, _, _) = demo();
-    let mut restored = without_gpu(Some(dir.clone()));
+    let mut restored = inline(Some(dir.clone()));
     restored.open(Work::new(loaded), Some(saved.clone()));
     let work = restored.work.as_ref().unwrap();
     let names: Vec<&str> = work.session.classes.iter().map(|class| class.name.as_str()).collect();
@@ -227,7 +227,7 @@ fn a_saved_session_comes_back_on_its_volume_only() {
     // A session saved for another volume is not applied to this one.
     let (loaded, _, _) = demo();
     let other = SavedSession { volume: "/data/other.nrrd".into(), ..saved };
-    let mut fresh = without_gpu(None);
+    let mut fresh = inline(None);
     fresh.open(Work::new(loaded), Some(other));
     assert!(fresh.work.as_ref().unwrap().session.classes.is_empty());
     assert!(fresh.chosen_template.is_none());
@@ -303,7 +303,7 @@ fn lassoed_nan_voxels_fail_with_a_banner_that_names_the_voxel() {
             [1.0; 3],
             |x, y, z| if (5..11).contains(&x) && (5..11).contains(&y) { f32::NAN } else { two_materials(x, y, z) },
         );
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
     assert_failed(&controller, &changed, &["of class 'Class 1' is NaN", "cannot be trained on"]);
 }
@@ -316,7 +316,7 @@ fn values_near_the_float_limit_fail_with_a_banner_that_says_they_overflow() {
         8..16 => -3e38,
         _ => 400.0 + noise(x, y, z),
     };
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     let changed = classify_two(&mut controller, loaded([1.0; 3], huge), square(8, 4.5, 4.5), square(8, 20.5, 20.5));
     assert_failed(
         &controller,
@@ -337,7 +337,7 @@ fn a_spacing_of_ten_to_the_minus_thirty_never_reaches_the_classifier() {
 
 #[test]
 fn a_constant_volume_fails_with_a_banner_that_the_classes_cannot_be_told_apart() {
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     let changed =
         classify_two(&mut controller, loaded([1.0; 3], |_, _, _| 0.0), square(8, 4.5, 4.5), square(8, 20.5, 20.5));
     assert_failed(&controller, &changed, &["cannot be told apart", "is the volume constant?"]);
@@ -347,7 +347,7 @@ fn a_constant_volume_fails_with_a_banner_that_the_classes_cannot_be_told_apart()
 fn a_failure_keeps_the_last_good_result_and_the_next_success_clears_its_banner() {
     // The left half flat at 100: two loops there are one and the same material.
     let volume = loaded([1.0; 3], |x, y, z| if x < 16 { 100.0 } else { 400.0 + noise(x, y, z) });
-    let mut controller = without_gpu(None);
+    let mut controller = inline(None);
     let changed = classify_two(&mut controller, volume, square(8, 4.5, 4.5), square(8, 20.5, 20.5));
     assert_eq!(changed.failure, Failure::Cleared, "{changed:?}");
     define(&mut controller);

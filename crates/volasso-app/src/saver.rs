@@ -48,6 +48,13 @@ impl AutosaveWriter {
         AutosaveWriter { requests: thread.as_ref().map(|_| requests), thread }
     }
 
+    /// A writer without a thread: each request is carried out on the caller's thread as it is
+    /// handed over. For tests, which must start no thread.
+    #[cfg(test)]
+    pub fn inline() -> AutosaveWriter {
+        AutosaveWriter { requests: None, thread: None }
+    }
+
     /// Saves `session` into `session_dir` soon; returns at once.
     pub fn save(&self, session_dir: PathBuf, session: SavedSession) {
         self.send(Request::Save(session_dir, Box::new(session)));
@@ -159,5 +166,16 @@ mod tests {
         assert_eq!(volasso_core::atomic_file::syncs_on_this_thread(), syncs_before);
         volasso_core::atomic_file::write_atomically(&dir.join("probe"), |_| Ok(())).unwrap();
         assert!(volasso_core::atomic_file::syncs_on_this_thread() > syncs_before, "the counter counts");
+    }
+
+    #[test]
+    fn the_inline_writer_writes_as_it_is_handed_over() {
+        let folder = tempfile::tempdir().unwrap();
+        let dir = folder.path().join("session");
+        let writer = AutosaveWriter::inline();
+        writer.save(dir.clone(), session("a"));
+        assert_eq!(autosave::load(&dir).unwrap().volume, "a");
+        writer.forget(dir.clone());
+        assert!(!autosave::session_path(&dir).exists());
     }
 }

@@ -1,5 +1,5 @@
 use super::*;
-use crate::jobs::ClassificationJobs;
+use crate::controller::ControllerWorkers;
 use crate::view3d::ViewRenderer;
 use crate::worker::Inline;
 
@@ -9,7 +9,10 @@ const TICK: Duration = Duration::from_millis(16);
 fn attract() -> Attract {
     Attract::with_workers(Workers {
         loader: |options| Box::new(Inline::new(open_task(options))),
-        controller: || Controller::with_workers(None, ViewRenderer::blank_pictures(), ClassificationJobs::inline()),
+        controller: || {
+            let workers = ControllerWorkers { renderer: ViewRenderer::blank_pictures(), ..ControllerWorkers::inline() };
+            Controller::with_workers(None, workers)
+        },
     })
 }
 
