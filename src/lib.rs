@@ -51,6 +51,8 @@
 
 #![warn(missing_docs)]
 
+/// The appliance's settings file and audit log.
+pub use volasso_appliance as appliance;
 pub use volasso_core::{
     Volume, VolumeError, VoxelType, accuracy, atomic_file, calendar, classify, cpu, features, input_file, phantom,
     pipeline, render, rng, segmentation, slices, strokes, transfer, volume,

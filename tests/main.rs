@@ -44,6 +44,8 @@
 //! * `pacs`: `volasso pacs find|get|send` against Orthanc started on loopback: the Philips
 //!   series found, retrieved voxel for voxel, classified, exported and sent back into its study;
 //!   a PACS that is down, rejects the association or fails a C-STORE.
+//! * `settings`: `volasso settings show|set` and `volasso audit`: the settings in effect, one
+//!   clear line for a bad key or value, a damaged file shown as the safe defaults and kept.
 //! * `library`: the array entry of the pipeline labels as `volasso classify` does.
 //! * `support`: shared fixtures (paths, running the binary, writing test files).
 
@@ -69,4 +71,5 @@ mod replay;
 mod replay_gallery;
 mod replay_pacs;
 mod replay_sessions;
+mod settings;
 mod support;

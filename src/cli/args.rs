@@ -45,6 +45,10 @@ pub enum Command {
     /// Query, retrieve from and store to a PACS (DICOM C-FIND, C-GET, C-STORE as SCU).
     #[command(subcommand)]
     Pacs(super::pacs::PacsCommand),
+    /// The appliance's settings (`settings.toml` in the data folder): show them, or set one.
+    Settings(super::settings::SettingsArgs),
+    /// The appliance's audit log (scans opened, received, sent; settings changed), oldest first.
+    Audit(super::settings::AuditArgs),
 }
 
 #[derive(Debug, Args)]

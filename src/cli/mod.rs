@@ -17,6 +17,7 @@ mod receive;
 mod record;
 mod render;
 mod replay;
+mod settings;
 pub mod ui;
 
 pub use args::{Cli, Command, VolumeArgs};
@@ -74,6 +75,9 @@ pub enum CliError {
     /// A PACS could not be queried, retrieved from or stored to.
     #[error(transparent)]
     Pacs(#[from] crate::pacs::PacsError),
+    /// The appliance's settings cannot be read, changed or written.
+    #[error(transparent)]
+    Settings(#[from] crate::appliance::settings::SettingsError),
 }
 
 /// Runs the command line with the process's arguments.
@@ -116,6 +120,8 @@ pub fn run(cli: Cli) -> Result<(), CliError> {
         Some(Command::Receive(args)) => receive::run(&args),
         Some(Command::Export(args)) => export::run(&args),
         Some(Command::Pacs(command)) => pacs::run(&command),
+        Some(Command::Settings(args)) => settings::run(&args),
+        Some(Command::Audit(args)) => settings::run_audit(&args),
         None => ui::run(&ui::UiArgs::from_environment()?),
     }
 }

@@ -33,9 +33,10 @@ pub struct ReplayArgs {
     /// Where the session is autosaved and restored from.
     #[arg(long)]
     pub session_dir: Option<PathBuf>,
-    /// Seconds of script time without a touch before the start screen returns; 0 never.
-    #[arg(long, default_value_t = 120)]
-    pub idle_timeout: u64,
+    /// Seconds of script time without a touch before the start screen returns; 0 never
+    /// [default: the settings' `idle_timeout_s` in --data-dir, else 120].
+    #[arg(long)]
+    pub idle_timeout: Option<u64>,
     /// The screen's pixel density, which sizes touch targets and text (default 150).
     #[arg(long, value_parser = super::args::parse_dpi, value_name = "DPI")]
     pub dpi: Option<f32>,

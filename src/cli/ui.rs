@@ -3,6 +3,7 @@
 
 use super::CliError;
 use crate::app::{App, AppConfig};
+use crate::appliance::settings::{self, Effective, Settings};
 use crate::phantom::source::VolumeSource;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
@@ -32,9 +33,9 @@ pub struct UiArgs {
     #[arg(long, env = "VOLASSO_SESSION_DIR")]
     pub session_dir: Option<PathBuf>,
     /// Seconds without a touch before the start screen returns and the session is cleared;
-    /// 0 never.
-    #[arg(long, default_value_t = 120)]
-    pub idle_timeout: u64,
+    /// 0 never [default: the settings' `idle_timeout_s`, else 120].
+    #[arg(long)]
+    pub idle_timeout: Option<u64>,
     #[arg(long, value_enum, default_value_t = DisplayChoice::Auto)]
     pub display: DisplayChoice,
     /// A window instead of fullscreen (development).
@@ -49,9 +50,10 @@ pub struct UiArgs {
     /// Run without touch input on DRM.
     #[arg(long)]
     pub no_touch: bool,
-    /// Turns touch coordinates to match a rotated panel: 0, 90, 180 or 270 degrees.
-    #[arg(long, default_value_t = 0)]
-    pub touch_rotate: i32,
+    /// Turns touch coordinates to match a rotated panel: 0, 90, 180 or 270 degrees [default:
+    /// the settings' `panel.rotation_degrees`, else 0].
+    #[arg(long)]
+    pub touch_rotate: Option<i32>,
     #[arg(long)]
     pub touch_flip_x: bool,
     #[arg(long)]
@@ -65,37 +67,36 @@ pub struct UiArgs {
 }
 
 /// The PACS peers of the kiosk's PACS screen and "Send to PACS".
-#[derive(Debug, Args, Clone)]
+#[derive(Debug, Args, Clone, Default)]
 pub struct KioskPacsArgs {
     /// A PACS to query, retrieve from and send results to, as AE@host:port; repeatable, or
     /// several separated by commas (the PACS screen's "Next PACS" goes through them).
     #[arg(long = "pacs", env = "VOLASSO_PACS", value_delimiter = ',', value_name = "AE@HOST:PORT", value_parser = parse_peer)]
     pub pacs: Vec<String>,
-    /// This kiosk's AE title (the calling AE title).
-    #[arg(long = "ae-title", env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE", value_parser = parse_ae_title)]
-    pub ae_title: String,
+    /// This kiosk's AE title (the calling AE title) [default: the settings'
+    /// `receive.ae_title`, else VOLASSO].
+    #[arg(long = "ae-title", env = "VOLASSO_AE_TITLE", value_name = "TITLE", value_parser = parse_ae_title)]
+    pub ae_title: Option<String>,
     #[command(flatten)]
     pub tls: super::pacs::ClientTlsArgs,
-}
-
-impl Default for KioskPacsArgs {
-    fn default() -> Self {
-        KioskPacsArgs { pacs: Vec::new(), ae_title: "VOLASSO".into(), tls: Default::default() }
-    }
 }
 
 /// How long the kiosk waits for a PACS to connect or answer.
 const PACS_TIMEOUT: Duration = Duration::from_secs(30);
 
 impl KioskPacsArgs {
-    /// The peers (their addresses were checked when parsed), over TLS with `--tls-ca`.
-    pub fn peers(&self) -> Result<Vec<crate::pacs::Peer>, CliError> {
+    /// The peers (their addresses were checked when parsed), over TLS with `--tls-ca`: those
+    /// given here, else the settings' (`settings`), with this kiosk's AE title given here, else
+    /// the settings'.
+    pub fn peers(&self, settings: &Effective) -> Result<Vec<crate::pacs::Peer>, CliError> {
         let tls = self.tls.config()?;
+        let ae_title = self.ae_title.as_deref().unwrap_or(&settings.receive.ae_title);
         let peer = |text: &String| {
-            crate::pacs::Peer::parse(text, &self.ae_title, PACS_TIMEOUT)
+            crate::pacs::Peer::parse(text, ae_title, PACS_TIMEOUT)
                 .map(|peer| crate::pacs::Peer { tls: tls.clone(), ..peer })
         };
-        Ok(self.pacs.iter().map(peer).collect::<Result<_, _>>()?)
+        let given = if self.pacs.is_empty() { &settings.pacs } else { &self.pacs };
+        Ok(given.iter().map(peer).collect::<Result<_, _>>()?)
     }
 }
 
@@ -124,14 +125,30 @@ impl UiArgs {
 }
 
 impl UiArgs {
+    /// The appliance's settings in `--data-dir` (`settings.toml`; the defaults without one),
+    /// and why its file could not be used.
+    pub fn settings(&self) -> (Effective, Option<String>) {
+        let Some(data_dir) = &self.data_dir else { return (Settings::default().effective(), None) };
+        let loaded = settings::load(data_dir);
+        let problem = loaded.problem.map(|problem| {
+            log::error!("{problem}; the kiosk runs on the safe defaults");
+            format!("Running on the safe defaults: {problem}")
+        });
+        (loaded.settings.effective(), problem)
+    }
+
+    /// The app's set-up: each option given here, else the settings', else its default.
     pub fn config(&self) -> Result<AppConfig, CliError> {
+        let (settings, notice) = self.settings();
+        let idle_timeout = self.idle_timeout.unwrap_or(settings.idle_timeout_s);
         Ok(AppConfig {
             data_dir: self.data_dir.clone(),
             session_dir: self.session_dir.clone(),
-            idle_timeout: (self.idle_timeout > 0).then(|| Duration::from_secs(self.idle_timeout)),
+            idle_timeout: (idle_timeout > 0).then(|| Duration::from_secs(idle_timeout)),
             initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
-            dpi: self.dpi,
-            pacs: self.pacs.peers()?,
+            dpi: self.dpi.or(settings.panel.dpi),
+            pacs: self.pacs.peers(&settings)?,
+            notice,
             ..AppConfig::default()
         })
     }
@@ -169,7 +186,7 @@ fn run_drm(args: &UiArgs) -> Result<(), CliError> {
     let touch = crate::kiosk::drm_loop::TouchOptions {
         device: args.touch.clone(),
         disabled: args.no_touch,
-        rotation_degrees: args.touch_rotate,
+        rotation_degrees: args.touch_rotate.unwrap_or(i32::from(args.settings().0.panel.rotation_degrees)),
         flip_x: args.touch_flip_x,
         flip_y: args.touch_flip_y,
     };

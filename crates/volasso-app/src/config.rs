@@ -33,6 +33,8 @@ pub struct AppConfig {
     pub pacs: Vec<volasso_dicom::pacs::Peer>,
     /// The clock of the platform's timers (scripted in the replay harness).
     pub clock: clock::Clock,
+    /// Shown in the banner at start (the settings file could not be used, and why).
+    pub notice: Option<String>,
 }
 
 impl Default for AppConfig {
@@ -47,6 +49,7 @@ impl Default for AppConfig {
             media_roots: view3d::snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec(),
             pacs: Vec::new(),
             clock: clock::Clock::default(),
+            notice: None,
         }
     }
 }

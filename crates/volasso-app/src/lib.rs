@@ -206,6 +206,11 @@ impl App {
             Some(autosave::Restore::SetAside(set_aside)) => (None, set_aside.message()),
             Some(autosave::Restore::Nothing) | None => (None, String::new()),
         };
+        let banner = match &config.notice {
+            Some(notice) if banner.is_empty() => notice.clone(),
+            Some(notice) => format!("{notice}. {banner}"),
+            None => banner,
+        };
         let state = State {
             loader: Loader::new(config.open_options.clone()),
             sources,

@@ -1,0 +1,99 @@
+//! `volasso settings --data-dir DIR show | set KEY VALUE` and `volasso audit --data-dir DIR
+//! [--since WHEN]`: the appliance's settings file and audit log from the command line, for an
+//! installer and for hospital IT (the formats: `docs/interfaces.md`).
+
+use super::CliError;
+use crate::appliance::audit::{AuditLog, Event};
+use crate::appliance::settings;
+use clap::{Args, Subcommand};
+use std::path::PathBuf;
+
+#[derive(Debug, Args)]
+pub struct SettingsArgs {
+    /// The appliance's data folder, which holds `settings.toml`.
+    #[arg(long, env = "VOLASSO_DATA_DIR")]
+    pub data_dir: PathBuf,
+    #[command(subcommand)]
+    pub command: SettingsCommand,
+}
+
+#[derive(Debug, Subcommand)]
+pub enum SettingsCommand {
+    /// Print the settings in effect (each mode's defaults applied) as one JSON object; with a
+    /// settings file that cannot be used, the safe defaults and a non-zero exit status.
+    Show,
+    /// Change one setting (`default` gives it back to its mode) and write the file atomically.
+    Set {
+        /// mode, language, idle_timeout_s, retention_hours, usb_export, receive.enabled,
+        /// receive.ae_title, receive.port, receive.allowed_aes, pacs, panel.rotation_degrees or
+        /// panel.dpi.
+        key: String,
+        #[arg(allow_hyphen_values = true)]
+        value: String,
+    },
+}
+
+#[derive(Debug, Args)]
+pub struct AuditArgs {
+    /// The appliance's data folder, which holds `audit/`.
+    #[arg(long, env = "VOLASSO_DATA_DIR")]
+    pub data_dir: PathBuf,
+    /// Only events at or after this time: seconds since 1970, or a UTC date `YYYY-MM-DD`.
+    #[arg(long, value_parser = parse_since, value_name = "WHEN")]
+    pub since: Option<u64>,
+}
+
+pub fn run(args: &SettingsArgs) -> Result<(), CliError> {
+    match &args.command {
+        SettingsCommand::Show => {
+            let loaded = settings::load(&args.data_dir);
+            println!("{}", serde_json::to_string(&loaded.settings.effective()).unwrap_or_default());
+            match loaded.problem {
+                Some(problem) => Err(problem.into()),
+                None => Ok(()),
+            }
+        }
+        SettingsCommand::Set { key, value } => {
+            // A damaged file is refused, not overwritten: it is kept for whoever looks into it.
+            let mut current = settings::read(&args.data_dir)?.unwrap_or_default();
+            current.set(key, value)?;
+            settings::write(&args.data_dir, &current)?;
+            let detail = format!("{key}={}", value.trim());
+            AuditLog::new(&args.data_dir).record(now_unix(), Event::SettingsChanged, None, Some(&detail));
+            Ok(())
+        }
+    }
+}
+
+pub fn run_audit(args: &AuditArgs) -> Result<(), CliError> {
+    let entries = AuditLog::new(&args.data_dir)
+        .entries(args.since.unwrap_or(0))
+        .map_err(|source| CliError::Output { source, path: args.data_dir.join(crate::appliance::audit::FOLDER) })?;
+    for entry in entries {
+        println!("{}", serde_json::to_string(&entry).unwrap_or_default());
+    }
+    Ok(())
+}
+
+fn now_unix() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |since| since.as_secs())
+}
+
+/// Seconds since 1970, or `YYYY-MM-DD` (UTC midnight).
+fn parse_since(text: &str) -> Result<u64, String> {
+    if let Ok(seconds) = text.parse::<u64>() {
+        return Ok(seconds);
+    }
+    let parts: Vec<&str> = text.split('-').collect();
+    let [year, month, day] = parts[..] else { return Err(format!("{text:?} is not seconds since 1970 or YYYY-MM-DD")) };
+    let number = |part: &str, low: i64, high: i64| part.parse::<i64>().ok().filter(|n| (low..=high).contains(n));
+    let (Some(year), Some(month), Some(day)) = (number(year, 1970, 9999), number(month, 1, 12), number(day, 1, 31))
+    else {
+        return Err(format!("{text:?} is not seconds since 1970 or a date YYYY-MM-DD"));
+    };
+    let days = crate::calendar::days_from_civil(year, month, day);
+    if crate::calendar::civil_from_days(days) != [year, month, day] {
+        return Err(format!("{text:?} is not a day of the calendar"));
+    }
+    Ok(days as u64 * 86_400)
+}

@@ -1,0 +1,107 @@
+//! `volasso settings` and `volasso audit`: the appliance's settings file and audit log from the
+//! command line (`docs/interfaces.md`).
+
+use crate::support::{assert_clean_error, volasso};
+use std::path::Path;
+
+/// `volasso settings --data-dir DATA ARGS...`.
+fn run(data: &Path, args: &[&str]) -> std::process::Output {
+    let mut all = vec!["settings", "--data-dir", data.to_str().unwrap()];
+    all.extend_from_slice(args);
+    volasso(&all, data)
+}
+
+fn shown(data: &Path) -> serde_json::Value {
+    let output = run(data, &["show"]);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    serde_json::from_slice(&output.stdout).unwrap()
+}
+
+#[test]
+fn set_changes_one_setting_show_prints_what_is_in_effect_and_the_audit_log_says_who_changed_what() {
+    let data = tempfile::tempdir().unwrap();
+    let defaults = shown(data.path());
+    assert_eq!(defaults["mode"], "clinical");
+    assert_eq!(defaults["retention_hours"], 24);
+    assert_eq!(defaults["usb_export"], false);
+    for (key, value) in [("mode", "demo"), ("receive.port", "4242"), ("pacs", "ORTHANC@127.0.0.1:4242")] {
+        let output = run(data.path(), &["set", key, value]);
+        assert!(output.status.success(), "{key}: {}", String::from_utf8_lossy(&output.stderr));
+    }
+    let demo = shown(data.path());
+    assert_eq!(demo["mode"], "demo");
+    assert_eq!((demo["retention_hours"].clone(), demo["usb_export"].clone()), (0.into(), true.into()));
+    assert_eq!(demo["receive"]["port"], 4242);
+    assert_eq!(demo["pacs"], serde_json::json!(["ORTHANC@127.0.0.1:4242"]));
+    let audit = volasso(&["audit", "--data-dir", data.path().to_str().unwrap()], data.path());
+    assert!(audit.status.success());
+    let lines: Vec<serde_json::Value> =
+        String::from_utf8_lossy(&audit.stdout).lines().map(|line| serde_json::from_str(line).unwrap()).collect();
+    let details: Vec<&str> = lines.iter().map(|line| line["detail"].as_str().unwrap()).collect();
+    assert_eq!(details, ["mode=demo", "receive.port=4242", "pacs=ORTHANC@127.0.0.1:4242"]);
+    assert!(lines.iter().all(|line| line["event"] == "settings-changed"));
+    let later = volasso(&["audit", "--data-dir", data.path().to_str().unwrap(), "--since", "2999-01-01"], data.path());
+    assert!(later.status.success() && later.stdout.is_empty());
+}
+
+#[test]
+fn a_bad_key_or_value_is_one_clear_line_and_the_file_is_left_as_it_was() {
+    let data = tempfile::tempdir().unwrap();
+    assert!(run(data.path(), &["set", "mode", "demo"]).status.success());
+    let before = std::fs::read(data.path().join("settings.toml")).unwrap();
+    for (key, value, expected) in [
+        ("mode", "party", "clinical or demo"),
+        ("idle_timeout_s", "-30", "whole number"),
+        ("receive.port", "70000", "port"),
+        ("pacs", "ORTHANC@localhost", "port"),
+        ("colour", "red", "no setting is called"),
+    ] {
+        assert_clean_error(&run(data.path(), &["set", key, value]), expected, &format!("{key} {value}"));
+    }
+    assert_eq!(std::fs::read(data.path().join("settings.toml")).unwrap(), before);
+}
+
+#[test]
+fn a_damaged_file_shows_the_safe_defaults_with_its_problem_and_is_not_overwritten() {
+    let data = tempfile::tempdir().unwrap();
+    let file = data.path().join("settings.toml");
+    std::fs::write(&file, "mode = \"demo\"\nidle_timeout_s = -30\n").unwrap();
+    let output = run(data.path(), &["show"]);
+    assert_clean_error(&output, "line 2", "a negative timeout");
+    let defaults: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(defaults["mode"], "clinical", "nothing of the bad file applied");
+    assert_clean_error(&run(data.path(), &["set", "mode", "demo"]), "does not parse", "set on a damaged file");
+    assert_eq!(std::fs::read_to_string(&file).unwrap(), "mode = \"demo\"\nidle_timeout_s = -30\n");
+}
+
+/// Runs `volasso replay` on `script` (its text) with `data` as the data folder.
+fn replay_in(data: &Path, script: &str) -> std::process::Output {
+    let path = data.join("script.touch");
+    std::fs::write(&path, script).unwrap();
+    volasso(&["replay", path.to_str().unwrap(), "--data-dir", data.to_str().unwrap()], &data.join("cache"))
+}
+
+#[test]
+fn the_kiosk_takes_its_idle_timeout_from_the_settings_and_a_flag_beats_them() {
+    let data = tempfile::tempdir().unwrap();
+    assert!(run(data.path(), &["set", "idle_timeout_s", "5"]).status.success());
+    let back_at_start = "tap Start\nexpect screen chooser\nwait 6s\nexpect screen start\n";
+    let output = replay_in(data.path(), back_at_start);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    let flag = data.path().join("flag.touch");
+    std::fs::write(&flag, "tap Start\nwait 6s\nexpect screen chooser\n").unwrap();
+    let args = ["replay", flag.to_str().unwrap(), "--data-dir", data.path().to_str().unwrap(), "--idle-timeout", "60"];
+    let output = volasso(&args, &data.path().join("cache"));
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+}
+
+#[test]
+fn a_kiosk_with_a_damaged_settings_file_starts_on_the_safe_defaults_and_says_why() {
+    let data = tempfile::tempdir().unwrap();
+    std::fs::write(data.path().join("settings.toml"), "idle_timeout_s = 5\nmode = \"party\"\n").unwrap();
+    // Nothing of the file applies: the default two minutes, not its five seconds.
+    let output = replay_in(data.path(), "tap Start\nwait 6s\nexpect screen chooser\n");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    let stderr = String::from_utf8_lossy(&output.stderr);
+    assert!(stderr.contains("settings.toml") && stderr.contains("safe defaults"), "{stderr}");
+}
