@@ -74,11 +74,13 @@ fn a_damaged_file_shows_the_safe_defaults_with_its_problem_and_is_not_overwritte
     assert_eq!(std::fs::read_to_string(&file).unwrap(), "mode = \"demo\"\nidle_timeout_s = -30\n");
 }
 
-/// Runs `volasso replay` on `script` (its text) with `data` as the data folder.
+/// Runs `volasso replay` on `script` (its text) with `data` as the data folder (the script and
+/// the cache beside it, so the chooser lists only what the test put there).
 fn replay_in(data: &Path, script: &str) -> std::process::Output {
-    let path = data.join("script.touch");
+    let work = tempfile::tempdir().unwrap();
+    let path = work.path().join("script.touch");
     std::fs::write(&path, script).unwrap();
-    volasso(&["replay", path.to_str().unwrap(), "--data-dir", data.to_str().unwrap()], &data.join("cache"))
+    volasso(&["replay", path.to_str().unwrap(), "--data-dir", data.to_str().unwrap()], &work.path().join("cache"))
 }
 
 #[test]
@@ -104,4 +106,34 @@ fn a_kiosk_with_a_damaged_settings_file_starts_on_the_safe_defaults_and_says_why
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
     let stderr = String::from_utf8_lossy(&output.stderr);
     assert!(stderr.contains("settings.toml") && stderr.contains("safe defaults"), "{stderr}");
+}
+
+/// A copy of a file of the shared data (`../shared/data`) at `to`.
+fn copy_series(name: &str, to: &Path) {
+    std::fs::create_dir_all(to).unwrap();
+    std::fs::copy(crate::support::data(name), to.join("0000000000000001.dcm")).unwrap();
+}
+
+#[test]
+fn a_received_series_older_than_the_retention_is_gone_from_the_chooser_and_the_audit_log_says_so() {
+    let data = tempfile::tempdir().unwrap();
+    let old = data.path().join("CT-0123456789abcdef");
+    let new = data.path().join("CT-fedcba9876543210");
+    copy_series("dicom/ct_small.dcm", &old);
+    copy_series("dicom/ct_small.dcm", &new);
+    let day_and_a_half = std::time::SystemTime::now() - std::time::Duration::from_secs(36 * 3600);
+    std::fs::File::open(&old).unwrap().set_modified(day_and_a_half).unwrap();
+    // Clinical mode's 24 hours (no settings file: its defaults). The demo and the newer series.
+    let output = replay_in(data.path(), "wait-idle\nwait 1s\ntap Start\nexpect screen chooser\nexpect cards 2\n");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    assert!(!old.exists() && new.exists());
+    let audit = volasso(&["audit", "--data-dir", data.path().to_str().unwrap()], data.path());
+    let text = String::from_utf8_lossy(&audit.stdout);
+    assert!(text.contains("\"event\":\"data-expired\"") && text.contains("series CT-0123456789abcdef"), "{text}");
+    // In demo mode nothing expires.
+    assert!(run(data.path(), &["set", "mode", "demo"]).status.success());
+    std::fs::File::open(&new).unwrap().set_modified(day_and_a_half).unwrap();
+    let output = replay_in(data.path(), "wait-idle\nwait 1s\ntap Start\nexpect cards 2\n");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    assert!(new.exists());
 }

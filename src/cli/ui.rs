@@ -149,6 +149,7 @@ impl UiArgs {
             dpi: self.dpi.or(settings.panel.dpi),
             pacs: self.pacs.peers(&settings)?,
             notice,
+            retention: (settings.retention_hours > 0).then(|| Duration::from_secs(settings.retention_hours * 3600)),
             ..AppConfig::default()
         })
     }

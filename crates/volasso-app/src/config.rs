@@ -35,6 +35,9 @@ pub struct AppConfig {
     pub clock: clock::Clock,
     /// Shown in the banner at start (the settings file could not be used, and why).
     pub notice: Option<String>,
+    /// Received series, the session, gallery entries, snapshots and outgoing results older
+    /// than this are deleted (expiry.rs); `None`: kept.
+    pub retention: Option<Duration>,
 }
 
 impl Default for AppConfig {
@@ -50,6 +53,7 @@ impl Default for AppConfig {
             pacs: Vec::new(),
             clock: clock::Clock::default(),
             notice: None,
+            retention: None,
         }
     }
 }

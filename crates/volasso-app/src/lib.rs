@@ -45,6 +45,7 @@ pub use config::{AppConfig, DEFAULT_IDLE_TIMEOUT};
 mod controller;
 pub mod dpi;
 mod elements;
+mod expiry;
 pub use elements::Rect;
 pub mod gallery;
 mod guidance;
@@ -102,6 +103,8 @@ struct State {
     sources: Vec<VolumeSource>,
     /// Polls since the data folder was last listed.
     polls_since_scan: u32,
+    /// Scans were deleted as expired: their cards go once no card is being loaded.
+    cards_to_drop: bool,
     loader: Loader,
     thumbnails_requested: bool,
     /// Thumbnails asked for and not yet made.
@@ -137,6 +140,8 @@ struct State {
     /// The idle timeout, counted from the later of the last touch and the end of the work
     /// the user waits for ([`State::works_for_user`]).
     idle: idle::Idle,
+    /// The sweep of expired patient data.
+    expiry: expiry::Expiry,
 }
 
 impl State {
@@ -153,7 +158,24 @@ impl State {
 
     /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
     fn is_idle(&self) -> bool {
-        !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy()
+        !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy() && !self.expiry.busy()
+    }
+
+    /// The sweep of expired data, when due, sparing the scan open or opening.
+    fn sweep_expired(&mut self, now: Duration) {
+        let Some(data_dir) = self.config.data_dir.clone() else { return };
+        let session_dir = self.config.session_dir.clone();
+        let open = self.ctl.work.as_ref().map(|work| &work.loaded.source);
+        let opening = self.opening.and_then(|index| self.sources.get(index));
+        let keep: Vec<PathBuf> = open.into_iter().chain(opening).filter_map(source_path).collect();
+        let expired =
+            self.expiry.tick(now, |retention| Some(expiry::SweepJob { data_dir, session_dir, retention, keep }));
+        if let Some(expired) = expired {
+            for thing in &expired {
+                log::info!("expired and deleted: the {} {}", thing.kind.name(), thing.name);
+            }
+            self.cards_to_drop = true;
+        }
     }
 
     /// Work the user waits for: a volume or a kept result opening, a classification, the
@@ -169,6 +191,15 @@ impl State {
             || self.view.dirty
             || self.results.busy()
             || self.pacs.busy()
+    }
+}
+
+/// The file or folder a scan is read from (none for the demo).
+pub(crate) fn source_path(source: &VolumeSource) -> Option<PathBuf> {
+    match source {
+        VolumeSource::Demo => None,
+        VolumeSource::Path(path) => Some(path.clone()),
+        VolumeSource::Series { folder, .. } => Some(folder.clone()),
     }
 }
 
@@ -215,6 +246,7 @@ impl App {
             loader: Loader::new(config.open_options.clone()),
             sources,
             polls_since_scan: 0,
+            cards_to_drop: false,
             thumbnails_requested: false,
             thumbnails_pending: 0,
             opening: None,
@@ -238,6 +270,7 @@ impl App {
                 shown_rows: Vec::new(),
             },
             idle: idle::Idle::new(config.idle_timeout, config.clock.now()),
+            expiry: expiry::Expiry::new(config.retention),
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -260,6 +293,7 @@ impl App {
                 let timed_out = {
                     let mut state = polled.borrow_mut();
                     let (now, working) = (state.config.clock.now(), state.works_for_user());
+                    state.sweep_expired(now);
                     state.idle.tick(now, working)
                 };
                 if timed_out {

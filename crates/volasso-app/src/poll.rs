@@ -53,6 +53,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     super::pacs::view::push_send(window, state);
     push_status(window, state);
     loading::rescan_data_folder(state);
+    loading::drop_vanished(state);
 }
 
 /// Shows the slice pictures the painter thread finished.

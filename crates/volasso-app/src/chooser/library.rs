@@ -51,9 +51,10 @@ pub const THUMBNAIL_SIDE: usize = 256;
 /// The most entries the chooser lists, so a folder of thousands of files stays usable.
 pub const MAX_ENTRIES: usize = 200;
 
-/// Folders of the data folder that hold the app's own output, never a DICOM series: kept
-/// results (gallery.rs) and snapshots.
-pub const RESERVED_FOLDERS: [&str; 2] = [crate::gallery::FOLDER, "snapshots"];
+/// Folders of the data folder that hold the appliance's own output, never a DICOM series: kept
+/// results (gallery.rs), snapshots and the audit log.
+pub const RESERVED_FOLDERS: [&str; 3] =
+    [crate::gallery::FOLDER, crate::view3d::snapshot::SNAPSHOT_FOLDER, volasso_appliance::audit::FOLDER];
 
 /// The volumes to offer: the demo first, then the data folder's volumes by name.
 pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
@@ -331,7 +332,10 @@ mod tests {
             std::fs::write(folder.path().join(name), b"x").unwrap();
         }
         std::fs::create_dir(folder.path().join("series")).unwrap();
-        std::fs::create_dir(folder.path().join("gallery")).unwrap();
+        for reserved in RESERVED_FOLDERS {
+            std::fs::create_dir(folder.path().join(reserved)).unwrap();
+        }
+        std::fs::write(folder.path().join("settings.toml"), b"mode = \"demo\"\n").unwrap();
         let names: Vec<String> = scan(Some(folder.path())).iter().map(VolumeSource::name).collect();
         assert_eq!(names, ["Demo: CT foot phantom", "a.nii.gz", "b.nrrd", "ct_8x8x8_uint8.raw", "head.mhd", "series"]);
         assert_eq!(scan(Some(&folder.path().join("missing"))), vec![VolumeSource::Demo]);

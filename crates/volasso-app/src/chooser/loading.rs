@@ -59,6 +59,28 @@ pub(crate) fn rescan_data_folder(state: &Shared) {
     }
 }
 
+/// Drops the cards of scans whose file or folder is gone (deleted as expired), once nothing
+/// is being opened or thumbnailed: loader events name cards by index, so the cards are only
+/// renumbered while none is in flight; until then `cards_to_drop` stays set.
+pub(crate) fn drop_vanished(state: &Shared) {
+    let mut state = state.borrow_mut();
+    if !state.cards_to_drop || state.opening.is_some() || state.thumbnails_pending > 0 {
+        return;
+    }
+    state.cards_to_drop = false;
+    let kept: Vec<usize> = (0..state.sources.len())
+        .filter(|&index| crate::source_path(&state.sources[index]).is_none_or(|path| path.exists()))
+        .collect();
+    if kept.len() == state.sources.len() {
+        return;
+    }
+    log::info!("{} scan(s) gone from the chooser", state.sources.len() - kept.len());
+    let sources = kept.iter().map(|&index| state.sources[index].clone()).collect();
+    let cards: Vec<VolumeCard> = kept.iter().filter_map(|&index| state.volumes_model.row_data(index)).collect();
+    state.sources = sources;
+    state.volumes_model.set_vec(cards);
+}
+
 /// The chooser index of `source`, added as a new card (its thumbnail asked for) when the
 /// chooser does not have it yet: a series just retrieved from the PACS.
 pub(crate) fn add_source(state: &Shared, source: VolumeSource) -> usize {
