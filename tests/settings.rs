@@ -137,3 +137,54 @@ fn a_received_series_older_than_the_retention_is_gone_from_the_chooser_and_the_a
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
     assert!(new.exists());
 }
+
+/// A data folder holding the shared Philips phantom series (its files linked, not copied).
+fn philips_in(data: &Path) {
+    let folder = data.join("philips_phantom_5mm");
+    std::fs::create_dir_all(&folder).unwrap();
+    let shared = crate::support::data("dicom/philips_phantom_5mm");
+    for entry in std::fs::read_dir(&shared).unwrap() {
+        let path = entry.unwrap().path();
+        std::os::unix::fs::symlink(&path, folder.join(path.file_name().unwrap())).unwrap();
+    }
+}
+
+#[test]
+fn clinical_mode_shows_whose_scan_it_is_and_demo_mode_shows_and_writes_none_of_it() {
+    let open = "tap Start\nwait-idle\ntap \"philips_phantom_5mm: STD BRAIN 5MM (CT, 28 images)\"\nwait-idle\n\
+                expect screen work\nexpect layout 9mm\n";
+    let clinical = tempfile::tempdir().unwrap();
+    philips_in(clinical.path());
+    let script = format!("{open}expect patient HEAD · ID PLASTIC · M · study 2015-02-06 · CT STD BRAIN 5MM\n");
+    let output = replay_in(clinical.path(), &script);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    let demo = tempfile::tempdir().unwrap();
+    philips_in(demo.path());
+    assert!(run(demo.path(), &["set", "mode", "demo"]).status.success());
+    let output = replay_in(demo.path(), &format!("{open}expect patient \"\"\n"));
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    // Nothing the demo run wrote or logged holds the patient's ID (its name, HEAD, is a word
+    // the logs may use for other things).
+    let logged = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
+    assert!(!logged.contains("PLASTIC"), "{logged}");
+    let mut written = Vec::new();
+    for entry in walk(demo.path()) {
+        if !entry.is_symlink() && entry.is_file() {
+            written.push(std::fs::read(&entry).unwrap());
+        }
+    }
+    assert!(written.iter().all(|bytes| !String::from_utf8_lossy(bytes).contains("PLASTIC")));
+}
+
+/// Every path under `folder`, links not followed.
+fn walk(folder: &Path) -> Vec<std::path::PathBuf> {
+    let mut found = Vec::new();
+    for entry in std::fs::read_dir(folder).into_iter().flatten().flatten() {
+        let path = entry.path();
+        if path.is_dir() && !path.is_symlink() {
+            found.extend(walk(&path));
+        }
+        found.push(path);
+    }
+    found
+}

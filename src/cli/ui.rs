@@ -3,8 +3,9 @@
 
 use super::CliError;
 use crate::app::{App, AppConfig};
-use crate::appliance::settings::{self, Effective, Settings};
+use crate::appliance::settings::{self, Effective, Mode, Settings};
 use crate::phantom::source::VolumeSource;
+use crate::volume::dicom::PatientShown;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -150,6 +151,13 @@ impl UiArgs {
             pacs: self.pacs.peers(&settings)?,
             notice,
             retention: (settings.retention_hours > 0).then(|| Duration::from_secs(settings.retention_hours * 3600)),
+            // A bedside shows whose scan it is; a conference stand never reads it.
+            patient: match settings.mode {
+                Mode::Clinical => PatientShown::Shown,
+                Mode::Demo => PatientShown::Hidden,
+            },
+            // No USB stick gets a snapshot unless the settings allow it (clinical mode's default).
+            media_roots: if settings.usb_export { AppConfig::default().media_roots } else { Vec::new() },
             ..AppConfig::default()
         })
     }

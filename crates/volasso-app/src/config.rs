@@ -9,6 +9,7 @@ use crate::{clock, view3d};
 use std::path::PathBuf;
 use std::time::Duration;
 use volasso_core::volume::OpenOptions;
+use volasso_core::volume::dicom::PatientShown;
 
 /// How the app is set up (`volasso ui` options).
 #[derive(Clone, Debug)]
@@ -35,6 +36,8 @@ pub struct AppConfig {
     pub clock: clock::Clock,
     /// Shown in the banner at start (the settings file could not be used, and why).
     pub notice: Option<String>,
+    /// Whether the screens show whose scan it is (clinical mode: `Shown`; patient.rs).
+    pub patient: PatientShown,
     /// Received series, the session, gallery entries, snapshots and outgoing results older
     /// than this are deleted (expiry.rs); `None`: kept.
     pub retention: Option<Duration>,
@@ -54,6 +57,7 @@ impl Default for AppConfig {
             clock: clock::Clock::default(),
             notice: None,
             retention: None,
+            patient: PatientShown::Hidden,
         }
     }
 }

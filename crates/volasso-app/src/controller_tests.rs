@@ -22,7 +22,14 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
     let volume = phantom.volume;
     let entropies = foreground_slice_entropies(&volume);
     let windows = WindowChoices::for_volume(&volume);
-    let loaded = LoadedVolume { source: VolumeSource::Demo, volume: Arc::new(volume), entropies, windows };
+    let loaded = LoadedVolume {
+        source: VolumeSource::Demo,
+        volume: Arc::new(volume),
+        entropies,
+        windows,
+        patient: crate::patient::Patient::NotShown,
+        title: None,
+    };
     (loaded, soft, bone)
 }
 
@@ -247,7 +254,14 @@ fn loaded(spacing_mm: [f64; 3], value: impl Fn(usize, usize, usize) -> f32) -> L
         volasso_core::volume::Volume::from_f32(dims, spacing_mm, &values, std::path::Path::new("test.nrrd")).unwrap();
     let entropies = foreground_slice_entropies(&volume);
     let windows = WindowChoices::for_volume(&volume);
-    LoadedVolume { source: VolumeSource::Demo, volume: Arc::new(volume), entropies, windows }
+    LoadedVolume {
+        source: VolumeSource::Demo,
+        volume: Arc::new(volume),
+        entropies,
+        windows,
+        patient: crate::patient::Patient::NotShown,
+        title: None,
+    }
 }
 
 /// Deterministic noise in -8..8, so that no two lassoed voxels are alike.

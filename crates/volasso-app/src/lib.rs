@@ -55,6 +55,7 @@ pub mod lasso;
 pub mod memory;
 pub mod pacs;
 mod painter;
+pub mod patient;
 pub mod pictures;
 mod poll;
 mod queries;
@@ -243,7 +244,7 @@ impl App {
             None => banner,
         };
         let state = State {
-            loader: Loader::new(config.open_options.clone()),
+            loader: Loader::new(config.open_options.clone(), config.patient),
             sources,
             polls_since_scan: 0,
             cards_to_drop: false,

@@ -1,5 +1,6 @@
 //! The app's state by name, for replay scripts' `expect KEY VALUE` ([`super::App::query`]):
-//! `screen` (start, chooser, work, pacs), `classes`, `pending`, `volume`, `banner`, `hint` (the line
+//! `screen` (start, chooser, work, pacs), `classes`, `pending`, `volume`, `patient` (the work
+//! screen's patient line; empty in demo mode), `banner`, `hint` (the line
 //! over an empty 3-D view), `failed` (`yes` while the newest classification failed), `busy`,
 //! `classifying`, `classified`, `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the
 //! chooser's cards), `cannot-open` (those whose file cannot be opened), `panels` (the panels'
@@ -34,6 +35,7 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
         "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
+        "patient" => work.map_or(String::new(), |w| w.loaded.patient.line()),
         "banner" => state.banner.clone(),
         "hint" => state.ctl.view_hint().to_string(),
         "failed" => if state.ctl.failure().is_some() { "yes" } else { "no" }.to_string(),

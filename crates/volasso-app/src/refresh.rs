@@ -89,6 +89,7 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     let Some(work) = state.ctl.work.as_ref() else {
         state.classes_model.set_vec(Vec::new());
         session.set_volume_name("".into());
+        session.set_patient("".into());
         return;
     };
     let template = state.template();
@@ -121,7 +122,8 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     session.set_unsure_shown(work.unsure_shown);
     session.set_template_name(template.template.name().into());
     session.set_template_rotation(template.rotation_degrees.rem_euclid(360.0) as i32);
-    session.set_volume_name(work.loaded.source.name().into());
+    session.set_volume_name(work.loaded.title.clone().unwrap_or_else(|| work.loaded.source.name()).into());
+    session.set_patient(work.loaded.patient.line().into());
 }
 
 pub(super) fn push_status(window: &AppWindow, state: &Shared) {
@@ -278,5 +280,11 @@ fn to_colour([r, g, b]: [u8; 3]) -> slint::Color {
 
 /// A volume's card before its thumbnail and details arrive: its name alone.
 pub(super) fn blank_card(source: &crate::chooser::library::VolumeSource) -> VolumeCard {
-    VolumeCard { name: source.name().into(), detail: "".into(), thumbnail: slint::Image::default(), failed: false }
+    VolumeCard {
+        name: source.name().into(),
+        detail: "".into(),
+        patient: "".into(),
+        thumbnail: slint::Image::default(),
+        failed: false,
+    }
 }

@@ -123,9 +123,9 @@ impl Sweep<'_> {
     }
 }
 
-/// The name the receiver gives a series folder: its modality (letters and digits), a dash and
-/// 16 lower-case hex digits.
-fn is_received_series(name: &str) -> bool {
+/// Whether `name` is one the receiver gives a series folder: its modality (letters and
+/// digits), a dash and 16 lower-case hex digits.
+pub fn is_received_series(name: &str) -> bool {
     let Some((modality, hash)) = name.rsplit_once('-') else { return false };
     !modality.is_empty()
         && modality.bytes().all(|byte| byte.is_ascii_alphanumeric())

@@ -31,6 +31,7 @@ use std::time::Duration;
 use volasso_core::render::Camera;
 use volasso_core::strokes::StrokesFile;
 use volasso_core::volume::OpenOptions;
+use volasso_core::volume::dicom::PatientShown;
 
 /// Pictures in one turn (12 degrees apart).
 pub const FRAMES: usize = 30;
@@ -70,7 +71,8 @@ impl Default for Workers {
 /// The task that opens a scan, guarded against a reader that panics.
 pub(crate) fn open_task(options: OpenOptions) -> Task<VolumeSource, Result<Box<LoadedVolume>, OpenError>> {
     Arc::new(move |source, _: &Ticket, report: &Report<'_, Result<Box<LoadedVolume>, OpenError>>| {
-        report(library::guarded(&source, || library::load(&source, &options)).map(Box::new))
+        // A turntable is public: it never reads who the patient is.
+        report(library::guarded(&source, || library::load(&source, &options, PatientShown::Hidden)).map(Box::new))
     })
 }
 

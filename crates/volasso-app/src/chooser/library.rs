@@ -14,6 +14,7 @@
 //!
 //! Never: touches the UI; never fails the app for a bad file (it becomes a card that says so).
 
+use crate::patient::Patient;
 use crate::windowing::WindowChoices;
 use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::collections::{HashMap, VecDeque};
@@ -23,7 +24,7 @@ pub use volasso_core::phantom::source::VolumeSource;
 use volasso_core::phantom::source::uid_tail;
 use volasso_core::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use volasso_core::transfer::RgbImage;
-use volasso_core::volume::dicom::{PatientShown, list_series};
+use volasso_core::volume::dicom::{PatientShown, SeriesSummary, list_series};
 use volasso_core::volume::{OpenOptions, Volume, open::detect_format};
 
 /// Why a volume cannot be offered or opened; a card or banner shows it
@@ -113,6 +114,23 @@ pub struct LoadedVolume {
     pub entropies: SliceEntropies,
     /// The display windows offered, the first shown at once.
     pub windows: WindowChoices,
+    /// Whose scan it is (clinical mode; patient.rs).
+    pub patient: Patient,
+    /// What a DICOM series is, for its card: description, modality and images; `None` for
+    /// other scans (their file name says it).
+    pub title: Option<String>,
+}
+
+/// A card's picture and words.
+#[derive(Clone, Debug)]
+pub struct Thumbnail {
+    pub image: RgbImage,
+    /// Size and voxel type.
+    pub detail: String,
+    /// [`LoadedVolume::title`].
+    pub title: Option<String>,
+    /// The patient's line (patient.rs); empty when not shown.
+    pub patient: String,
 }
 
 /// Runs `work`, turning a panic inside it into an error: the worker survives, and the file
@@ -148,7 +166,7 @@ pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {
 }
 
 /// Opens `source` and ranks its slices (paper eq. 1).
-pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume, OpenError> {
+pub fn load(source: &VolumeSource, options: &OpenOptions, shown: PatientShown) -> Result<LoadedVolume, OpenError> {
     if let VolumeSource::Path(path) = source {
         detect_format(path, options)?;
     }
@@ -161,12 +179,15 @@ pub fn load(source: &VolumeSource, options: &OpenOptions) -> Result<LoadedVolume
     volume.otsu_threshold();
     volume.body();
     let windows = WindowChoices::for_volume(&volume);
-    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, windows })
+    let summary = crate::patient::series_summary(source, shown, &options.limits());
+    let patient = Patient::of(summary.as_ref(), shown);
+    let title = summary.as_ref().and_then(|summary| folder_title(source, summary));
+    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, windows, patient, title })
 }
 
 /// The thumbnail and a one-line description of a loaded volume: its top axial slice (the
 /// stored z slice when the orientation is unknown), shown as the work screen shows it.
-pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), OpenError> {
+pub fn thumbnail(loaded: &LoadedVolume) -> Result<Thumbnail, OpenError> {
     let volume = &loaded.volume;
     let orientation = volume.orientation.as_ref();
     let layout = SliceLayout::new(orientation, plane_axes(orientation)[0]);
@@ -185,11 +206,40 @@ pub fn thumbnail(loaded: &LoadedVolume) -> Result<(RgbImage, String), OpenError>
     }
     let [x, y, z] = volume.dims;
     let detail = format!("{x} x {y} x {z}  {}", volume.voxel_type.name());
-    Ok((RgbImage { width, height, pixels }, detail))
+    Ok(Thumbnail {
+        image: RgbImage { width, height, pixels },
+        detail,
+        title: loaded.title.clone(),
+        patient: loaded.patient.line(),
+    })
 }
 
 /// The series of a DICOM folder, when it holds more than one: each becomes a source (and a
 /// card) of its own, labelled with what a person can tell them apart by. `None` for anything
+/// What a person tells a series by: its description, modality and images, e.g. `STD BRAIN 5MM
+/// (CT, 28 images)`; never patient data.
+fn series_label(series: &SeriesSummary) -> String {
+    let kind = [series.modality.as_str(), &format!("{} images", series.images)]
+        .into_iter()
+        .filter(|part| !part.is_empty())
+        .collect::<Vec<_>>()
+        .join(", ");
+    match series.description.trim() {
+        "" => format!("series {} ({kind})", uid_tail(&series.series_uid)),
+        description => format!("{description} ({kind})"),
+    }
+}
+
+/// The card name of a folder that is one DICOM series: the series' label, after the folder's
+/// name unless the receiver named the folder (a hash says nothing to a person). `None` for a
+/// series of a folder of several (its source is named so already).
+fn folder_title(source: &VolumeSource, series: &SeriesSummary) -> Option<String> {
+    let VolumeSource::Path(_) = source else { return None };
+    let name = source.name();
+    let label = series_label(series);
+    Some(if volasso_appliance::retention::is_received_series(&name) { label } else { format!("{name}: {label}") })
+}
+
 /// else (a file, a folder of one series, a folder that cannot be listed: opening it says why).
 pub fn series_of(source: &VolumeSource, options: &OpenOptions) -> Option<Vec<VolumeSource>> {
     let VolumeSource::Path(folder) = source else { return None };
@@ -201,15 +251,7 @@ pub fn series_of(source: &VolumeSource, options: &OpenOptions) -> Option<Vec<Vol
         listed
             .into_iter()
             .map(|series| {
-                let kind = [series.modality.as_str(), &format!("{} images", series.images)]
-                    .into_iter()
-                    .filter(|part| !part.is_empty())
-                    .collect::<Vec<_>>()
-                    .join(", ");
-                let label = match series.description.trim() {
-                    "" => format!("series {} ({kind})", uid_tail(&series.series_uid)),
-                    description => format!("{description} ({kind})"),
-                };
+                let label = series_label(&series);
                 VolumeSource::Series { folder: folder.clone(), series_uid: series.series_uid, label }
             })
             .collect()
@@ -220,7 +262,7 @@ pub fn series_of(source: &VolumeSource, options: &OpenOptions) -> Option<Vec<Vol
 pub enum LoaderEvent {
     Thumbnail {
         index: usize,
-        result: Result<(RgbImage, String), OpenError>,
+        result: Result<Thumbnail, OpenError>,
     },
     /// The folder at `index` holds several series, each a source of its own.
     Series {
@@ -247,7 +289,8 @@ pub struct Loader {
 }
 
 impl Loader {
-    pub fn new(options: OpenOptions) -> Loader {
+    /// Opens with `options`, reading who the patient is when `shown` (clinical mode).
+    pub fn new(options: OpenOptions, shown: PatientShown) -> Loader {
         let thumbnail_options = options.clone();
         let thumbnails: Task<Vec<(usize, VolumeSource)>, LoaderEvent> =
             Arc::new(move |sources, _: &Ticket, report: &Report<'_, LoaderEvent>| {
@@ -257,13 +300,14 @@ impl Loader {
                         report(LoaderEvent::Series { index, series });
                         continue;
                     }
-                    let result = guarded(&source, || load(&source, options).and_then(|loaded| thumbnail(&loaded)));
+                    let result =
+                        guarded(&source, || load(&source, options, shown).and_then(|loaded| thumbnail(&loaded)));
                     report(LoaderEvent::Thumbnail { index, result });
                 }
             });
         let opens: Task<(usize, VolumeSource), LoaderEvent> =
             Arc::new(move |(index, source), _: &Ticket, report: &Report<'_, LoaderEvent>| {
-                let result = guarded(&source, || load(&source, &options)).map(Box::new);
+                let result = guarded(&source, || load(&source, &options, shown)).map(Box::new);
                 report(LoaderEvent::Opened { index, result });
             });
         Loader {
@@ -361,7 +405,7 @@ mod tests {
         let folder = tempfile::tempdir().unwrap();
         let path = folder.path().join("broken.nrrd");
         std::fs::write(&path, b"NRRD0004\ntype: short\ndimension: 3\nsizes: 10 10 10\nencoding: raw\n\n").unwrap();
-        let error = load(&VolumeSource::Path(path), &OpenOptions::default()).err().unwrap();
+        let error = load(&VolumeSource::Path(path), &OpenOptions::default(), PatientShown::Hidden).err().unwrap();
         assert!(matches!(error, OpenError::Volume(_)), "{error}");
         assert!(!error.to_string().is_empty());
     }
@@ -393,8 +437,10 @@ mod tests {
         let folder = tempfile::tempdir().unwrap();
         let empty = folder.path().join("empty.nii");
         std::fs::write(&empty, b"").unwrap();
-        let mut loader =
-            Loader::new(OpenOptions { cache_dir: Some(folder.path().join("cache")), ..Default::default() });
+        let mut loader = Loader::new(
+            OpenOptions { cache_dir: Some(folder.path().join("cache")), ..Default::default() },
+            PatientShown::Hidden,
+        );
         loader.thumbnails(vec![(1, VolumeSource::Path(empty)), (0, VolumeSource::Demo)]);
         let mut reported = Vec::new();
         let started = std::time::Instant::now();
@@ -411,8 +457,9 @@ mod tests {
 
     #[test]
     fn the_demo_loads_with_a_thumbnail() {
-        let loaded = load(&VolumeSource::Demo, &OpenOptions::default()).unwrap();
-        let (image, detail) = thumbnail(&loaded).unwrap();
+        let loaded = load(&VolumeSource::Demo, &OpenOptions::default(), PatientShown::Shown).unwrap();
+        let Thumbnail { image, detail, title, patient } = thumbnail(&loaded).unwrap();
+        assert_eq!((title, patient.as_str()), (None, "No patient data (not a DICOM scan)"));
         assert!(image.width <= THUMBNAIL_SIDE && image.height <= THUMBNAIL_SIDE);
         assert_eq!(image.pixels.len(), image.width * image.height * 3);
         assert!(detail.starts_with("192 x 128 x 96"), "{detail}");

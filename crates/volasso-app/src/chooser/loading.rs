@@ -132,9 +132,13 @@ pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
             }
             let Some(mut card) = model.row_data(index) else { return };
             match result {
-                Ok((image, detail)) => {
-                    card.thumbnail = to_slint_image(&image);
-                    card.detail = detail.into();
+                Ok(thumbnail) => {
+                    card.thumbnail = to_slint_image(&thumbnail.image);
+                    card.detail = thumbnail.detail.into();
+                    if let Some(title) = thumbnail.title {
+                        card.name = title.into();
+                    }
+                    card.patient = thumbnail.patient.into();
                 }
                 Err(error) => {
                     let message = error.to_string();

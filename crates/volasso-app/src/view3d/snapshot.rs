@@ -1,7 +1,8 @@
 //! Snapshots of the 3-D view: the picture shown is written as a PNG into the data folder's
-//! `snapshots/` and, when a USB stick is mounted, into `volasso-snapshots/` on it, each named
-//! by the UTC time and the volume (`2026-12-01T23-59-07Z-engine.png`, then `-2`, `-3`... so
-//! nothing is ever overwritten). Files are written atomically (src/atomic_file.rs) on a thread
+//! `snapshots/` and, when a USB stick is mounted and the settings allow USB export, into
+//! `volasso-snapshots/` on it, each named by the UTC time alone
+//! (`volasso-2026-12-01T23-59-07Z.png`, then `-2`, `-3`... so nothing is ever overwritten; never
+//! the scan's name, which may be a patient's). Files are written atomically (src/atomic_file.rs) on a thread
 //! of their own: a slow or stuck stick never holds up the UI.
 //!
 //! A stick is a file system mounted under one of the media roots (`/media`, `/run/media` by
@@ -69,22 +70,11 @@ pub struct Places {
     pub media_roots: Vec<PathBuf>,
 }
 
-/// The file name of a snapshot of `volume` taken at `time`: `YYYY-MM-DDTHH-MM-SSZ-NAME.png`,
-/// NAME the volume's name with anything but letters, digits, `-`, `_` and `.` made `_`.
-pub fn file_stem(volume: &str, time: SystemTime) -> String {
+/// The file name of a snapshot taken at `time`: `volasso-YYYY-MM-DDTHH-MM-SSZ`. Never the
+/// scan's name: a folder named after a patient would carry the name onto a USB stick.
+pub fn file_stem(time: SystemTime) -> String {
     let seconds = time.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs());
-    let (days, rest) = (seconds / 86_400, seconds % 86_400);
-    let [year, month, day] = volasso_core::calendar::civil_from_days(days as i64);
-    let name: String =
-        volume.chars().map(|c| if c.is_ascii_alphanumeric() || "-_.".contains(c) { c } else { '_' }).take(80).collect();
-    let name = name.trim_start_matches('.');
-    format!(
-        "{year:04}-{month:02}-{day:02}T{:02}-{:02}-{:02}Z-{}",
-        rest / 3600,
-        rest / 60 % 60,
-        rest % 60,
-        if name.is_empty() { "volume" } else { name }
-    )
+    format!("volasso-{}", volasso_core::calendar::iso_utc(seconds).replace(':', "-"))
 }
 
 /// Writes `png` as `folder/STEM.png` (or `STEM-2.png`, ... when taken), creating `folder`;
@@ -138,21 +128,15 @@ fn unescape_mount_point(text: &str) -> String {
 }
 
 /// Encodes `image` once and writes it to the data folder and to every stick mounted now.
-pub fn take(image: &image::RgbaImage, volume: &str, places: &Places, time: SystemTime) -> Outcome {
+pub fn take(image: &image::RgbaImage, places: &Places, time: SystemTime) -> Outcome {
     let mounts = std::fs::read_to_string("/proc/self/mounts").unwrap_or_default();
-    take_to(image, volume, places.data_dir.as_deref(), &mounted_sticks(&mounts, &places.media_roots), time)
+    take_to(image, places.data_dir.as_deref(), &mounted_sticks(&mounts, &places.media_roots), time)
 }
 
 /// [`take`] onto the sticks mounted at `sticks`.
-pub fn take_to(
-    image: &image::RgbaImage,
-    volume: &str,
-    data_dir: Option<&Path>,
-    sticks: &[PathBuf],
-    time: SystemTime,
-) -> Outcome {
+pub fn take_to(image: &image::RgbaImage, data_dir: Option<&Path>, sticks: &[PathBuf], time: SystemTime) -> Outcome {
     let mut outcome = Outcome::default();
-    let stem = file_stem(volume, time);
+    let stem = file_stem(time);
     let mut png = Vec::new();
     let encoded = image::codecs::png::PngEncoder::new(&mut png);
     if let Err(source) = image::ImageEncoder::write_image(
@@ -182,10 +166,9 @@ pub fn take_to(
     outcome
 }
 
-/// One snapshot to write: the picture, the volume it shows, where it goes and when it was taken.
+/// One snapshot to write: the picture, where it goes and when it was taken.
 pub struct SnapshotJob {
     pub image: image::RgbaImage,
-    pub volume: String,
     pub places: Places,
     pub time: SystemTime,
 }
@@ -199,7 +182,7 @@ impl Default for SnapshotWriter {
     fn default() -> Self {
         let task: Task<SnapshotJob, Outcome> =
             Arc::new(|job: SnapshotJob, _: &Ticket, report: &Report<'_, Outcome>| {
-                report(take(&job.image, &job.volume, &job.places, job.time))
+                report(take(&job.image, &job.places, job.time))
             });
         SnapshotWriter { worker: Box::new(Threaded::new("snapshot", task)) }
     }
@@ -207,8 +190,8 @@ impl Default for SnapshotWriter {
 
 impl SnapshotWriter {
     /// Starts writing `image`; the outcome comes from [`Self::poll`].
-    pub fn start(&mut self, image: image::RgbaImage, volume: String, places: Places) {
-        self.worker.send(SnapshotJob { image, volume, places, time: SystemTime::now() });
+    pub fn start(&mut self, image: image::RgbaImage, places: Places) {
+        self.worker.send(SnapshotJob { image, places, time: SystemTime::now() });
     }
 
     /// A finished snapshot's outcome, if one is ready; never blocks.
@@ -238,16 +221,14 @@ mod tests {
     use std::time::Duration;
 
     #[test]
-    fn names_carry_the_utc_time_and_a_safe_volume_name() {
+    fn names_carry_the_utc_time_and_never_the_scan_s_name() {
         let time = SystemTime::UNIX_EPOCH + Duration::from_secs(1_796_169_547);
-        assert_eq!(
-            file_stem("engine_256x256x256_uint8.raw", time),
-            "2026-12-01T23-59-07Z-engine_256x256x256_uint8.raw"
-        );
-        assert_eq!(file_stem("../Demo: CT foot", time), "2026-12-01T23-59-07Z-_Demo__CT_foot");
-        assert_eq!(file_stem("", SystemTime::UNIX_EPOCH), "1970-01-01T00-00-00Z-volume");
+        assert_eq!(file_stem(time), "volasso-2026-12-01T23-59-07Z");
+        assert_eq!(file_stem(SystemTime::UNIX_EPOCH), "volasso-1970-01-01T00-00-00Z");
         // A leap day.
-        assert!(file_stem("x", SystemTime::UNIX_EPOCH + Duration::from_secs(951_782_400)).starts_with("2000-02-29T"));
+        assert!(
+            file_stem(SystemTime::UNIX_EPOCH + Duration::from_secs(951_782_400)).starts_with("volasso-2000-02-29T")
+        );
     }
 
     #[test]
@@ -284,7 +265,7 @@ mod tests {
         let data = folder.path().join("data");
         let image = image::RgbaImage::from_pixel(7, 5, image::Rgba([10, 200, 30, 255]));
         let sticks = [blocked.clone(), fine.clone()];
-        let outcome = take_to(&image, "demo", Some(&data), &sticks, SystemTime::now());
+        let outcome = take_to(&image, Some(&data), &sticks, SystemTime::now());
         assert_eq!(outcome.written.len(), 2, "{}", outcome.message());
         assert!(outcome.written[0].starts_with(data.join(SNAPSHOT_FOLDER)));
         assert!(outcome.written[1].starts_with(fine.join(STICK_FOLDER)));
@@ -295,7 +276,7 @@ mod tests {
         let message = outcome.message();
         assert!(message.starts_with("Snapshot saved: "), "{message}");
         assert!(message.contains("Not saved on the USB stick") && message.contains("blocked"), "{message}");
-        let none = take_to(&image, "demo", None, &[], SystemTime::now());
+        let none = take_to(&image, None, &[], SystemTime::now());
         assert_eq!(none.message(), "No data folder is set for snapshots");
     }
 }

@@ -101,14 +101,14 @@ pub(crate) fn view_intent(window: &AppWindow, state: &Shared, intent: ViewIntent
 pub(crate) fn snapshot(window: &AppWindow, state: &Shared) {
     let refused = {
         let mut state = state.borrow_mut();
-        let volume = state.ctl.work.as_ref().map(|work| work.loaded.source.name());
+        let open = state.ctl.work.is_some();
         let places = Places { data_dir: state.config.data_dir.clone(), media_roots: state.config.media_roots.clone() };
-        match (state.tools.picture.clone(), volume) {
-            (Some(picture), Some(volume)) => {
-                state.tools.snapshots.start(picture, volume, places);
+        match state.tools.picture.clone().filter(|_| open) {
+            Some(picture) => {
+                state.tools.snapshots.start(picture, places);
                 None
             }
-            _ => Some("Nothing to save yet: the 3-D view shows no picture".to_string()),
+            None => Some("Nothing to save yet: the 3-D view shows no picture".to_string()),
         }
     };
     if let Some(message) = refused {

@@ -1,8 +1,9 @@
 //! What a DICOM folder holds, without reading pixel data: the image series a picker offers
 //! ([`list_series`]), and the identity of one received file ([`read_identity`]).
 //!
-//! A kiosk screen is public: patient name and ID are read only when the caller asks
-//! ([`PatientShown::Shown`]), and are never logged here.
+//! A kiosk screen may be public: who the patient is (name, ID, birth date, sex) and the study's
+//! date are read only when the caller asks ([`PatientShown::Shown`], a bedside's clinical
+//! mode), and are never logged here.
 //!
 //! Never: decodes pixels, or decides which series to open (the caller passes the chosen
 //! SeriesInstanceUID to [`super::DicomOptions::series_uid`]).
@@ -17,7 +18,7 @@ use serde::Serialize;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 
-/// Whether a listing carries patient name and ID.
+/// Whether a listing carries who the patient is.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub enum PatientShown {
     /// The default: a public screen shows no patient data.
@@ -27,13 +28,19 @@ pub enum PatientShown {
     Shown,
 }
 
-/// PatientName and PatientID as the files hold them.
+/// Who the patient is, and when the study was, as the files hold them (each empty when absent).
 #[derive(Clone, Debug, PartialEq, Eq, Serialize)]
 pub struct PatientIdentity {
-    /// PatientName (0010,0010), empty when absent.
+    /// PatientName (0010,0010), a DICOM person name (`FAMILY^GIVEN^MIDDLE^PREFIX^SUFFIX`).
     pub name: String,
-    /// PatientID (0010,0020), empty when absent.
+    /// PatientID (0010,0020).
     pub id: String,
+    /// PatientBirthDate (0010,0030), `YYYYMMDD`.
+    pub birth_date: String,
+    /// PatientSex (0010,0040): `M`, `F` or `O`.
+    pub sex: String,
+    /// StudyDate (0008,0020), `YYYYMMDD`.
+    pub study_date: String,
 }
 
 /// One image series under a path, as a series picker shows it.
@@ -172,6 +179,9 @@ pub fn read_identity(path: &Path, limits: &ReadLimits) -> Result<InstanceIdentit
         patient: PatientIdentity {
             name: header::text(&object, tags::PATIENT_NAME),
             id: header::text(&object, tags::PATIENT_ID),
+            birth_date: header::text(&object, tags::PATIENT_BIRTH_DATE),
+            sex: header::text(&object, tags::PATIENT_SEX),
+            study_date: header::text(&object, tags::STUDY_DATE),
         },
     })
 }
