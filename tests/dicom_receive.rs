@@ -122,11 +122,12 @@ impl Drop for Scp {
 }
 
 /// The entries of `data_dir` that the chooser would see (not dot-names), sorted.
+/// The series folders the chooser would list (not hidden, not the audit log's folder).
 fn visible_entries(data_dir: &Path) -> Vec<String> {
     let mut names: Vec<String> = std::fs::read_dir(data_dir)
         .unwrap()
         .map(|entry| entry.unwrap().file_name().to_string_lossy().into_owned())
-        .filter(|name| !name.starts_with('.'))
+        .filter(|name| !name.starts_with('.') && name != volasso::appliance::audit::FOLDER)
         .collect();
     names.sort();
     names
@@ -186,8 +187,23 @@ fn echo_then_the_philips_series_is_stored_once_and_replaced_when_sent_again() {
     let identity =
         volasso::volume::dicom::read_identity(&files[0], &volasso::volume::limits::ReadLimits::default()).unwrap();
     let printed = format!("{report}\n{}", scp.stderr_so_far());
-    for secret in [identity.patient.name, identity.patient.id] {
-        assert!(secret.len() < 3 || !printed.contains(&secret), "'{secret}' printed: {printed}");
+    for secret in [&identity.patient.name, &identity.patient.id] {
+        assert!(secret.len() < 3 || !printed.contains(secret.as_str()), "'{secret}' printed: {printed}");
+    }
+    // Each store is a line of the audit log: the series' UID hashed, no patient data.
+    let audit = volasso::appliance::audit::AuditLog::new(&scp.data_dir).entries(0).unwrap();
+    let received: Vec<_> =
+        audit.iter().filter(|entry| entry.event == volasso::appliance::audit::Event::SeriesReceived).collect();
+    assert_eq!(received.len(), 2, "{audit:?}");
+    let hash = volasso::appliance::audit::series_hash(&identity.series_uid);
+    assert!(received.iter().all(|entry| entry.series.as_deref() == Some(hash.as_str())));
+    assert!(
+        received[0].detail.as_deref().is_some_and(|detail| detail.starts_with(&format!("{name}, 28 images"))),
+        "{audit:?}"
+    );
+    let log = std::fs::read_to_string(scp.data_dir.join("audit/audit.log")).unwrap();
+    for secret in [&identity.patient.name, &identity.patient.id, &identity.series_uid] {
+        assert!(!log.contains(secret.as_str()), "'{secret}' in the audit log: {log}");
     }
 }
 

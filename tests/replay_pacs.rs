@@ -57,6 +57,11 @@ fn a_study_found_on_the_keypad_is_retrieved_classified_and_sent_back_by_touch() 
         for shot in ["pacs-list.png", "pacs-sent.png"] {
             assert!(shots.join(shot).exists(), "{size}: {shot}");
         }
+        // The audit log: retrieved, opened, sent; the series by its hash.
+        let audit = volasso::appliance::audit::AuditLog::new(&data).entries(0).unwrap();
+        let events: Vec<String> = audit.iter().map(|entry| format!("{:?}", entry.event)).collect();
+        assert_eq!(events, ["SeriesRetrieved", "ScanOpened", "ResultSent"], "{size}: {audit:?}");
+        assert!(audit.iter().all(|entry| entry.series == audit[0].series && entry.series.is_some()), "{audit:?}");
     }
 }
 

@@ -3,6 +3,7 @@
 //! ADDRESS` line on stderr once the port is open.
 
 use super::CliError;
+use crate::appliance::audit::{AuditLog, Event};
 use crate::receive::{Limits, ReceiveOptions, Timeouts, TlsFiles, serve};
 use clap::Args;
 use std::net::TcpListener;
@@ -110,6 +111,57 @@ pub fn run(args: &ReceiveArgs) -> Result<(), CliError> {
         timeouts: Timeouts { acse: args.acse_timeout, idle: args.idle_timeout, association: args.association_timeout },
         tls,
     };
-    serve(listener, options, Arc::new(Mutex::new(std::io::stdout())))
-        .map_err(|error| CliError::Usage(error.to_string()))
+    let output = AuditedLines { out: std::io::stdout(), line: Vec::new(), log: AuditLog::new(&args.data_dir) };
+    serve(listener, options, Arc::new(Mutex::new(output))).map_err(|error| CliError::Usage(error.to_string()))
+}
+
+/// The receiver's JSON lines on their way to stdout: each series stored is also a
+/// `series-received` line in the data folder's audit log (its UID hashed, its folder's name,
+/// its images and the sender's AE title; never patient data).
+struct AuditedLines {
+    out: std::io::Stdout,
+    /// The line being written, until its newline.
+    line: Vec<u8>,
+    log: AuditLog,
+}
+
+impl std::io::Write for AuditedLines {
+    fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
+        let written = self.out.write(bytes)?;
+        for &byte in &bytes[..written] {
+            if byte != b'\n' {
+                self.line.push(byte);
+                continue;
+            }
+            let line = std::mem::take(&mut self.line);
+            if let Ok(SeriesLine { event, series_uid, name, images, calling_ae }) = serde_json::from_slice(&line)
+                && event == "stored"
+            {
+                let detail = format!("{name}, {images} images, from {calling_ae}");
+                let unix = std::time::SystemTime::now()
+                    .duration_since(std::time::UNIX_EPOCH)
+                    .map_or(0, |since| since.as_secs());
+                self.log.record(unix, Event::SeriesReceived, Some(&series_uid), Some(&detail));
+            }
+        }
+        Ok(written)
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        self.out.flush()
+    }
+}
+
+/// What the audit log takes of a receiver's JSON line.
+#[derive(serde::Deserialize)]
+struct SeriesLine {
+    event: String,
+    #[serde(default)]
+    series_uid: String,
+    #[serde(default)]
+    name: String,
+    #[serde(default)]
+    images: usize,
+    #[serde(default)]
+    calling_ae: String,
 }

@@ -29,6 +29,7 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
         windows,
         patient: crate::patient::Patient::NotShown,
         title: None,
+        series_uid: None,
     };
     (loaded, soft, bone)
 }
@@ -261,6 +262,7 @@ fn loaded(spacing_mm: [f64; 3], value: impl Fn(usize, usize, usize) -> f32) -> L
         windows,
         patient: crate::patient::Patient::NotShown,
         title: None,
+        series_uid: None,
     }
 }
 

@@ -36,6 +36,7 @@
 //! command-line code, so cargo refuses an import of them here.
 
 mod attract;
+mod audit;
 pub mod autosave;
 mod callbacks;
 pub mod chooser;
@@ -143,6 +144,8 @@ struct State {
     idle: idle::Idle,
     /// The sweep of expired patient data.
     expiry: expiry::Expiry,
+    /// The kiosk's lines in the audit log.
+    audit: audit::Audit,
 }
 
 impl State {
@@ -272,6 +275,7 @@ impl App {
             },
             idle: idle::Idle::new(config.idle_timeout, config.clock.now()),
             expiry: expiry::Expiry::new(config.retention),
+            audit: audit::Audit::new(config.data_dir.as_deref()),
             config,
         };
         let state = Rc::new(RefCell::new(state));

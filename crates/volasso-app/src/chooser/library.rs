@@ -119,6 +119,8 @@ pub struct LoadedVolume {
     /// What a DICOM series is, for its card: description, modality and images; `None` for
     /// other scans (their file name says it).
     pub title: Option<String>,
+    /// The SeriesInstanceUID of a DICOM series (the audit log names it hashed).
+    pub series_uid: Option<String>,
 }
 
 /// A card's picture and words.
@@ -182,7 +184,16 @@ pub fn load(source: &VolumeSource, options: &OpenOptions, shown: PatientShown) -
     let summary = crate::patient::series_summary(source, shown, &options.limits());
     let patient = Patient::of(summary.as_ref(), shown);
     let title = summary.as_ref().and_then(|summary| folder_title(source, summary));
-    Ok(LoadedVolume { source: source.clone(), volume: Arc::new(volume), entropies, windows, patient, title })
+    let series_uid = summary.map(|summary| summary.series_uid);
+    Ok(LoadedVolume {
+        source: source.clone(),
+        volume: Arc::new(volume),
+        entropies,
+        windows,
+        patient,
+        title,
+        series_uid,
+    })
 }
 
 /// The thumbnail and a one-line description of a loaded volume: its top axial slice (the

@@ -245,6 +245,7 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
             },
             None => Camera::default(),
         });
+        state.audit.record(volasso_appliance::audit::Event::ScanOpened, loaded.series_uid.clone(), None);
         // Whether the scan can go back to the PACS; a send's answer belongs to the scan before.
         state.pacs.model.opened(&loaded.source);
         if !loaded.volume.warnings.is_empty() {

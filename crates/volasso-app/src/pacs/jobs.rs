@@ -10,6 +10,7 @@ use super::{PacsJob, PacsReport, SendRequest};
 use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
+use volasso_appliance::audit::{AuditLog, Event};
 use volasso_dicom::dicom_out::{SourceSeries, secondary_capture, segmentation, write_object};
 use volasso_dicom::pacs::{Peer, get_counting};
 use volasso_dicom::receive::SeriesReport;
@@ -37,7 +38,10 @@ pub fn run(job: PacsJob, _: &Ticket, report: &Report<'_, PacsReport>) {
                     report(PacsReport::Stored(before.get() + count))
                 };
                 match get_counting(&peer, &data_dir, &study_uid, Some(series_uid), &stored) {
-                    Ok(series) => reports.extend(series),
+                    Ok(series) => {
+                        audit_retrieved(&data_dir, &peer, &series);
+                        reports.extend(series)
+                    }
                     Err(error) => failure = Some(error.to_string()),
                 }
                 before.set(before.get() + this.replace(0));
@@ -49,8 +53,25 @@ pub fn run(job: PacsJob, _: &Ticket, report: &Report<'_, PacsReport>) {
             };
             report(PacsReport::Retrieved(result))
         }
-        PacsJob::Send { peer, outbox, request } => report(PacsReport::Sent(send(&peer, &outbox, &request))),
+        PacsJob::Send { peer, outbox, request, audit_dir } => {
+            report(PacsReport::Sent(send(&peer, &outbox, &request, audit_dir.as_deref())))
+        }
     }
+}
+
+/// An audit line per series a retrieval published.
+fn audit_retrieved(data_dir: &Path, peer: &Peer, reports: &[SeriesReport]) {
+    let log = AuditLog::new(data_dir);
+    for report in reports {
+        if let SeriesReport::Stored { name, series_uid, images, .. } = report {
+            let detail = format!("{name}, {images} images, from {}", peer.ae_title);
+            log.record(now_unix(), Event::SeriesRetrieved, Some(series_uid), Some(&detail));
+        }
+    }
+}
+
+fn now_unix() -> u64 {
+    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |since| since.as_secs())
 }
 
 /// The folders of the series a retrieval published, or why it published none.
@@ -71,8 +92,9 @@ fn published(reports: Vec<SeriesReport>) -> Result<Vec<PathBuf>, String> {
 }
 
 /// Writes the SEG (and the SC) of `request` into a fresh folder under `outbox`, stores them on
-/// `peer`, and removes the folder; the sentence for the screen.
-fn send(peer: &Peer, outbox: &Path, request: &SendRequest) -> Result<String, String> {
+/// `peer`, and removes the folder; the sentence for the screen. A send that went is a line in
+/// the audit log of `audit_dir`.
+fn send(peer: &Peer, outbox: &Path, request: &SendRequest, audit_dir: Option<&Path>) -> Result<String, String> {
     let source = SourceSeries::read(&request.folder, request.series_uid.as_deref()).map_err(|e| e.to_string())?;
     let seg = segmentation(&source, &request.labels, &request.segments).map_err(|e| e.to_string())?;
     let sc = match &request.picture {
@@ -113,8 +135,10 @@ fn send(peer: &Peer, outbox: &Path, request: &SendRequest) -> Result<String, Str
         }
         return Err(message);
     }
-    Ok(match sc {
-        Some(_) => format!("Sent to {}: segmentation and 3-D picture stored", peer.ae_title),
-        None => format!("Sent to {}: segmentation stored", peer.ae_title),
-    })
+    let what = if sc.is_some() { "segmentation and 3-D picture" } else { "segmentation" };
+    if let Some(data_dir) = audit_dir {
+        let detail = format!("{what} to {}", peer.ae_title);
+        AuditLog::new(data_dir).record(now_unix(), Event::ResultSent, Some(&source.series_uid), Some(&detail));
+    }
+    Ok(format!("Sent to {}: {what} stored", peer.ae_title))
 }

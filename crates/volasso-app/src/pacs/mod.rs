@@ -86,6 +86,8 @@ pub enum PacsJob {
         peer: Peer,
         outbox: PathBuf,
         request: Box<SendRequest>,
+        /// The data folder whose audit log records a send that went; `None`: none.
+        audit_dir: Option<PathBuf>,
     },
 }
 
@@ -303,7 +305,7 @@ impl PacsModel {
                 };
                 self.sending = true;
                 self.send_message = format!("Sending to {}...", peer.ae_title);
-                Some(PacsJob::Send { peer, outbox, request: Box::new(request) })
+                Some(PacsJob::Send { peer, outbox, request: Box::new(request), audit_dir: self.data_dir.clone() })
             }
             _ => None,
         }

@@ -128,9 +128,23 @@ fn unescape_mount_point(text: &str) -> String {
 }
 
 /// Encodes `image` once and writes it to the data folder and to every stick mounted now.
+/// A copy that left on a stick is an `result-exported` line in the data folder's audit log.
 pub fn take(image: &image::RgbaImage, places: &Places, time: SystemTime) -> Outcome {
     let mounts = std::fs::read_to_string("/proc/self/mounts").unwrap_or_default();
-    take_to(image, places.data_dir.as_deref(), &mounted_sticks(&mounts, &places.media_roots), time)
+    let sticks = mounted_sticks(&mounts, &places.media_roots);
+    let outcome = take_to(image, places.data_dir.as_deref(), &sticks, time);
+    let exported = outcome.written.iter().filter(|path| sticks.iter().any(|stick| path.starts_with(stick))).count();
+    if let (Some(data_dir), true) = (&places.data_dir, exported > 0) {
+        let unix = time.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |since| since.as_secs());
+        let detail = format!("snapshot to {exported} USB stick(s)");
+        volasso_appliance::audit::AuditLog::new(data_dir).record(
+            unix,
+            volasso_appliance::audit::Event::ResultExported,
+            None,
+            Some(&detail),
+        );
+    }
+    outcome
 }
 
 /// [`take`] onto the sticks mounted at `sticks`.
