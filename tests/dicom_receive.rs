@@ -201,7 +201,7 @@ fn echo_then_the_philips_series_is_stored_once_and_replaced_when_sent_again() {
         received[0].detail.as_deref().is_some_and(|detail| detail.starts_with(&format!("{name}, 28 images"))),
         "{audit:?}"
     );
-    let log = std::fs::read_to_string(scp.data_dir.join("audit/audit.log")).unwrap();
+    let log = std::fs::read_to_string(scp.data_dir.join("audit/receive.log")).unwrap();
     for secret in [&identity.patient.name, &identity.patient.id, &identity.series_uid] {
         assert!(!log.contains(secret.as_str()), "'{secret}' in the audit log: {log}");
     }

@@ -188,3 +188,43 @@ fn walk(folder: &Path) -> Vec<std::path::PathBuf> {
     }
     found
 }
+
+#[test]
+fn the_receiver_listens_on_nothing_while_the_settings_keep_dicom_intake_off_and_starts_when_they_allow_it() {
+    use std::io::BufRead;
+    let data = tempfile::tempdir().unwrap();
+    assert!(run(data.path(), &["set", "mode", "demo"]).status.success());
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_volasso"))
+        .args(["receive", "--port", "0", "--listen", "127.0.0.1", "--data-dir", data.path().to_str().unwrap()])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .expect("volasso runs");
+    let (lines, receiver) = std::sync::mpsc::channel();
+    let stderr = child.stderr.take().unwrap();
+    std::thread::spawn(move || {
+        for line in std::io::BufReader::new(stderr).lines().map_while(Result::ok) {
+            if lines.send(line).is_err() {
+                break;
+            }
+        }
+    });
+    let wait_for = |words: &str, seconds: u64| {
+        let deadline = std::time::Instant::now() + std::time::Duration::from_secs(seconds);
+        let mut seen = Vec::new();
+        while let Some(left) = deadline.checked_duration_since(std::time::Instant::now()) {
+            match receiver.recv_timeout(left) {
+                Ok(line) if line.contains(words) => return seen,
+                Ok(line) => seen.push(line),
+                Err(_) => break,
+            }
+        }
+        panic!("no line with {words:?} within {seconds} s: {seen:?}");
+    };
+    let before = wait_for("DICOM intake is off", 20);
+    assert!(before.iter().all(|line| !line.contains("listening on")), "{before:?}");
+    assert!(run(data.path(), &["set", "receive.enabled", "true"]).status.success());
+    wait_for("listening on 127.0.0.1:", 20);
+    let _ = child.kill();
+    let _ = child.wait();
+}

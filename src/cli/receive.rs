@@ -4,6 +4,7 @@
 
 use super::CliError;
 use crate::appliance::audit::{AuditLog, Event};
+use crate::appliance::settings::{self, Effective};
 use crate::receive::{Limits, ReceiveOptions, Timeouts, TlsFiles, serve};
 use clap::Args;
 use std::net::TcpListener;
@@ -16,16 +17,19 @@ pub struct ReceiveArgs {
     /// The folder series are stored in (each complete series becomes one DICOM folder there).
     #[arg(long, value_name = "DIR")]
     pub data_dir: PathBuf,
-    /// TCP port to listen on (0: any free port, printed on stderr).
-    #[arg(long, default_value_t = 11112)]
-    pub port: u16,
+    /// TCP port to listen on (0: any free port, printed on stderr) [default: the settings'
+    /// `receive.port` in --data-dir, else 11112].
+    #[arg(long)]
+    pub port: Option<u16>,
     /// Address to listen on.
     #[arg(long, default_value = "0.0.0.0", value_name = "ADDRESS")]
     pub listen: std::net::IpAddr,
-    /// This receiver's AE title; associations calling another title are refused.
-    #[arg(long, env = "VOLASSO_AE_TITLE", default_value = "VOLASSO", value_name = "TITLE")]
-    pub ae_title: String,
-    /// Calling AE titles allowed to store, comma-separated (default: any).
+    /// This receiver's AE title; associations calling another title are refused [default: the
+    /// settings' `receive.ae_title`, else VOLASSO].
+    #[arg(long, env = "VOLASSO_AE_TITLE", value_name = "TITLE")]
+    pub ae_title: Option<String>,
+    /// Calling AE titles allowed to store, comma-separated [default: the settings'
+    /// `receive.allowed_aes`, else any].
     #[arg(long, env = "VOLASSO_ALLOW_AE", value_delimiter = ',', value_name = "A,B")]
     pub allow_ae: Vec<String>,
     /// Refuse images (status A700, out of resources) when the data partition is fuller than this.
@@ -85,14 +89,21 @@ fn parse_percent(text: &str) -> Result<f64, String> {
         .ok_or_else(|| format!("'{text}' is not a percentage from 0 to 100"))
 }
 
+/// How often a receiver that the settings switch off looks at them again.
+const SETTINGS_RECHECK: Duration = Duration::from_secs(5);
+
 pub fn run(args: &ReceiveArgs) -> Result<(), CliError> {
-    let address = std::net::SocketAddr::new(args.listen, args.port);
+    let settings = wait_until_enabled(&args.data_dir);
+    let port = args.port.unwrap_or(settings.receive.port);
+    let ae_title = args.ae_title.clone().unwrap_or(settings.receive.ae_title);
+    let allow_ae = if args.allow_ae.is_empty() { settings.receive.allowed_aes } else { args.allow_ae.clone() };
+    let address = std::net::SocketAddr::new(args.listen, port);
     let listener = TcpListener::bind(address).map_err(|source| CliError::Output {
         source,
         path: PathBuf::from(format!("{address} (the receiver's port)")),
     })?;
     let bound = listener.local_addr().map(|a| a.to_string()).unwrap_or_else(|_| address.to_string());
-    if args.allow_ae.is_empty() {
+    if allow_ae.is_empty() {
         log::warn!("no --allow-ae given: any calling AE title may store");
     }
     let tls = match (&args.tls_cert, &args.tls_key) {
@@ -100,10 +111,10 @@ pub fn run(args: &ReceiveArgs) -> Result<(), CliError> {
         _ => None,
     };
     let over = if tls.is_some() { " over TLS" } else { "" };
-    eprintln!("volasso receive: listening on {bound} as {}{over}", args.ae_title);
+    eprintln!("volasso receive: listening on {bound} as {ae_title}{over}");
     let options = ReceiveOptions {
-        ae_title: args.ae_title.clone(),
-        allowed_calling_ae: args.allow_ae.iter().map(|title| title.trim().to_string()).collect(),
+        ae_title,
+        allowed_calling_ae: allow_ae.iter().map(|title| title.trim().to_string()).collect(),
         data_dir: args.data_dir.clone(),
         max_disk_use_fraction: args.max_disk_use_percent / 100.0,
         stable_after: args.stable_after,
@@ -111,8 +122,37 @@ pub fn run(args: &ReceiveArgs) -> Result<(), CliError> {
         timeouts: Timeouts { acse: args.acse_timeout, idle: args.idle_timeout, association: args.association_timeout },
         tls,
     };
-    let output = AuditedLines { out: std::io::stdout(), line: Vec::new(), log: AuditLog::new(&args.data_dir) };
+    let log = AuditLog::of_writer(&args.data_dir, "receive");
+    let output = AuditedLines { out: std::io::stdout(), line: Vec::new(), log };
     serve(listener, options, Arc::new(Mutex::new(output))).map_err(|error| CliError::Usage(error.to_string()))
+}
+
+/// The settings of `data_dir` once they let series in (`receive.enabled`; off in demo mode by
+/// default): until then the receiver listens on nothing and looks again every
+/// [`SETTINGS_RECHECK`], so an appliance switched to clinical mode starts receiving without a
+/// restart. A settings file that cannot be used gives the safe defaults (said once).
+fn wait_until_enabled(data_dir: &std::path::Path) -> Effective {
+    let mut said = false;
+    loop {
+        let loaded = settings::load(data_dir);
+        if let Some(problem) = &loaded.problem
+            && !said
+        {
+            eprintln!("volasso receive: {problem}; running on the safe defaults");
+        }
+        let effective = loaded.settings.effective();
+        if effective.receive.enabled {
+            return effective;
+        }
+        if !said {
+            eprintln!(
+                "volasso receive: DICOM intake is off in the settings ({} mode, receive.enabled): not listening",
+                if effective.mode == settings::Mode::Demo { "demo" } else { "clinical" }
+            );
+        }
+        said = true;
+        std::thread::sleep(SETTINGS_RECHECK);
+    }
 }
 
 /// The receiver's JSON lines on their way to stdout: each series stored is also a

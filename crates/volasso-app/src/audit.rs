@@ -8,6 +8,10 @@ use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::sync::Arc;
 use volasso_appliance::audit::{AuditLog, Event};
 
+/// The kiosk's file in the audit folder (`kiosk.log`): the kiosk, its PACS worker, its sweep
+/// and its snapshots write it.
+pub(crate) const KIOSK: &str = "kiosk";
+
 /// One line to write.
 pub(crate) struct Line {
     event: Event,
@@ -25,7 +29,7 @@ pub(crate) struct Audit {
 impl Audit {
     /// The log of `data_dir` (none: nothing is written), a thread per line.
     pub(crate) fn new(data_dir: Option<&std::path::Path>) -> Audit {
-        let log = data_dir.map(AuditLog::new);
+        let log = data_dir.map(|data_dir| AuditLog::of_writer(data_dir, KIOSK));
         let writer = log.clone();
         let task: Task<Line, ()> = Arc::new(move |line: Line, _: &Ticket, report: &Report<'_, ()>| {
             if let Some(log) = &writer {

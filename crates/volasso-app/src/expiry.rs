@@ -34,7 +34,7 @@ pub(crate) fn sweep_task() -> Task<SweepJob, Vec<Expired>> {
         let now = SystemTime::now();
         let expired = sweep.run(now);
         let unix = now.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |since| since.as_secs());
-        let log = AuditLog::new(&job.data_dir);
+        let log = AuditLog::of_writer(&job.data_dir, crate::audit::KIOSK);
         for thing in &expired {
             let series = (thing.kind == Kind::Series).then_some(thing.name.as_str());
             log.record(

@@ -1,8 +1,10 @@
 //! The audit log hospital IT reads: one JSON line per event that matters to them (a scan
 //! opened, received, retrieved, sent, exported or expired; a setting changed; a PIN refused),
 //! with the UTC time and, for a series, a hash of its UID, never a name. It lives in
-//! `audit/` in the data folder, `audit.log` the newest; past [`MAX_FILE_BYTES`] it moves to
-//! `audit.log.1` (the older ones up by one) and the [`KEPT_FILES`]th oldest goes.
+//! `audit/` in the data folder, one file per writer (the kiosk and the receiver run as different
+//! users, and neither may write the other's files): `WRITER.log` the newest; past
+//! [`MAX_FILE_BYTES`] it moves to `WRITER.log.1` (the older ones up by one) and the
+//! [`KEPT_FILES`]th oldest goes. Reading merges every writer's files by time.
 //!
 //! A line is `{"time":"2026-12-06T11:02:03Z","unix":1796554923,"event":"settings-changed",
 //! "detail":"mode=demo"}`, with `"series":"<16 hex digits>"` for an event about a series.
@@ -18,8 +20,8 @@ use std::path::{Path, PathBuf};
 
 /// The log's folder in the data folder.
 pub const FOLDER: &str = "audit";
-/// The newest file's name.
-pub const FILE: &str = "audit.log";
+/// The writer of the command line's lines (`volasso settings set`).
+pub const COMMAND_LINE: &str = "audit";
 /// A file grows to this before the next is begun.
 pub const MAX_FILE_BYTES: u64 = 1 << 20;
 /// Files kept: the newest and the older ones numbered 1 to `KEPT_FILES - 1`.
@@ -60,16 +62,24 @@ pub fn series_hash(uid: &str) -> String {
     digest.iter().take(8).map(|byte| format!("{byte:02x}")).collect()
 }
 
-/// The audit log of a data folder.
+/// The audit log of a data folder, as one writer writes it.
 #[derive(Clone, Debug)]
 pub struct AuditLog {
     folder: PathBuf,
+    /// This writer's newest file's name, `WRITER.log`.
+    file: String,
 }
 
 impl AuditLog {
-    /// The log in `data_dir` (its folder is made at the first event).
+    /// The log in `data_dir` as the command line writes it (its folder is made at the first
+    /// event).
     pub fn new(data_dir: &Path) -> AuditLog {
-        AuditLog { folder: data_dir.join(FOLDER) }
+        AuditLog::of_writer(data_dir, COMMAND_LINE)
+    }
+
+    /// The log in `data_dir` as `writer` (`kiosk`, `receive`) writes it.
+    pub fn of_writer(data_dir: &Path, writer: &str) -> AuditLog {
+        AuditLog { folder: data_dir.join(FOLDER), file: format!("{writer}.log") }
     }
 
     /// Appends `event` at `unix` seconds, about the series `series_uid` if any, with `detail`;
@@ -89,7 +99,7 @@ impl AuditLog {
 
     fn append(&self, entry: &Entry) -> std::io::Result<()> {
         std::fs::create_dir_all(&self.folder)?;
-        let newest = self.folder.join(FILE);
+        let newest = self.folder.join(&self.file);
         if std::fs::metadata(&newest).is_ok_and(|meta| meta.len() >= MAX_FILE_BYTES) {
             self.rotate()?;
         }
@@ -104,23 +114,36 @@ impl AuditLog {
         file.sync_data()
     }
 
-    /// `audit.log.N` to `.N+1` from the oldest kept, `audit.log` to `.1`.
+    /// `WRITER.log.N` to `.N+1` from the oldest kept, `WRITER.log` to `.1`.
     fn rotate(&self) -> std::io::Result<()> {
-        let numbered = |n: usize| self.folder.join(format!("{FILE}.{n}"));
+        let numbered = |n: usize| self.folder.join(format!("{}.{n}", self.file));
         let _ = std::fs::remove_file(numbered(KEPT_FILES - 1));
         for n in (1..KEPT_FILES - 1).rev() {
             if numbered(n).exists() {
                 std::fs::rename(numbered(n), numbered(n + 1))?;
             }
         }
-        std::fs::rename(self.folder.join(FILE), numbered(1))
+        std::fs::rename(self.folder.join(&self.file), numbered(1))
     }
 
-    /// Every entry at or after `since` (unix seconds), oldest first, over the kept files; a
-    /// line that does not parse (a torn write at a power cut) is skipped.
+    /// Every writer's entry at or after `since` (unix seconds), oldest first (in the order
+    /// written among equal times), over the kept files; a line that does not parse (a torn
+    /// write at a power cut) is skipped.
     pub fn entries(&self, since: u64) -> std::io::Result<Vec<Entry>> {
-        let mut files: Vec<PathBuf> = (1..KEPT_FILES).rev().map(|n| self.folder.join(format!("{FILE}.{n}"))).collect();
-        files.push(self.folder.join(FILE));
+        let mut writers: Vec<String> = match std::fs::read_dir(&self.folder) {
+            Ok(read) => read
+                .filter_map(|entry| entry.ok()?.file_name().into_string().ok())
+                .filter(|name| name.ends_with(".log"))
+                .collect(),
+            Err(error) if error.kind() == std::io::ErrorKind::NotFound => Vec::new(),
+            Err(error) => return Err(error),
+        };
+        writers.sort();
+        let mut files = Vec::new();
+        for newest in &writers {
+            files.extend((1..KEPT_FILES).rev().map(|n| self.folder.join(format!("{newest}.{n}"))));
+            files.push(self.folder.join(newest));
+        }
         let mut entries = Vec::new();
         for path in files {
             let file = match std::fs::File::open(&path) {
@@ -136,6 +159,7 @@ impl AuditLog {
                 }
             }
         }
+        entries.sort_by_key(|entry| entry.unix);
         Ok(entries)
     }
 }
@@ -170,9 +194,25 @@ mod tests {
         assert_eq!(entries[0].series.as_ref().map(String::len), Some(16));
         assert_eq!(entries[1].event, Event::SettingsChanged);
         assert_eq!(log.entries(1_796_554_924).unwrap().len(), 1, "--since");
-        let text = std::fs::read_to_string(data.path().join(FOLDER).join(FILE)).unwrap();
+        let text = std::fs::read_to_string(data.path().join(FOLDER).join("audit.log")).unwrap();
         assert!(!text.contains(uid), "the UID itself is never written");
         assert!(text.contains("\"event\":\"series-received\""), "{text}");
+    }
+
+    #[test]
+    fn each_writer_has_its_file_and_reading_merges_them_by_time() {
+        let data = tempfile::tempdir().unwrap();
+        let (kiosk, receiver) =
+            (AuditLog::of_writer(data.path(), "kiosk"), AuditLog::of_writer(data.path(), "receive"));
+        receiver.record(5, Event::SeriesReceived, Some("1.2.3"), None);
+        kiosk.record(7, Event::ScanOpened, Some("1.2.3"), None);
+        receiver.record(9, Event::SeriesReceived, Some("4.5.6"), None);
+        assert!(
+            data.path().join(FOLDER).join("kiosk.log").exists()
+                && data.path().join(FOLDER).join("receive.log").exists()
+        );
+        let unix: Vec<u64> = AuditLog::new(data.path()).entries(0).unwrap().iter().map(|entry| entry.unix).collect();
+        assert_eq!(unix, [5, 7, 9]);
     }
 
     #[test]
@@ -186,8 +226,8 @@ mod tests {
             log.record(n as u64, Event::ScanOpened, None, Some(&detail));
         }
         let folder = data.path().join(FOLDER);
-        assert!(folder.join(format!("{FILE}.{}", KEPT_FILES - 1)).exists());
-        assert!(!folder.join(format!("{FILE}.{KEPT_FILES}")).exists());
+        assert!(folder.join(format!("audit.log.{}", KEPT_FILES - 1)).exists());
+        assert!(!folder.join(format!("audit.log.{KEPT_FILES}")).exists());
         let entries = log.entries(0).unwrap();
         assert!(entries.len() < total && entries.len() >= per_file * (KEPT_FILES - 1), "{}", entries.len());
         assert!(entries.windows(2).all(|pair| pair[0].unix < pair[1].unix), "oldest first, none twice");
@@ -199,7 +239,7 @@ mod tests {
         let data = tempfile::tempdir().unwrap();
         let log = AuditLog::new(data.path());
         log.record(10, Event::ScanOpened, None, None);
-        let path = data.path().join(FOLDER).join(FILE);
+        let path = data.path().join(FOLDER).join("audit.log");
         let mut file = std::fs::OpenOptions::new().append(true).open(&path).unwrap();
         file.write_all(b"{\"time\":\"2026-").unwrap();
         drop(file);

@@ -61,7 +61,7 @@ pub fn run(job: PacsJob, _: &Ticket, report: &Report<'_, PacsReport>) {
 
 /// An audit line per series a retrieval published.
 fn audit_retrieved(data_dir: &Path, peer: &Peer, reports: &[SeriesReport]) {
-    let log = AuditLog::new(data_dir);
+    let log = AuditLog::of_writer(data_dir, crate::audit::KIOSK);
     for report in reports {
         if let SeriesReport::Stored { name, series_uid, images, .. } = report {
             let detail = format!("{name}, {images} images, from {}", peer.ae_title);
@@ -138,7 +138,12 @@ fn send(peer: &Peer, outbox: &Path, request: &SendRequest, audit_dir: Option<&Pa
     let what = if sc.is_some() { "segmentation and 3-D picture" } else { "segmentation" };
     if let Some(data_dir) = audit_dir {
         let detail = format!("{what} to {}", peer.ae_title);
-        AuditLog::new(data_dir).record(now_unix(), Event::ResultSent, Some(&source.series_uid), Some(&detail));
+        AuditLog::of_writer(data_dir, crate::audit::KIOSK).record(
+            now_unix(),
+            Event::ResultSent,
+            Some(&source.series_uid),
+            Some(&detail),
+        );
     }
     Ok(format!("Sent to {}: {what} stored", peer.ae_title))
 }

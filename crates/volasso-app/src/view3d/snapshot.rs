@@ -137,7 +137,7 @@ pub fn take(image: &image::RgbaImage, places: &Places, time: SystemTime) -> Outc
     if let (Some(data_dir), true) = (&places.data_dir, exported > 0) {
         let unix = time.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |since| since.as_secs());
         let detail = format!("snapshot to {exported} USB stick(s)");
-        volasso_appliance::audit::AuditLog::new(data_dir).record(
+        volasso_appliance::audit::AuditLog::of_writer(data_dir, crate::audit::KIOSK).record(
             unix,
             volasso_appliance::audit::Event::ResultExported,
             None,
