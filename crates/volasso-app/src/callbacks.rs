@@ -151,7 +151,7 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
         let mut state = state.borrow_mut();
         if !state.thumbnails_requested {
             state.thumbnails_requested = true;
-            let sources: Vec<_> = state.sources.iter().cloned().enumerate().collect();
+            let sources: Vec<_> = state.cards.sources().iter().cloned().enumerate().collect();
             state.thumbnails_pending = sources.len();
             state.loader.thumbnails(sources);
         }

@@ -102,7 +102,8 @@ pub enum Screen {
 /// Everything the callbacks and the poll timer share (on the UI thread only).
 struct State {
     config: AppConfig,
-    sources: Vec<VolumeSource>,
+    /// The chooser's scans and their cards.
+    cards: chooser::cards::Cards,
     /// Polls since the data folder was last listed.
     polls_since_scan: u32,
     /// Scans were deleted as expired: their cards go once no card is being loaded.
@@ -170,7 +171,7 @@ impl State {
         let Some(data_dir) = self.config.data_dir.clone() else { return };
         let session_dir = self.config.session_dir.clone();
         let open = self.ctl.work.as_ref().map(|work| &work.loaded.source);
-        let opening = self.opening.and_then(|index| self.sources.get(index));
+        let opening = self.opening.and_then(|index| self.cards.source(index));
         let keep: Vec<PathBuf> = open.into_iter().chain(opening).filter_map(source_path).collect();
         let expired =
             self.expiry.tick(now, |retention| Some(expiry::SweepJob { data_dir, session_dir, retention, keep }));
@@ -248,7 +249,7 @@ impl App {
         };
         let state = State {
             loader: Loader::new(config.open_options.clone(), config.patient),
-            sources,
+            cards: chooser::cards::Cards::new(sources),
             polls_since_scan: 0,
             cards_to_drop: false,
             thumbnails_requested: false,
@@ -318,19 +319,13 @@ impl App {
             (None, None) => None,
         };
         if let Some(source) = source {
-            let index = match state.sources.iter().position(|s| *s == source) {
-                Some(index) => index,
-                None => {
-                    state.sources.push(source.clone());
-                    state.sources.len() - 1
-                }
-            };
+            let (index, _) = state.cards.add(source.clone());
             state.loader.open(index, source);
             state.opening = Some(index);
             state.status = "Opening the volume...".into();
         }
         drop(state);
-        refresh::push_volumes(&self.window, &self.state);
+        chooser::loading::show_cards(&self.state);
         refresh::push_status(&self.window, &self.state);
     }
 

@@ -54,6 +54,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
     push_status(window, state);
     loading::rescan_data_folder(state);
     loading::drop_vanished(state);
+    loading::show_cards(state);
 }
 
 /// Shows the slice pictures the painter thread finished.

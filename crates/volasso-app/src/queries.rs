@@ -25,7 +25,6 @@
 
 use super::gallery::view as results;
 use super::{State, windowing};
-use slint::Model;
 use volasso_core::slices::Axis;
 
 pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
@@ -42,13 +41,13 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         "busy" => (state.ctl.jobs.busy() || state.opening.is_some()).to_string(),
         "classifying" => state.ctl.jobs.busy().to_string(),
         "classified" => work.and_then(|w| w.classified.as_ref()).map_or(0, |c| c.table.styles.len()).to_string(),
-        "cards" => state.volumes_model.row_count().to_string(),
+        "cards" => state.cards.len().to_string(),
         "studies" => state.pacs.model.rows().len().to_string(),
         "pacs" => state.pacs.model.message.clone(),
         "sent" => state.pacs.model.send_message.clone(),
         "pacs-failed" => yes_no(state.pacs.model.failed()),
         "send-failed" => yes_no(state.pacs.model.send_message.starts_with("Not sent")),
-        "cannot-open" => state.volumes_model.iter().filter(|card| card.failed).count().to_string(),
+        "cannot-open" => state.cards.failed().to_string(),
         "template" => {
             let template = state.template();
             format!("{} {}", template.template.name(), template.rotation_degrees)

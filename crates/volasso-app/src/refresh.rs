@@ -4,7 +4,7 @@
 use super::controller::{Changed, FAILURE_BANNER_START, Failure, failure_banner};
 use super::painter::PictureRequest;
 use super::pictures::class_colour;
-use super::ui::{AppWindow, ClassEntry, Session, SliceView, VolumeCard};
+use super::ui::{AppWindow, ClassEntry, Session, SliceView};
 use super::{PANEL_COUNT, Screen, State};
 use slint::{ComponentHandle, Model};
 use std::cell::RefCell;
@@ -142,14 +142,6 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
     session.set_banner(state.banner.clone().into());
 }
 
-pub(super) fn push_volumes(window: &AppWindow, state: &Shared) {
-    let state = state.borrow();
-    let cards: Vec<VolumeCard> = state.sources.iter().map(blank_card).collect();
-    state.volumes_model.set_vec(cards);
-    drop(state);
-    let _ = window;
-}
-
 /// The numbers, title, edge letters and feedback of one panel, and its picture (grey, classes,
 /// lassos, arranged for the screen) asked of the painter thread; until it comes
 /// ([`picture_done`]) the panel keeps its picture when it still shows the same volume along the
@@ -276,15 +268,4 @@ pub(super) fn to_slint_image(image: &RgbImage) -> slint::Image {
 
 fn to_colour([r, g, b]: [u8; 3]) -> slint::Color {
     slint::Color::from_rgb_u8(r, g, b)
-}
-
-/// A volume's card before its thumbnail and details arrive: its name alone.
-pub(super) fn blank_card(source: &crate::chooser::library::VolumeSource) -> VolumeCard {
-    VolumeCard {
-        name: source.name().into(),
-        detail: "".into(),
-        patient: "".into(),
-        thumbnail: slint::Image::default(),
-        failed: false,
-    }
 }

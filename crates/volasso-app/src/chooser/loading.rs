@@ -8,6 +8,7 @@
 //!
 //! Never: opens files itself (library.rs does, on worker threads).
 
+use crate::chooser::cards::{Card, Changes};
 use crate::chooser::library::{LoadedVolume, LoaderEvent, VolumeSource};
 use crate::refresh::{self, apply, show_screen, to_slint_image};
 use crate::ui::{AppWindow, Session, VolumeCard};
@@ -44,15 +45,11 @@ pub(crate) fn rescan_data_folder(state: &Shared) {
     }
     state.polls_since_scan = 0;
     let found = crate::chooser::library::scan(state.config.data_dir.as_deref());
-    let added = crate::chooser::library::appeared(&state.sources, found);
+    let added = state.cards.add_new(found);
     if added.is_empty() {
         return;
     }
     log::info!("{} new volume(s) in the data folder", added.len());
-    for (_, source) in &added {
-        state.sources.push(source.clone());
-        state.volumes_model.push(crate::refresh::blank_card(source));
-    }
     if state.thumbnails_requested {
         state.thumbnails_pending += added.len();
         state.loader.thumbnails(added);
@@ -68,29 +65,20 @@ pub(crate) fn drop_vanished(state: &Shared) {
         return;
     }
     state.cards_to_drop = false;
-    let kept: Vec<usize> = (0..state.sources.len())
-        .filter(|&index| crate::source_path(&state.sources[index]).is_none_or(|path| path.exists()))
-        .collect();
-    if kept.len() == state.sources.len() {
-        return;
+    let gone = state.cards.drop_gone();
+    if gone > 0 {
+        log::info!("{gone} scan(s) gone from the chooser");
     }
-    log::info!("{} scan(s) gone from the chooser", state.sources.len() - kept.len());
-    let sources = kept.iter().map(|&index| state.sources[index].clone()).collect();
-    let cards: Vec<VolumeCard> = kept.iter().filter_map(|&index| state.volumes_model.row_data(index)).collect();
-    state.sources = sources;
-    state.volumes_model.set_vec(cards);
 }
 
 /// The chooser index of `source`, added as a new card (its thumbnail asked for) when the
 /// chooser does not have it yet: a series just retrieved from the PACS.
 pub(crate) fn add_source(state: &Shared, source: VolumeSource) -> usize {
     let mut state = state.borrow_mut();
-    if let Some(index) = state.sources.iter().position(|known| *known == source) {
+    let (index, new) = state.cards.add(source.clone());
+    if !new {
         return index;
     }
-    let index = state.sources.len();
-    state.sources.push(source.clone());
-    state.volumes_model.push(crate::refresh::blank_card(&source));
     if state.thumbnails_requested {
         state.thumbnails_pending += 1;
         state.loader.thumbnails(vec![(index, source)]);
@@ -103,11 +91,11 @@ pub(crate) fn add_source(state: &Shared, source: VolumeSource) -> usize {
 pub(crate) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
     {
         let mut state = shared.borrow_mut();
-        let Some(source) = state.sources.get(index.max(0) as usize).cloned() else { return };
+        let Some(source) = state.cards.source(index.max(0) as usize).cloned() else { return };
         if state.opening.is_some() {
             return;
         }
-        let series = crate::chooser::loading::series_cards(&state.sources, &source);
+        let series = state.cards.series_of(&source);
         if series > 1 {
             state.banner = format!("{} holds {series} series: open one of their cards.", source.name());
             drop(state);
@@ -125,29 +113,17 @@ pub(crate) fn open_volume(window: &AppWindow, shared: &Shared, index: i32) {
 pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEvent) {
     match event {
         LoaderEvent::Thumbnail { index, result } => {
-            let model = state.borrow().volumes_model.clone();
-            {
-                let mut state = state.borrow_mut();
-                state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
-            }
-            let Some(mut card) = model.row_data(index) else { return };
+            let mut state = state.borrow_mut();
+            state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
             match result {
-                Ok(thumbnail) => {
-                    card.thumbnail = to_slint_image(&thumbnail.image);
-                    card.detail = thumbnail.detail.into();
-                    if let Some(title) = thumbnail.title {
-                        card.name = title.into();
-                    }
-                    card.patient = thumbnail.patient.into();
-                }
+                Ok(thumbnail) => state.cards.thumbnail(index, thumbnail),
                 Err(error) => {
                     let message = error.to_string();
-                    let source = state.borrow().sources.get(index).cloned();
+                    let source = state.cards.source(index).cloned();
                     log::warn!("cannot open {}: {message}", source.as_ref().map_or(String::new(), |s| s.key()));
-                    mark_failed(&mut card, &reason(&message, source.as_ref()));
+                    state.cards.failed_to_open(index, &reason(&message, source.as_ref()));
                 }
             }
-            model.set_row_data(index, card);
         }
         LoaderEvent::Series { index, series } => show_series(state, index, series),
         LoaderEvent::Opened { index, result } => {
@@ -164,7 +140,7 @@ pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
                 }
                 Err(error) => {
                     let message = error.to_string();
-                    let source = state_ref.sources.get(index).cloned();
+                    let source = state_ref.cards.source(index).cloned();
                     let name = source.as_ref().map(|source| source.name()).unwrap_or_default();
                     log::warn!("cannot open {name}: {message}");
                     let message = reason(&message, source.as_ref());
@@ -175,12 +151,7 @@ pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
                         (Some(dir), true) => autosave::abandon(dir, name, message.clone()).message(),
                         _ => format!("Cannot open {name}: {message}."),
                     };
-                    let model = state_ref.volumes_model.clone();
-                    drop(state_ref);
-                    if let Some(mut card) = model.row_data(index) {
-                        mark_failed(&mut card, &message);
-                        model.set_row_data(index, card);
-                    }
+                    state_ref.cards.failed_to_open(index, &message);
                 }
             }
         }
@@ -192,36 +163,49 @@ pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
 fn show_series(state: &Shared, index: usize, series: Vec<VolumeSource>) {
     let mut state = state.borrow_mut();
     state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
-    let model = state.volumes_model.clone();
-    if let Some(mut card) = model.row_data(index) {
-        card.detail = format!("{} series, a card each", series.len()).into();
-        card.thumbnail = slint::Image::default();
-        model.set_row_data(index, card);
-    }
-    let added = crate::chooser::library::appeared(&state.sources, series);
+    state.cards.folder_of_series(index, series.len());
+    let added = state.cards.add_new(series);
     log::info!("a folder holds {} series", added.len());
-    for (_, source) in &added {
-        state.sources.push(source.clone());
-        model.push(crate::refresh::blank_card(source));
-    }
     state.thumbnails_pending += added.len();
     state.loader.thumbnails(added);
 }
 
-/// How many series of the folder `source` names have cards of their own.
-pub(crate) fn series_cards(sources: &[VolumeSource], source: &VolumeSource) -> usize {
-    let VolumeSource::Path(path) = source else { return 0 };
-    sources.iter().filter(|s| matches!(s, VolumeSource::Series { folder, .. } if folder == path)).count()
+/// Shows the cards that changed (cards.rs) in the chooser.
+pub(crate) fn show_cards(state: &Shared) {
+    let mut state = state.borrow_mut();
+    let changes = state.cards.take_changes();
+    let model = state.volumes_model.clone();
+    let card = |index: usize| state.cards.card(index).map(to_volume_card);
+    match changes {
+        Changes::None => {}
+        Changes::All => model.set_vec((0..state.cards.len()).filter_map(card).collect::<Vec<_>>()),
+        Changes::Rows(rows) => {
+            for index in rows {
+                let Some(shown) = card(index) else { continue };
+                if index < model.row_count() {
+                    model.set_row_data(index, shown);
+                } else {
+                    // New cards come in order after the shown ones.
+                    while model.row_count() < index {
+                        let Some(before) = card(model.row_count()) else { break };
+                        model.push(before);
+                    }
+                    model.push(shown);
+                }
+            }
+        }
+    }
 }
 
-/// A card whose file cannot be opened says so ("Cannot open"), and why.
-fn mark_failed(card: &mut VolumeCard, reason: &str) {
-    let mut characters = reason.chars();
-    let sentence: String =
-        characters.next().map(|first| first.to_uppercase().chain(characters).collect()).unwrap_or_default();
-    card.failed = true;
-    card.detail = sentence.into();
-    card.thumbnail = slint::Image::default();
+/// A card as the chooser shows it.
+fn to_volume_card(card: &Card) -> VolumeCard {
+    VolumeCard {
+        name: card.name.clone().into(),
+        detail: card.detail.clone().into(),
+        patient: card.patient.clone().into(),
+        thumbnail: card.thumbnail.as_ref().map_or_else(slint::Image::default, to_slint_image),
+        failed: card.failed,
+    }
 }
 
 fn reason(message: &str, source: Option<&VolumeSource>) -> String {
