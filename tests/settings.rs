@@ -228,3 +228,29 @@ fn the_receiver_listens_on_nothing_while_the_settings_keep_dicom_intake_off_and_
     let _ = child.kill();
     let _ = child.wait();
 }
+
+#[test]
+fn set_pin_keeps_a_salted_hash_of_the_pin_read_from_standard_input_and_refuses_another_form() {
+    use std::io::Write;
+    let data = tempfile::tempdir().unwrap();
+    let set_pin = |pin: &str| {
+        let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_volasso"))
+            .args(["settings", "--data-dir", data.path().to_str().unwrap(), "set-pin"])
+            .stdin(std::process::Stdio::piped())
+            .stdout(std::process::Stdio::piped())
+            .stderr(std::process::Stdio::piped())
+            .spawn()
+            .expect("volasso runs");
+        child.stdin.take().unwrap().write_all(format!("{pin}\n").as_bytes()).unwrap();
+        child.wait_with_output().unwrap()
+    };
+    assert_clean_error(&set_pin("12"), "4 to 8 digits", "a short PIN");
+    assert!(!data.path().join("pin").exists());
+    let output = set_pin("4711");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let stored = std::fs::read_to_string(data.path().join("pin")).unwrap();
+    assert!(stored.starts_with("$argon2") && !stored.contains("4711"), "{stored}");
+    let mut attempts = volasso::appliance::pin::Attempts::default();
+    let verdict = volasso::appliance::pin::check(data.path(), "4711", &mut attempts, std::time::Duration::ZERO);
+    assert_eq!(verdict.unwrap(), volasso::appliance::pin::Verdict::Accepted);
+}

@@ -31,6 +31,10 @@ pub enum SettingsCommand {
         #[arg(allow_hyphen_values = true)]
         value: String,
     },
+    /// Choose the PIN of the kiosk's settings screen (4 to 8 digits, read from standard input
+    /// so that it is neither in the shell's history nor in the process list); kept as a salted
+    /// hash in `DIR/pin`.
+    SetPin,
 }
 
 #[derive(Debug, Args)]
@@ -60,6 +64,16 @@ pub fn run(args: &SettingsArgs) -> Result<(), CliError> {
             settings::write(&args.data_dir, &current)?;
             let detail = format!("{key}={}", value.trim());
             AuditLog::new(&args.data_dir).record(now_unix(), Event::SettingsChanged, None, Some(&detail));
+            Ok(())
+        }
+        SettingsCommand::SetPin => {
+            let mut line = String::new();
+            std::io::stdin()
+                .read_line(&mut line)
+                .map_err(|source| CliError::Output { source, path: "standard input".into() })?;
+            crate::appliance::pin::set(&args.data_dir, line.trim_end_matches(['\n', '\r']))
+                .map_err(|error| CliError::Usage(error.to_string()))?;
+            AuditLog::new(&args.data_dir).record(now_unix(), Event::SettingsChanged, None, Some("pin"));
             Ok(())
         }
     }
