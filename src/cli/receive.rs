@@ -166,9 +166,10 @@ struct AuditedLines {
 }
 
 impl std::io::Write for AuditedLines {
+    /// The audit line is written before the JSON line reaches stdout, so whoever reads the
+    /// JSON line finds the audit line there.
     fn write(&mut self, bytes: &[u8]) -> std::io::Result<usize> {
-        let written = self.out.write(bytes)?;
-        for &byte in &bytes[..written] {
+        for &byte in bytes {
             if byte != b'\n' {
                 self.line.push(byte);
                 continue;
@@ -184,7 +185,8 @@ impl std::io::Write for AuditedLines {
                 self.log.record(unix, Event::SeriesReceived, Some(&series_uid), Some(&detail));
             }
         }
-        Ok(written)
+        self.out.write_all(bytes)?;
+        Ok(bytes.len())
     }
 
     fn flush(&mut self) -> std::io::Result<()> {
