@@ -337,7 +337,8 @@ pub fn read(data_dir: &Path) -> Result<Option<Settings>, SettingsError> {
     Ok(Some(settings))
 }
 
-/// Writes `settings` as the settings file of `data_dir`, atomically.
+/// Writes `settings` as the settings file of `data_dir`, atomically, readable by the file's
+/// group (on the appliance the receiver, another user of the kiosk's group, reads it).
 pub fn write(data_dir: &Path, settings: &Settings) -> Result<(), SettingsError> {
     let path = path(data_dir);
     let text = toml::to_string(settings)
@@ -348,7 +349,10 @@ pub fn write(data_dir: &Path, settings: &Settings) -> Result<(), SettingsError> 
         file.write_all(header.as_bytes())?;
         file.write_all(text.as_bytes())
     })
-    .map_err(|source| SettingsError::Write { source, path })
+    .map_err(|source| SettingsError::Write { source, path: path.clone() })?;
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::set_permissions(&path, std::fs::Permissions::from_mode(0o640))
+        .map_err(|source| SettingsError::Write { source, path })
 }
 
 #[cfg(test)]

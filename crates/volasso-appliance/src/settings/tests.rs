@@ -40,6 +40,9 @@ fn what_set_writes_reads_back_and_a_set_value_beats_the_mode_s_default() {
         settings.set(key, value).unwrap_or_else(|error| panic!("{key} {value}: {error}"));
     }
     write(folder.path(), &settings).unwrap();
+    use std::os::unix::fs::PermissionsExt;
+    let mode = std::fs::metadata(path(folder.path())).unwrap().permissions().mode();
+    assert_eq!(mode & 0o777, 0o640, "the receiver (the kiosk's group) reads it");
     let read_back = read(folder.path()).unwrap().unwrap();
     assert_eq!(read_back, settings);
     let effective = read_back.effective();
