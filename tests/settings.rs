@@ -158,15 +158,37 @@ fn clinical_mode_shows_whose_scan_it_is_and_demo_mode_shows_and_writes_none_of_i
     let script = format!("{open}expect patient HEAD · ID PLASTIC · M · study 2015-02-06 · CT STD BRAIN 5MM\n");
     let output = replay_in(clinical.path(), &script);
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    // Demo mode, a whole visit: two classes drawn, the result kept, a snapshot, the session
+    // autosaved; then nothing written or logged holds the patient's ID.
     let demo = tempfile::tempdir().unwrap();
     philips_in(demo.path());
     assert!(run(demo.path(), &["set", "mode", "demo"]).status.success());
-    let output = replay_in(demo.path(), &format!("{open}expect patient \"\"\n"));
+    let visit = "expect patient \"\"\n\
+                 lasso \"slice z\" 0.40,0.40 0.60,0.40 0.60,0.60 0.40,0.60\ntap \"Define class\"\n\
+                 lasso \"slice z\" 0.05,0.05 0.20,0.05 0.20,0.20 0.05,0.20\ntap \"Define class\"\n\
+                 wait-idle\nexpect classified 2\ntap \"Save result\"\nwait-idle\ntap Snapshot\nwait-idle\n\
+                 expect snapshots 1\n";
+    let work = tempfile::tempdir().unwrap();
+    let script = work.path().join("visit.touch");
+    std::fs::write(&script, format!("{open}{visit}")).unwrap();
+    let session = demo.path().join("session");
+    let args = [
+        "replay",
+        script.to_str().unwrap(),
+        "--data-dir",
+        demo.path().to_str().unwrap(),
+        "--session-dir",
+        session.to_str().unwrap(),
+    ];
+    let output = volasso(&args, &work.path().join("cache"));
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
     // Nothing the demo run wrote or logged holds the patient's ID (its name, HEAD, is a word
     // the logs may use for other things).
     let logged = format!("{}{}", String::from_utf8_lossy(&output.stdout), String::from_utf8_lossy(&output.stderr));
     assert!(!logged.contains("PLASTIC"), "{logged}");
+    let kept = walk(demo.path()).iter().filter(|path| path.ends_with("entry.json")).count();
+    assert_eq!(kept, 1, "the result was kept");
+    assert!(session.join("session.json").exists(), "the session was autosaved");
     let mut written = Vec::new();
     for entry in walk(demo.path()) {
         if !entry.is_symlink() && entry.is_file() {
