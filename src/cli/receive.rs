@@ -179,10 +179,7 @@ impl std::io::Write for AuditedLines {
                 && event == "stored"
             {
                 let detail = format!("{name}, {images} images, from {calling_ae}");
-                let unix = std::time::SystemTime::now()
-                    .duration_since(std::time::UNIX_EPOCH)
-                    .map_or(0, |since| since.as_secs());
-                self.log.record(unix, Event::SeriesReceived, Some(&series_uid), Some(&detail));
+                self.log.record_now(Event::SeriesReceived, Some(&series_uid), Some(&detail));
             }
         }
         self.out.write_all(bytes)?;

@@ -63,7 +63,7 @@ pub fn run(args: &SettingsArgs) -> Result<(), CliError> {
             current.set(key, value)?;
             settings::write(&args.data_dir, &current)?;
             let detail = format!("{key}={}", value.trim());
-            AuditLog::new(&args.data_dir).record(now_unix(), Event::SettingsChanged, None, Some(&detail));
+            AuditLog::new(&args.data_dir).record_now(Event::SettingsChanged, None, Some(&detail));
             Ok(())
         }
         SettingsCommand::SetPin => {
@@ -73,7 +73,7 @@ pub fn run(args: &SettingsArgs) -> Result<(), CliError> {
                 .map_err(|source| CliError::Output { source, path: "standard input".into() })?;
             crate::appliance::pin::set(&args.data_dir, line.trim_end_matches(['\n', '\r']))
                 .map_err(|error| CliError::Usage(error.to_string()))?;
-            AuditLog::new(&args.data_dir).record(now_unix(), Event::SettingsChanged, None, Some("pin"));
+            AuditLog::new(&args.data_dir).record_now(Event::SettingsChanged, None, Some("pin"));
             Ok(())
         }
     }
@@ -87,10 +87,6 @@ pub fn run_audit(args: &AuditArgs) -> Result<(), CliError> {
         println!("{}", serde_json::to_string(&entry).unwrap_or_default());
     }
     Ok(())
-}
-
-fn now_unix() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |since| since.as_secs())
 }
 
 /// Seconds since 1970, or `YYYY-MM-DD` (UTC midnight).

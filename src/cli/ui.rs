@@ -128,7 +128,7 @@ impl UiArgs {
 impl UiArgs {
     /// The appliance's settings in `--data-dir` (`settings.toml`; the defaults without one),
     /// and why its file could not be used.
-    pub fn settings(&self) -> (Effective, Option<String>) {
+    fn settings(&self) -> (Effective, Option<String>) {
         let Some(data_dir) = &self.data_dir else { return (Settings::default().effective(), None) };
         let loaded = settings::load(data_dir);
         let problem = loaded.problem.map(|problem| {
@@ -140,9 +140,14 @@ impl UiArgs {
 
     /// The app's set-up: each option given here, else the settings', else its default.
     pub fn config(&self) -> Result<AppConfig, CliError> {
+        Ok(self.config_and_settings()?.0)
+    }
+
+    /// [`Self::config`] and the settings it was made from (the settings file read once).
+    fn config_and_settings(&self) -> Result<(AppConfig, Effective), CliError> {
         let (settings, notice) = self.settings();
         let idle_timeout = self.idle_timeout.unwrap_or(settings.idle_timeout_s);
-        Ok(AppConfig {
+        let mut config = AppConfig {
             data_dir: self.data_dir.clone(),
             session_dir: self.session_dir.clone(),
             idle_timeout: (idle_timeout > 0).then(|| Duration::from_secs(idle_timeout)),
@@ -156,10 +161,13 @@ impl UiArgs {
                 Mode::Clinical => PatientShown::Shown,
                 Mode::Demo => PatientShown::Hidden,
             },
-            // No USB stick gets a snapshot unless the settings allow it (clinical mode's default).
-            media_roots: if settings.usb_export { AppConfig::default().media_roots } else { Vec::new() },
             ..AppConfig::default()
-        })
+        };
+        // No USB stick gets a snapshot unless the settings allow it (clinical mode's default).
+        if !settings.usb_export {
+            config.media_roots.clear();
+        }
+        Ok((config, settings))
     }
 }
 
@@ -192,12 +200,13 @@ fn run_window(args: &UiArgs) -> Result<(), CliError> {
 }
 
 fn run_drm(args: &UiArgs) -> Result<(), CliError> {
+    let (config, settings) = args.config_and_settings()?;
     let touch = crate::kiosk::drm_loop::TouchOptions {
         device: args.touch.clone(),
         disabled: args.no_touch,
-        rotation_degrees: args.touch_rotate.unwrap_or(i32::from(args.settings().0.panel.rotation_degrees)),
+        rotation_degrees: args.touch_rotate.unwrap_or(i32::from(settings.panel.rotation_degrees)),
         flip_x: args.touch_flip_x,
         flip_y: args.touch_flip_y,
     };
-    Ok(crate::kiosk::drm_loop::run(args.config()?, args.card.clone(), touch)?)
+    Ok(crate::kiosk::drm_loop::run(config, args.card.clone(), touch)?)
 }

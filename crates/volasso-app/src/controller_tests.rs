@@ -19,10 +19,14 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
     let mut strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
     let bone = strokes.classes.pop().unwrap().strokes;
     let soft = strokes.classes.pop().unwrap().strokes;
-    let volume = phantom.volume;
+    (opened(phantom.volume), soft, bone)
+}
+
+/// `volume` as the chooser opens a scan that is not DICOM, in demo mode.
+fn opened(volume: volasso_core::volume::Volume) -> LoadedVolume {
     let entropies = foreground_slice_entropies(&volume);
     let windows = WindowChoices::for_volume(&volume);
-    let loaded = LoadedVolume {
+    LoadedVolume {
         source: VolumeSource::Demo,
         volume: Arc::new(volume),
         entropies,
@@ -30,8 +34,7 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
         patient: crate::patient::Patient::NotShown,
         title: None,
         series_uid: None,
-    };
-    (loaded, soft, bone)
+    }
 }
 
 /// A controller that starts no thread and opens no GPU: its 3-D view takes requests (the
@@ -253,17 +256,7 @@ fn loaded(spacing_mm: [f64; 3], value: impl Fn(usize, usize, usize) -> f32) -> L
         (0..dims[0] * dims[1] * dims[2]).map(|i| value(i % 32, (i / 32) % 32, i / (32 * 32))).collect();
     let volume =
         volasso_core::volume::Volume::from_f32(dims, spacing_mm, &values, std::path::Path::new("test.nrrd")).unwrap();
-    let entropies = foreground_slice_entropies(&volume);
-    let windows = WindowChoices::for_volume(&volume);
-    LoadedVolume {
-        source: VolumeSource::Demo,
-        volume: Arc::new(volume),
-        entropies,
-        windows,
-        patient: crate::patient::Patient::NotShown,
-        title: None,
-        series_uid: None,
-    }
+    opened(volume)
 }
 
 /// Deterministic noise in -8..8, so that no two lassoed voxels are alike.

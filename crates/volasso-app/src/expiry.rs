@@ -12,7 +12,7 @@ use std::path::PathBuf;
 use std::sync::Arc;
 use std::time::{Duration, SystemTime};
 use volasso_appliance::audit::{AuditLog, Event};
-use volasso_appliance::retention::{self, Expired, Kind, Sweep};
+use volasso_appliance::retention::{self, Expired, Sweep};
 
 /// One sweep: where, how old is too old, and what to spare.
 pub(crate) struct SweepJob {
@@ -31,18 +31,10 @@ pub(crate) fn sweep_task() -> Task<SweepJob, Vec<Expired>> {
             retention: job.retention,
             keep: &job.keep,
         };
-        let now = SystemTime::now();
-        let expired = sweep.run(now);
-        let unix = now.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |since| since.as_secs());
+        let expired = sweep.run(SystemTime::now());
         let log = AuditLog::of_writer(&job.data_dir, crate::audit::KIOSK);
         for thing in &expired {
-            let series = (thing.kind == Kind::Series).then_some(thing.name.as_str());
-            log.record(
-                unix,
-                Event::DataExpired,
-                None,
-                Some(&format!("{} {}", thing.kind.name(), series.unwrap_or(&thing.name))),
-            );
+            log.record_now(Event::DataExpired, None, Some(&format!("{} {}", thing.kind.name(), thing.name)));
         }
         report(expired)
     })
@@ -97,6 +89,7 @@ impl Expiry {
 mod tests {
     use super::*;
     use crate::worker::Inline;
+    use volasso_appliance::retention::Kind;
 
     #[test]
     fn sweeps_at_start_and_each_interval_sparing_what_the_caller_keeps() {

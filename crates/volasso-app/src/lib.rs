@@ -166,15 +166,17 @@ impl State {
         !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy() && !self.expiry.busy()
     }
 
-    /// The sweep of expired data, when due, sparing the scan open or opening.
+    /// The sweep of expired data, when due, sparing the scan open or opening (the job is made
+    /// only when a sweep is due, not on every poll).
     fn sweep_expired(&mut self, now: Duration) {
-        let Some(data_dir) = self.config.data_dir.clone() else { return };
-        let session_dir = self.config.session_dir.clone();
-        let open = self.ctl.work.as_ref().map(|work| &work.loaded.source);
-        let opening = self.opening.and_then(|index| self.cards.source(index));
-        let keep: Vec<PathBuf> = open.into_iter().chain(opening).filter_map(source_path).collect();
-        let expired =
-            self.expiry.tick(now, |retention| Some(expiry::SweepJob { data_dir, session_dir, retention, keep }));
+        let (config, ctl, cards, opening) = (&self.config, &self.ctl, &self.cards, self.opening);
+        let expired = self.expiry.tick(now, |retention| {
+            let open = ctl.work.as_ref().map(|work| &work.loaded.source);
+            let opening = opening.and_then(|index| cards.source(index));
+            let keep = open.into_iter().chain(opening).filter_map(|source| source.path().map(PathBuf::from)).collect();
+            let data_dir = config.data_dir.clone()?;
+            Some(expiry::SweepJob { data_dir, session_dir: config.session_dir.clone(), retention, keep })
+        });
         if let Some(expired) = expired {
             for thing in &expired {
                 log::info!("expired and deleted: the {} {}", thing.kind.name(), thing.name);
@@ -196,15 +198,6 @@ impl State {
             || self.view.dirty
             || self.results.busy()
             || self.pacs.busy()
-    }
-}
-
-/// The file or folder a scan is read from (none for the demo).
-pub(crate) fn source_path(source: &VolumeSource) -> Option<PathBuf> {
-    match source {
-        VolumeSource::Demo => None,
-        VolumeSource::Path(path) => Some(path.clone()),
-        VolumeSource::Series { folder, .. } => Some(folder.clone()),
     }
 }
 

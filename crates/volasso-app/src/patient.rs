@@ -7,7 +7,6 @@
 //!
 //! Never: logs a patient's data, or reads it in demo mode.
 
-use std::path::Path;
 use volasso_core::phantom::source::VolumeSource;
 use volasso_core::volume::dicom::{PatientIdentity, PatientShown, SeriesSummary, list_series};
 use volasso_core::volume::limits::ReadLimits;
@@ -27,10 +26,10 @@ pub enum Patient {
 /// The DICOM series `source` is (its header, no pixels), with its patient when `shown`;
 /// `None` for a scan that is not DICOM.
 pub fn series_summary(source: &VolumeSource, shown: PatientShown, limits: &ReadLimits) -> Option<SeriesSummary> {
-    let (path, series_uid): (&Path, Option<&str>) = match source {
-        VolumeSource::Demo => return None,
-        VolumeSource::Path(path) => (path, None),
-        VolumeSource::Series { folder, series_uid, .. } => (folder, Some(series_uid)),
+    let path = source.path()?;
+    let series_uid = match source {
+        VolumeSource::Series { series_uid, .. } => Some(series_uid.as_str()),
+        _ => None,
     };
     let listed = list_series(path, shown, limits).ok()?;
     listed

@@ -97,6 +97,13 @@ impl AuditLog {
         }
     }
 
+    /// [`record`](Self::record) at the system clock's time.
+    pub fn record_now(&self, event: Event, series_uid: Option<&str>, detail: Option<&str>) {
+        let unix =
+            std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |since| since.as_secs());
+        self.record(unix, event, series_uid, detail);
+    }
+
     fn append(&self, entry: &Entry) -> std::io::Result<()> {
         std::fs::create_dir_all(&self.folder)?;
         let newest = self.folder.join(&self.file);

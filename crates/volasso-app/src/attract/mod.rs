@@ -263,12 +263,9 @@ pub(crate) fn what_to_show(data_dir: Option<&Path>) -> Option<Showing> {
 /// is named with its length and modification time, so a scan replaced at the same path (a
 /// series received again) is rendered anew, never shown from the old pictures.
 fn turn_key(showing: &Showing, side: u32) -> String {
-    let path = match VolumeSource::from_key(&showing.session.volume) {
-        VolumeSource::Demo => None,
-        VolumeSource::Path(path) => Some(path),
-        VolumeSource::Series { folder, .. } => Some(folder),
-    };
-    let stamp = path.and_then(|path| std::fs::metadata(path).ok()).map(|meta| (meta.len(), meta.modified().ok()));
+    let source = VolumeSource::from_key(&showing.session.volume);
+    let stamp =
+        source.path().and_then(|path| std::fs::metadata(path).ok()).map(|meta| (meta.len(), meta.modified().ok()));
     format!("{side} {stamp:?} {showing:?}")
 }
 

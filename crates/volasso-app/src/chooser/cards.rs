@@ -10,6 +10,7 @@
 //! Never: opens a file or touches Slint.
 
 use super::library::{self, Thumbnail, VolumeSource};
+use std::path::Path;
 use volasso_core::transfer::RgbImage;
 
 /// One card.
@@ -133,7 +134,7 @@ impl Cards {
     /// Drops the cards whose file or folder is gone; how many went. Call only while no loader
     /// event is in flight (the others are renumbered).
     pub(crate) fn drop_gone(&mut self) -> usize {
-        let there = |source: &VolumeSource| crate::source_path(source).is_none_or(|path| path.exists());
+        let there = |source: &VolumeSource| source.path().is_none_or(Path::exists);
         let kept: Vec<bool> = self.sources.iter().map(there).collect();
         let gone = kept.iter().filter(|&&kept| !kept).count();
         if gone > 0 {

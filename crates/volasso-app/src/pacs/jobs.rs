@@ -65,13 +65,9 @@ fn audit_retrieved(data_dir: &Path, peer: &Peer, reports: &[SeriesReport]) {
     for report in reports {
         if let SeriesReport::Stored { name, series_uid, images, .. } = report {
             let detail = format!("{name}, {images} images, from {}", peer.ae_title);
-            log.record(now_unix(), Event::SeriesRetrieved, Some(series_uid), Some(&detail));
+            log.record_now(Event::SeriesRetrieved, Some(series_uid), Some(&detail));
         }
     }
-}
-
-fn now_unix() -> u64 {
-    std::time::SystemTime::now().duration_since(std::time::UNIX_EPOCH).map_or(0, |since| since.as_secs())
 }
 
 /// The folders of the series a retrieval published, or why it published none.
@@ -138,8 +134,7 @@ fn send(peer: &Peer, outbox: &Path, request: &SendRequest, audit_dir: Option<&Pa
     let what = if sc.is_some() { "segmentation and 3-D picture" } else { "segmentation" };
     if let Some(data_dir) = audit_dir {
         let detail = format!("{what} to {}", peer.ae_title);
-        AuditLog::of_writer(data_dir, crate::audit::KIOSK).record(
-            now_unix(),
+        AuditLog::of_writer(data_dir, crate::audit::KIOSK).record_now(
             Event::ResultSent,
             Some(&source.series_uid),
             Some(&detail),

@@ -91,6 +91,15 @@ impl VolumeSource {
         VolumeSource::from_path(Path::new(key))
     }
 
+    /// The file or folder the volume is read from; `None` for the demo.
+    pub fn path(&self) -> Option<&Path> {
+        match self {
+            VolumeSource::Demo => None,
+            VolumeSource::Path(path) => Some(path),
+            VolumeSource::Series { folder, .. } => Some(folder),
+        }
+    }
+
     /// The name a person reads: the demo's description or the file name.
     pub fn name(&self) -> String {
         match self {
