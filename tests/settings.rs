@@ -276,3 +276,31 @@ fn set_pin_keeps_a_salted_hash_of_the_pin_read_from_standard_input_and_refuses_a
     let verdict = volasso::appliance::pin::check(data.path(), "4711", &mut attempts, std::time::Duration::ZERO);
     assert_eq!(verdict.unwrap(), volasso::appliance::pin::Verdict::Accepted);
 }
+
+#[test]
+fn the_settings_screen_is_reached_by_a_long_press_and_the_pin_and_its_mode_switch_hides_the_patient() {
+    let data = tempfile::tempdir().unwrap();
+    philips_in(data.path());
+    volasso::appliance::pin::set(data.path(), "4711").unwrap();
+    let card = "\"philips_phantom_5mm: STD BRAIN 5MM (CT, 28 images)\"";
+    let script = format!(
+        "press title 2500ms\nexpect screen settings\nexpect layout 9mm\n\
+         tap 9\ntap 9\ntap 9\ntap 9\ntap OK\nexpect pin-message \"Wrong PIN. 2 more tries before a wait\"\n\
+         tap 4\ntap 7\ntap 1\ntap 1\ntap OK\nexpect setting.mode Clinical\nexpect layout 9mm\n\
+         tap \"Mode next\"\nexpect setting.mode \"Demo (no patient data)\"\n\
+         tap Done\nexpect screen start\ntap Start\nwait-idle\ntap {card}\nwait-idle\n\
+         expect screen work\nexpect patient \"\"\n"
+    );
+    let output = replay_in(data.path(), &script);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+    let written = std::fs::read_to_string(data.path().join("settings.toml")).unwrap();
+    assert!(written.contains("mode = \"demo\""), "{written}");
+    let output = volasso(&["audit", "--data-dir", data.path().to_str().unwrap()], data.path());
+    let audit = String::from_utf8_lossy(&output.stdout);
+    assert!(audit.contains("\"event\":\"pin-refused\""), "{audit}");
+    assert!(audit.contains("\"detail\":\"mode=demo\""), "{audit}");
+    assert!(!audit.contains("4711") && !audit.contains("9999"), "no PIN typed is logged: {audit}");
+    // A short press on the title is a tap: it starts, like the rest of the start screen.
+    let output = replay_in(data.path(), "press title 1s\nexpect screen chooser\n");
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+}

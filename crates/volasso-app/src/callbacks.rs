@@ -40,6 +40,7 @@ pub(super) fn wire(window: &AppWindow, state: &Shared) {
         crate::chooser::loading::open_volume(&w, s, index)
     }));
     wire_pacs(window, state);
+    wire_settings(window, state);
     session.on_lasso_down(handler!(window, state, |w,
                                                    s,
                                                    panel: i32,
@@ -131,6 +132,8 @@ pub(super) fn touched(state: &Shared) {
 pub(super) fn reset_to_start(window: &AppWindow, state: &Shared) {
     {
         let mut state = state.borrow_mut();
+        let now = state.config.clock.now();
+        state.settings.update(super::settings::SettingsIntent::Close, now);
         state.ctl.forget();
         state.panel_pictures.clear();
         state.restore = None;
@@ -159,6 +162,26 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
     super::attract::view::end(window, state);
     crate::gallery::view::refresh_cards(state);
     refresh::show_screen(window, Screen::Chooser);
+}
+
+/// The settings screen's callbacks and the start screen's title, each an intent of
+/// `settings::SettingsScreen`.
+fn wire_settings(window: &AppWindow, state: &Shared) {
+    use super::settings::SettingsIntent as I;
+    use super::settings::view::intent;
+    use slint::SharedString;
+    let page = window.global::<crate::ui::SettingsPage>();
+    page.on_title_held(handler!(window, state, |w, s, down: bool| { intent(&w, s, I::TitleHeld(down)) }));
+    page.on_pin_key(handler!(window, state, |w, s, key: SharedString| { intent(&w, s, I::PinKey(key.into())) }));
+    page.on_pin_done(handler!(window, state, |w, s| { intent(&w, s, I::PinDone) }));
+    page.on_step(handler!(window, state, |w, s, key: SharedString, direction: i32| {
+        intent(&w, s, I::Step { key: key.into(), direction })
+    }));
+    page.on_edit(handler!(window, state, |w, s, key: SharedString| { intent(&w, s, I::Edit(key.into())) }));
+    page.on_edit_key(handler!(window, state, |w, s, key: SharedString| { intent(&w, s, I::EditKey(key.into())) }));
+    page.on_edit_done(handler!(window, state, |w, s| { intent(&w, s, I::EditDone) }));
+    page.on_edit_cancel(handler!(window, state, |w, s| { intent(&w, s, I::EditCancel) }));
+    page.on_close(handler!(window, state, |w, s| { intent(&w, s, I::Close) }));
 }
 
 /// The PACS screen's callbacks and "Send to PACS", each an intent of `pacs::PacsModel`.

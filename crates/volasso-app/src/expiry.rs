@@ -58,6 +58,14 @@ impl Expiry {
         Expiry { retention, next_at: Duration::ZERO, worker }
     }
 
+    /// A new retention period (the settings screen): a sweep with it is due at once.
+    pub(crate) fn set_retention(&mut self, retention: Option<Duration>) {
+        if retention != self.retention {
+            self.retention = retention;
+            self.next_at = Duration::ZERO;
+        }
+    }
+
     /// A sweep is under way (replay's `wait-idle` waits for it).
     pub(crate) fn busy(&self) -> bool {
         self.worker.busy()

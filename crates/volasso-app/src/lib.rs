@@ -63,6 +63,7 @@ mod queries;
 mod refresh;
 mod saver;
 pub mod session;
+pub mod settings;
 pub mod ui;
 pub mod view3d;
 pub mod windowing;
@@ -97,6 +98,7 @@ pub enum Screen {
     Chooser = 1,
     Work = 2,
     Pacs = 3,
+    Settings = 4,
 }
 
 /// Everything the callbacks and the poll timer share (on the UI thread only).
@@ -147,6 +149,8 @@ struct State {
     expiry: expiry::Expiry,
     /// The kiosk's lines in the audit log.
     audit: audit::Audit,
+    /// The settings screen behind the PIN.
+    settings: settings::SettingsScreen,
 }
 
 impl State {
@@ -270,6 +274,7 @@ impl App {
             idle: idle::Idle::new(config.idle_timeout, config.clock.now()),
             expiry: expiry::Expiry::new(config.retention),
             audit: audit::Audit::new(config.data_dir.as_deref()),
+            settings: settings::SettingsScreen::new(config.data_dir.clone()),
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -289,6 +294,7 @@ impl App {
         app._poll_timer.start(slint::TimerMode::Repeated, POLL_INTERVAL, move || {
             if let Some(window) = weak.upgrade() {
                 poll::poll(&window, &polled);
+                settings::view::tick(&window, &polled);
                 let timed_out = {
                     let mut state = polled.borrow_mut();
                     let (now, working) = (state.config.clock.now(), state.works_for_user());

@@ -1,5 +1,5 @@
 //! The app's state by name, for replay scripts' `expect KEY VALUE` ([`super::App::query`]):
-//! `screen` (start, chooser, work, pacs), `classes`, `pending`, `volume`, `patient` (the work
+//! `screen` (start, chooser, work, pacs, settings), `classes`, `pending`, `volume`, `patient` (the work
 //! screen's patient line; empty in demo mode), `banner`, `hint` (the line
 //! over an empty 3-D view), `failed` (`yes` while the newest classification failed), `busy`,
 //! `classifying`, `classified`, `template`, `slice-z` / `slice-y` / `slice-x`, `cards` (the
@@ -17,7 +17,9 @@
 //! `on-unsure-slice` (`yes` when the panel "Draw here next" picks shows the slice it picks);
 //! `studies` (the PACS list's rows), `pacs` (the PACS screen's status line), `pacs-failed`
 //! (`yes` when its last search or retrieval failed), `sent` (the answer of "Send to PACS") and
-//! `send-failed` (`yes` when that answer is a failure).
+//! `send-failed` (`yes` when that answer is a failure); `pin-message` (what the PIN keypad
+//! says of the last PIN) and `setting.KEY` (a settings row's value in words, e.g.
+//! `setting.mode`).
 //!
 //! [`result_digest`] is what a result is, in one line (replay's `same-result`).
 //!
@@ -30,12 +32,20 @@ use volasso_core::slices::Axis;
 pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
     let work = state.ctl.work.as_ref();
     let value = match key {
-        "screen" => ["start", "chooser", "work", "pacs"].get(screen as usize).unwrap_or(&"?").to_string(),
+        "screen" => ["start", "chooser", "work", "pacs", "settings"].get(screen as usize).unwrap_or(&"?").to_string(),
         "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
         "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
         "patient" => work.map_or(String::new(), |w| w.loaded.patient.line()),
         "banner" => state.banner.clone(),
+        "pin-message" => match &state.settings.phase {
+            super::settings::Phase::Pin(entry) => entry.message.clone(),
+            _ => String::new(),
+        },
+        key if key.starts_with("setting.") => {
+            let rows = state.settings.rows();
+            rows.into_iter().find(|row| Some(row.key) == key.strip_prefix("setting.")).map(|row| row.value)?
+        }
         "hint" => state.ctl.view_hint().to_string(),
         "failed" => if state.ctl.failure().is_some() { "yes" } else { "no" }.to_string(),
         "busy" => (state.ctl.jobs.busy() || state.opening.is_some()).to_string(),

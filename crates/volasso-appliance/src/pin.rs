@@ -53,6 +53,13 @@ pub struct Attempts {
     next_try: Duration,
 }
 
+impl Attempts {
+    /// How long before the next PIN may be tried, at `now`.
+    pub fn wait(&self, now: Duration) -> Duration {
+        self.next_try.saturating_sub(now)
+    }
+}
+
 /// Whether `text` is a PIN's form.
 pub fn well_formed(text: &str) -> bool {
     (4..=8).contains(&text.len()) && text.bytes().all(|byte| byte.is_ascii_digit())

@@ -17,7 +17,7 @@
 //! (`0,0` its top-left corner, `1,1` its bottom-right); `lasso x|y|z` is short for the element
 //! `"slice x|y|z"`. Commands: `lasso ELEMENT P P P...` (closed, as a finger shuts a loop),
 //! `path ELEMENT P P P...` (open, exactly as given: an overshoot, a spiral), `tap ELEMENT [P]`,
-//! `double-tap ELEMENT [P]`, `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`,
+//! `double-tap ELEMENT [P]`, `press ELEMENT [P] DURATION` (a finger held still: a long press), `drag ELEMENT FROM TO`, `swipe ELEMENT left|right|up|down`,
 //! `pinch ELEMENT SCALE`, `pan ELEMENT DX,DY` (fractions of the element's size), `rotate ELEMENT
 //! DEGREES` (clockwise); `finger [jitter PX] [speed PX_PER_S]` (how the finger moves from
 //! then on, [`FingerStyle`]: a value left out goes back to its default);
@@ -88,6 +88,12 @@ pub enum TouchCommand {
         element: String,
         at: [f32; 2],
     },
+    /// A finger held still (a long press) for `hold_ms`.
+    Press {
+        element: String,
+        at: [f32; 2],
+        hold_ms: u64,
+    },
     Drag {
         element: String,
         from: [f32; 2],
@@ -119,6 +125,7 @@ impl TouchCommand {
             | TouchCommand::Path { element, .. }
             | TouchCommand::Tap { element, .. }
             | TouchCommand::DoubleTap { element, .. }
+            | TouchCommand::Press { element, .. }
             | TouchCommand::Drag { element, .. }
             | TouchCommand::Swipe { element, .. }
             | TouchCommand::Pinch { element, .. }
@@ -134,6 +141,7 @@ impl TouchCommand {
             TouchCommand::Path { .. } => "path",
             TouchCommand::Tap { .. } => "tap",
             TouchCommand::DoubleTap { .. } => "double-tap",
+            TouchCommand::Press { .. } => "press",
             TouchCommand::Drag { .. } => "drag",
             TouchCommand::Swipe { .. } => "swipe",
             TouchCommand::Pinch { .. } => "pinch",

@@ -9,6 +9,8 @@ pub const MAX_SCRIPT_LINES: usize = 100_000;
 pub const MAX_LASSO_POINTS: usize = 1000;
 /// Longest wait, 10 minutes.
 pub const MAX_WAIT_MS: u64 = 600_000;
+/// Longest press, a minute (a finger held longer is a stuck contact, not a gesture).
+pub const MAX_PRESS_MS: u64 = 60_000;
 /// Pinch scales accepted.
 pub const PINCH_SCALE_RANGE: std::ops::RangeInclusive<f32> = 0.1..=10.0;
 /// Rotations accepted, degrees either way.
@@ -88,6 +90,15 @@ fn parse_line(line: &str) -> Result<ScriptAction, String> {
             } else {
                 touch(TouchCommand::DoubleTap { element: element(), at })
             }
+        }
+        "press" => {
+            arity(2..=3, "press ELEMENT [X,Y] DURATION (e.g. 2s)")?;
+            let at = if arguments.len() == 3 { point(&arguments[1])? } else { [0.5, 0.5] };
+            let hold_ms = duration_ms(&arguments[arguments.len() - 1])?;
+            if hold_ms > MAX_PRESS_MS {
+                return Err(format!("a press lasts at most {} s", MAX_PRESS_MS / 1000));
+            }
+            touch(TouchCommand::Press { element: element(), at, hold_ms })
         }
         "drag" => {
             arity(3..=3, "drag ELEMENT FROM_X,FROM_Y TO_X,TO_Y")?;

@@ -103,6 +103,7 @@ pub fn touch_events_seeded(
             finger.time_us += DOUBLE_TAP_GAP_US;
             finger.tap(rect.point(*at));
         }
+        TouchCommand::Press { at, hold_ms, .. } => finger.hold(rect.point(*at), hold_ms * 1000),
         TouchCommand::Drag { from, to, .. } => finger.stroke(&[rect.point(*from), rect.point(*to)]),
         TouchCommand::Lasso { points, .. } => {
             let mut path: Vec<[f32; 2]> = points.iter().map(|p| rect.point(*p)).collect();
@@ -263,6 +264,24 @@ impl Finger {
         self.position(0, wobble);
         self.report();
         self.time_us += TAP_HOLD_US / 2 - MOVE_INTERVAL_US;
+        self.up(0);
+        self.push(EV_KEY, BTN_TOUCH, 0);
+        self.report();
+    }
+
+    /// One finger resting at `point` for `hold_us`, reporting a small wobble every frame
+    /// interval as a resting finger does.
+    fn hold(&mut self, point: [f32; 2], hold_us: u64) {
+        self.down(0, point);
+        self.push(EV_KEY, BTN_TOUCH, 1);
+        self.report();
+        // Each report moves the clock on by one move interval.
+        let frames = (hold_us / MOVE_INTERVAL_US.max(1)).max(2);
+        for _ in 1..frames {
+            let wobble = self.jittered(point);
+            self.position(0, wobble);
+            self.report();
+        }
         self.up(0);
         self.push(EV_KEY, BTN_TOUCH, 0);
         self.report();

@@ -182,6 +182,17 @@ fn a_double_tap_is_a_tap_then_a_double_tap() {
 }
 
 #[test]
+fn a_press_holds_one_finger_still_for_its_duration() {
+    let (_, fingers, gestures) = gestures_of(&command("press view 0.5,0.5 2s"), &DeviceInfo::virtual_touchscreen());
+    let held_us = fingers.last().unwrap().time_us - fingers[0].time_us;
+    assert!((2_000_000..2_100_000).contains(&held_us), "held {held_us} us");
+    assert!(fingers.iter().all(|finger| close(finger.position, [840.0, 400.0], 4.0)), "a resting finger stays put");
+    assert!(!gestures.iter().any(|gesture| matches!(gesture, Gesture::DragStart { .. })), "{gestures:?}");
+    assert!(parse("press view 90s").is_err(), "a press of minutes is a stuck finger");
+    assert!(parse("press view").is_err(), "a press says how long");
+}
+
+#[test]
 fn swipes_move_the_way_they_say() {
     for (direction, sign) in [("left", [-1.0, 0.0]), ("right", [1.0, 0.0]), ("up", [0.0, -1.0]), ("down", [0.0, 1.0])] {
         let (_, fingers, _) =
