@@ -305,6 +305,27 @@ fn every_script_passes_at(sizes: &[&str]) {
     assert!(failures.is_empty(), "{} of {count} failed:\n{}", failures.len(), failures.join("\n"));
 }
 
+/// Every screen fits the 7-inch panel and the 10-inch one in portrait in German too (longer
+/// words): `panels.touch` with the settings' language German (`.ci/replay-sizes`).
+#[test]
+#[ignore = "slow: .ci/replay-sizes runs it"]
+fn every_screen_fits_in_german_with_9_mm_targets() {
+    let data = tempfile::tempdir().unwrap();
+    let mut settings = volasso::appliance::settings::Settings::default();
+    settings.set("language", "de").unwrap();
+    volasso::appliance::settings::write(data.path(), &settings).unwrap();
+    let runs = [("1024x600", "170"), ("800x1280", "150")]
+        .iter()
+        .map(|(size, dpi)| {
+            let panels = script("panels.touch").display().to_string();
+            let data = data.path().display().to_string();
+            ["replay", &panels, "--size", size, "--dpi", dpi, "--data-dir", &data].map(String::from).to_vec()
+        })
+        .collect();
+    let failures = replay_all(runs);
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}
+
 /// Every screen fits every panel (`panels.touch`: controls whole, apart and at least 9 mm on
 /// each side) at the five panel sizes the kiosk meets, each at the density of a real panel of
 /// that size: a 24-inch 1080p monitor, a 10.1-inch 1280x800 panel, a 7-inch 1024x600 panel, a

@@ -304,3 +304,38 @@ fn the_settings_screen_is_reached_by_a_long_press_and_the_pin_and_its_mode_switc
     let output = replay_in(data.path(), "press title 1s\nexpect screen chooser\n");
     assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
 }
+
+/// The language switched on the settings screen: the screens, the app's lines and the patient's
+/// dates speak German, and every screen on the way keeps its controls whole, apart and 9 mm wide
+/// with German's longer words, on the 7-inch landscape panel and the 10-inch one in portrait.
+#[test]
+fn the_language_switched_on_the_settings_screen_speaks_german_on_every_screen_on_the_way() {
+    for (size, dpi) in [("1024x600", "170"), ("800x1280", "150")] {
+        let data = tempfile::tempdir().unwrap();
+        philips_in(data.path());
+        volasso::appliance::pin::set(data.path(), "4711").unwrap();
+        let script = "press title 2500ms\ntap 4\ntap 7\ntap 1\ntap 1\ntap OK\nexpect setting.language English\n\
+                      tap \"Language next\"\nexpect setting.language Deutsch\n\
+                      expect layout 9mm\ntap Done\nexpect layout 9mm\ntap Start\nwait-idle\nexpect layout 9mm\n\
+                      tap \"philips_phantom_5mm: STD BRAIN 5MM (CT, 28 images)\"\nwait-idle\nexpect layout 9mm\n\
+                      expect patient \"HEAD · ID PLASTIC · M · Studie 06.02.2015 · CT STD BRAIN 5MM\"\n\
+                      lasso \"slice z\" 0.40,0.40 0.60,0.40 0.60,0.60 0.40,0.60\nexpect layout 9mm\n";
+        let work = tempfile::tempdir().unwrap();
+        let path = work.path().join("german.touch");
+        std::fs::write(&path, script).unwrap();
+        let args = [
+            "replay",
+            path.to_str().unwrap(),
+            "--data-dir",
+            data.path().to_str().unwrap(),
+            "--size",
+            size,
+            "--dpi",
+            dpi,
+        ];
+        let output = volasso(&args, &work.path().join("cache"));
+        assert!(output.status.success(), "{size}: {}", String::from_utf8_lossy(&output.stdout));
+        let written = std::fs::read_to_string(data.path().join("settings.toml")).unwrap();
+        assert!(written.contains("language = \"de\""), "{written}");
+    }
+}

@@ -155,6 +155,7 @@ impl UiArgs {
             dpi: self.dpi.or(settings.panel.dpi),
             pacs: self.pacs.peers(&settings)?,
             notice,
+            language: settings.language,
             retention: (settings.retention_hours > 0).then(|| Duration::from_secs(settings.retention_hours * 3600)),
             // A bedside shows whose scan it is; a conference stand never reads it.
             patient: match settings.mode {

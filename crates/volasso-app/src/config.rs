@@ -8,6 +8,7 @@ use crate::chooser::library::VolumeSource;
 use crate::{clock, view3d};
 use std::path::PathBuf;
 use std::time::Duration;
+use volasso_appliance::settings::Language;
 use volasso_core::volume::OpenOptions;
 use volasso_core::volume::dicom::PatientShown;
 
@@ -41,6 +42,8 @@ pub struct AppConfig {
     /// Received series, the session, gallery entries, snapshots and outgoing results older
     /// than this are deleted (expiry.rs); `None`: kept.
     pub retention: Option<Duration>,
+    /// The language of the screens (words.rs).
+    pub language: Language,
 }
 
 impl Default for AppConfig {
@@ -58,6 +61,7 @@ impl Default for AppConfig {
             notice: None,
             retention: None,
             patient: PatientShown::Hidden,
+            language: Language::En,
         }
     }
 }

@@ -67,6 +67,7 @@ pub mod settings;
 pub mod ui;
 pub mod view3d;
 pub mod windowing;
+pub mod words;
 mod work;
 pub mod worker;
 use work::{PANEL_COUNT, Work};
@@ -232,6 +233,7 @@ impl App {
             config.open_options.max_decoded_bytes = memory::kiosk_memory_ceiling();
         }
         let window = AppWindow::new()?;
+        words::set_language(config.language);
         window.global::<ui::Theme>().set_dpi(dpi::resolve(config.dpi, None));
         let sources = chooser::library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {

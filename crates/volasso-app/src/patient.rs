@@ -7,6 +7,7 @@
 //!
 //! Never: logs a patient's data, or reads it in demo mode.
 
+use crate::words::tr;
 use volasso_core::phantom::source::VolumeSource;
 use volasso_core::volume::dicom::{PatientIdentity, PatientShown, SeriesSummary, list_series};
 use volasso_core::volume::limits::ReadLimits;
@@ -54,29 +55,30 @@ impl Patient {
         }
     }
 
-    /// The line the screens show; empty when not shown.
+    /// The line the screens show, in the screens' language (its words; names and IDs as the
+    /// header has them); empty when not shown.
     pub fn line(&self) -> String {
         let Patient::Dicom { identity, modality, description } = self else {
             return match self {
-                Patient::NoPatientData => "No patient data (not a DICOM scan)".into(),
+                Patient::NoPatientData => tr("No patient data (not a DICOM scan)"),
                 _ => String::new(),
             };
         };
         let name = person_name(&identity.name);
-        let mut parts = vec![if name.is_empty() { "Name not given".to_string() } else { name }];
+        let mut parts = vec![if name.is_empty() { tr("Name not given") } else { name }];
         parts.push(if identity.id.trim().is_empty() {
-            "ID not given".into()
+            tr("ID not given")
         } else {
             format!("ID {}", identity.id.trim())
         });
         if let Some(born) = date(&identity.birth_date) {
-            parts.push(format!("born {born}"));
+            parts.push(tr(&format!("born {born}")));
         }
         if !identity.sex.trim().is_empty() {
             parts.push(identity.sex.trim().to_string());
         }
         if let Some(study) = date(&identity.study_date) {
-            parts.push(format!("study {study}"));
+            parts.push(tr(&format!("study {study}")));
         }
         let series =
             [modality.trim(), description.trim()].into_iter().filter(|part| !part.is_empty()).collect::<Vec<_>>();

@@ -134,11 +134,11 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
         Some(progress) => format!("Classifying... {:.0} %", progress * 100.0),
         None => state.status.clone(),
     };
-    let hint = state.ctl.view_hint();
+    let hint = crate::words::tr(state.ctl.view_hint());
     session.set_view_hint(hint.into());
     session.set_busy(busy);
     session.set_progress(state.ctl.jobs.progress().unwrap_or(0.0));
-    session.set_status(status.into());
+    session.set_status(crate::words::tr(&status).into());
     session.set_banner(state.banner.clone().into());
 }
 
@@ -193,7 +193,10 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
         .map_or_else(slint::Image::default, |view| view.picture);
     let view = SliceView {
         axis: shown.axis.name().into(),
-        title: layout.plane.map_or_else(|| format!("Slice {}", shown.axis), |plane| plane.name().to_string()).into(),
+        title: crate::words::tr(
+            &layout.plane.map_or_else(|| format!("Slice {}", shown.axis), |plane| plane.name().to_string()),
+        )
+        .into(),
         oriented: layout.plane.is_some(),
         picture,
         slice: shown.slice as i32,
@@ -214,7 +217,7 @@ pub(super) fn push_slice(window: &AppWindow, state: &Shared, panel: usize) {
             .feedback
             .as_ref()
             .filter(|(on, _)| *on == panel)
-            .map_or(String::new(), |(_, m)| m.clone())
+            .map_or(String::new(), |(_, m)| crate::words::tr(m))
             .into(),
     };
     if state_ref.panel_pictures.len() <= panel {

@@ -245,7 +245,7 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
     }
     let session = window.global::<Session>();
     session.set_view_picture(slint::Image::default());
-    session.set_view_caption(caption.into());
+    session.set_view_caption(crate::words::tr(caption).into());
     show_screen(window, Screen::Work);
     apply(window, state, changed);
 }

@@ -126,8 +126,9 @@ pub struct Row {
 }
 
 /// The rows in order: key, label, the values a row steps through (none: typed), applies later.
-const ROWS: [(&str, &str, &[&str], bool); 11] = [
+const ROWS: [(&str, &str, &[&str], bool); 12] = [
     ("mode", "Mode", &["clinical", "demo"], false),
+    ("language", "Language", &["en", "de"], false),
     ("idle_timeout_s", "Back to the start after", &["0", "30", "60", "120", "300", "600", "1800", "3600"], false),
     ("retention_hours", "Patient data kept for", &["0", "1", "8", "24", "48", "72", "168", "720"], false),
     ("usb_export", "Snapshots to USB sticks", &["false", "true"], false),

@@ -9,6 +9,7 @@ use super::{SettingsEffects, SettingsIntent};
 use crate::chooser::cards::Cards;
 use crate::chooser::library::{self, Loader};
 use crate::ui::{AppWindow, SettingRow, SettingsPage};
+use crate::words::tr;
 use crate::{Screen, State, refresh};
 use slint::{ComponentHandle, ModelRc, VecModel};
 use std::cell::RefCell;
@@ -78,6 +79,8 @@ fn apply(window: &AppWindow, shared: &Shared, effects: SettingsEffects) {
 /// Applies what applies at once; true when the chooser's cards were made anew (the mode
 /// changed whether they show whose scan it is).
 fn apply_settings(state: &mut State, effective: &Effective) -> bool {
+    state.config.language = effective.language;
+    crate::words::set_language(effective.language);
     state.idle.timeout = (effective.idle_timeout_s > 0).then(|| Duration::from_secs(effective.idle_timeout_s));
     state
         .expiry
@@ -115,27 +118,27 @@ pub(crate) fn push(window: &AppWindow, shared: &Shared) {
         super::Phase::Pin(entry) => {
             page.set_phase(0);
             page.set_pin_title(
-                match entry.step {
+                tr(match entry.step {
                     super::PinStep::Enter => "Type the PIN",
                     super::PinStep::Choose => "Choose a PIN of 4 to 8 digits",
                     super::PinStep::Confirm { .. } => "Type the new PIN again",
-                }
+                })
                 .into(),
             );
             page.set_pin_length(entry.typed.len() as i32);
-            page.set_pin_message(entry.message.as_str().into());
+            page.set_pin_message(tr(&entry.message).into());
         }
         super::Phase::Rows(rows) => {
             page.set_phase(1);
-            page.set_message(rows.message.as_str().into());
+            page.set_message(tr(&rows.message).into());
             let shown: Vec<SettingRow> = state
                 .settings
                 .rows()
                 .into_iter()
                 .map(|row| SettingRow {
                     key: row.key.into(),
-                    label: row.label.into(),
-                    value: row.value.into(),
+                    label: tr(row.label).into(),
+                    value: tr(&row.value).into(),
                     typed: row.typed,
                     later: row.applies_later,
                 })
@@ -146,7 +149,7 @@ pub(crate) fn push(window: &AppWindow, shared: &Shared) {
             page.set_editing(rows.editing.is_some());
             if let Some(editing) = &rows.editing {
                 let label = state.settings.rows().into_iter().find(|row| row.key == editing.key).map(|row| row.label);
-                page.set_edit_label(label.unwrap_or_default().into());
+                page.set_edit_label(tr(label.unwrap_or_default()).into());
                 page.set_edit_text(editing.text.as_str().into());
             }
         }
