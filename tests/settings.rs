@@ -115,6 +115,18 @@ fn copy_series(name: &str, to: &Path) {
 }
 
 #[test]
+fn a_received_series_card_says_when_it_is_deleted_and_a_copied_scan_says_nothing() {
+    let data = tempfile::tempdir().unwrap();
+    copy_series("dicom/ct_small.dcm", &data.path().join("CT-0123456789abcdef"));
+    copy_series("dicom/ct_small.dcm", &data.path().join("copied by hand"));
+    // Clinical mode's 24 hours (no settings file: its defaults); the demo's card first.
+    let script = "tap Start\nwait-idle\nwait 3s\nexpect cards 3\nexpect expires-1 \"\"\n\
+                  expect expires-2 \"Deleted in 23 h\"\nexpect expires-3 \"\"\n";
+    let output = replay_in(data.path(), script);
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stdout));
+}
+
+#[test]
 fn a_received_series_older_than_the_retention_is_gone_from_the_chooser_and_the_audit_log_says_so() {
     let data = tempfile::tempdir().unwrap();
     let old = data.path().join("CT-0123456789abcdef");

@@ -58,6 +58,11 @@ impl Expiry {
         Expiry { retention, next_at: Duration::ZERO, worker }
     }
 
+    /// The retention period; `None`: data is kept.
+    pub(crate) fn retention(&self) -> Option<Duration> {
+        self.retention
+    }
+
     /// A new retention period (the settings screen): a sweep with it is due at once.
     pub(crate) fn set_retention(&mut self, retention: Option<Duration>) {
         if retention != self.retention {

@@ -19,7 +19,8 @@
 //! (`yes` when its last search or retrieval failed), `sent` (the answer of "Send to PACS") and
 //! `send-failed` (`yes` when that answer is a failure); `pin-message` (what the PIN keypad
 //! says of the last PIN) and `setting.KEY` (a settings row's value in words, e.g.
-//! `setting.mode`).
+//! `setting.mode`), `expires-N` (when card N, from 1, is deleted as expired; empty when it
+//! is not).
 //!
 //! [`result_digest`] is what a result is, in one line (replay's `same-result`).
 //!
@@ -91,6 +92,10 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
             format!("{:.0}", 100.0 * guidance.survey.unsure_fraction())
         }
         key if key.starts_with("result") => results::query(state, key)?,
+        key if key.starts_with("expires-") => {
+            let card: usize = key.strip_prefix("expires-")?.parse().ok()?;
+            state.cards.card(card.checked_sub(1)?)?.expires.clone()
+        }
         _ => {
             let (kind, axis) = key.rsplit_once('-')?;
             let panel = work?.panels.iter().find(|panel| Some(panel.axis) == Axis::from_name(axis))?;

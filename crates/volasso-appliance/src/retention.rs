@@ -123,6 +123,18 @@ impl Sweep<'_> {
     }
 }
 
+/// When a sweep deletes the received series at `folder` (its age counted from its modification
+/// time, as the sweep counts it) with `retention`; `None` for anything else, which no sweep
+/// deletes, or when its time cannot be read.
+pub fn series_deleted_after(folder: &Path, retention: Duration) -> Option<SystemTime> {
+    let name = folder.file_name()?.to_str()?;
+    if !is_received_series(name) {
+        return None;
+    }
+    let modified = std::fs::symlink_metadata(folder).ok()?.modified().ok()?;
+    Some(modified + retention)
+}
+
 /// Whether `name` is one the receiver gives a series folder: its modality (letters and
 /// digits), a dash and 16 lower-case hex digits.
 pub fn is_received_series(name: &str) -> bool {

@@ -11,6 +11,7 @@
 
 use super::library::{self, Thumbnail, VolumeSource};
 use std::path::Path;
+use std::time::{Duration, SystemTime};
 use volasso_core::transfer::RgbImage;
 
 /// One card.
@@ -24,6 +25,9 @@ pub(crate) struct Card {
     pub thumbnail: Option<RgbImage>,
     /// The scan cannot be opened: shown as such, and not tappable.
     pub failed: bool,
+    /// When a received series is deleted as expired ("Deleted in 23 h"); empty for a scan that
+    /// does not expire.
+    pub expires: String,
 }
 
 /// Which cards changed since the view last showed them.
@@ -147,6 +151,21 @@ impl Cards {
         gone
     }
 
+    /// Each received series' card says when it is deleted with `retention` (none: nothing
+    /// expires), as of `now` (the wall clock, as file times are).
+    pub(crate) fn note_expiry(&mut self, retention: Option<Duration>, now: SystemTime) {
+        for index in 0..self.cards.len() {
+            let deleted_after = retention
+                .zip(self.sources[index].path())
+                .and_then(|(retention, path)| volasso_appliance::retention::series_deleted_after(path, retention));
+            let text = deleted_after.map_or_else(String::new, |at| expiry_text(at, now));
+            if self.cards[index].expires != text {
+                self.cards[index].expires = text;
+                self.changed(index);
+            }
+        }
+    }
+
     /// What changed since the last call.
     pub(crate) fn take_changes(&mut self) -> Changes {
         std::mem::take(&mut self.changes)
@@ -162,6 +181,16 @@ impl Cards {
             }
             none @ Changes::None => *none = Changes::Rows(vec![index]),
         }
+    }
+}
+
+/// When a scan deleted after `at` goes, as of `now`, in hours from two hours on, else minutes.
+fn expiry_text(at: SystemTime, now: SystemTime) -> String {
+    let left = at.duration_since(now).unwrap_or_default().as_secs();
+    match left {
+        0..60 => "Deleted at the next sweep".into(),
+        60..7200 => format!("Deleted in {} min", left / 60),
+        _ => format!("Deleted in {} h", left / 3600),
     }
 }
 
@@ -228,5 +257,27 @@ mod tests {
         assert_eq!(cards.sources(), [VolumeSource::Demo]);
         assert_eq!(cards.len(), 1);
         assert_eq!(cards.take_changes(), Changes::All);
+    }
+
+    #[test]
+    fn a_received_series_card_says_when_it_is_deleted_and_another_scan_says_nothing() {
+        let data = tempfile::tempdir().unwrap();
+        let series = data.path().join("CT-0123456789abcdef");
+        let copied = data.path().join("head.nrrd");
+        std::fs::create_dir(&series).unwrap();
+        std::fs::write(&copied, b"x").unwrap();
+        let mut cards = Cards::new(vec![VolumeSource::Demo, VolumeSource::Path(series), VolumeSource::Path(copied)]);
+        cards.take_changes();
+        let now = SystemTime::now();
+        cards.note_expiry(Some(Duration::from_secs(24 * 3600)), now);
+        let said: Vec<&str> = (0..3).map(|i| cards.card(i).unwrap().expires.as_str()).collect();
+        assert_eq!(said, ["", "Deleted in 23 h", ""], "24 h less the moments since the folder was made");
+        assert_eq!(cards.take_changes(), Changes::Rows(vec![1]));
+        cards.note_expiry(Some(Duration::from_secs(24 * 3600)), now);
+        assert_eq!(cards.take_changes(), Changes::None, "an unchanged line is not pushed again");
+        cards.note_expiry(Some(Duration::from_secs(3600)), now + Duration::from_secs(59 * 60 + 30));
+        assert_eq!(cards.card(1).unwrap().expires, "Deleted at the next sweep");
+        cards.note_expiry(None, now);
+        assert_eq!(cards.card(1).unwrap().expires, "", "nothing expires without a retention period");
     }
 }

@@ -46,6 +46,8 @@ pub(crate) fn rescan_data_folder(state: &Shared) {
     state.polls_since_scan = 0;
     let found = crate::chooser::library::scan(state.config.data_dir.as_deref());
     let added = state.cards.add_new(found);
+    let retention = state.expiry.retention();
+    state.cards.note_expiry(retention, std::time::SystemTime::now());
     if added.is_empty() {
         return;
     }
@@ -203,6 +205,7 @@ fn to_volume_card(card: &Card) -> VolumeCard {
         name: card.name.clone().into(),
         detail: card.detail.clone().into(),
         patient: card.patient.clone().into(),
+        expires: crate::words::tr(&card.expires).into(),
         thumbnail: card.thumbnail.as_ref().map_or_else(slint::Image::default, to_slint_image),
         failed: card.failed,
     }
