@@ -8,7 +8,14 @@ PNG screenshots to --out. Last, it hot-plugs the USB stick QEMU holds as drive `
 waits for the import's summary line and for the imported volumes' cards in the chooser. With
 --dicom-port and --dicom-series it pushes a DICOM series to the guest's receiver with storescu
 and waits for its stored line and its card. Then it opens the demo's card and waits for the
-work screen. Exits non-zero with the reason on stderr when a check fails.
+work screen. What a user does by touch is in --touch-dir (deploy/touch/*.touch), compiled on the
+host by --binary (`volasso replay --events-out`, at the guest's size and density read from its
+console) and played through the tablet with its timing (`# wait-idle` waits for the screen to
+settle, `# screenshot NAME` screendumps); their `expect element` lines say where the 3-D view and
+the cards are. Before the tap it visits the settings screen (a long press on the title, a PIN
+chosen twice, Done); after the push it opens the series from its card (named by description,
+modality and images on the console); after the demo opens it draws two loops, and the 3-D view
+must show two hues. Exits non-zero with the reason on stderr when a check fails.
 Standard library only (runs on the bare host).
 """
 
@@ -28,6 +35,11 @@ IMPORTED = re.compile(rb"volasso-import: (\d+) imported, (\d+) skipped")
 # The DICOM receiver's JSON line for a stored series (volasso-receive.service, on the console).
 STORED = re.compile(rb'\{"event":"stored","name":"[A-Z0-9]+-[0-9a-f]{16}"[^\n]*')
 TABLET_MAX = 0x7FFF  # QEMU's absolute axis range for input-send-event
+# The kiosk's journal lines (volasso.service, on the console).
+SETTINGS_OPEN = re.compile(rb"settings screen: open \(the PIN was accepted\)")
+SETTINGS_CLOSED = re.compile(rb"settings screen: closed")
+SERIES_CARD = re.compile(rb'card (\d+): "([^"\n]*\(CT, (\d+) images\))" with a (\d+)x(\d+) thumbnail')
+DPI = re.compile(rb"UI at (\d+) dpi")
 
 
 class Qmp:
@@ -129,6 +141,122 @@ def tap(qmp, x_fraction, y_fraction):
     qmp.command("input-send-event", events=[{"type": "btn", "data": {"down": False, "button": "left"}}])
 
 
+def play(qmp, path, out, serial):
+    """Plays a `volasso-events/1` recording through the tablet: each SYN_REPORT sends the
+    finger's position and touch state, paced as recorded; `# wait-idle` waits for the screen to
+    settle (the pacing starts again after it) and `# screenshot NAME` screendumps NAME."""
+    ranges = {"x": (0, TABLET_MAX), "y": (0, TABLET_MAX)}
+    position, sent, touching, was_touching = [0, 0], None, False, False
+    base = None
+    with open(path) as recording:
+        lines = recording.read().splitlines()
+    for line in lines:
+        if line.startswith("# wait-idle"):
+            wait_until_stable(qmp, out, "idle", 120)
+            base = None
+            continue
+        if line.startswith("# screenshot "):
+            screenshot(qmp, out, line.split(" ", 2)[2].strip())
+            base = None
+            continue
+        if line.startswith("#") or not line.strip():
+            continue
+        words = line.split()
+        if words[0] in ("x:", "y:"):
+            ranges[words[0][0]] = (int(words[1]), int(words[2]))
+            continue
+        if len(words) != 4 or not words[0][0].isdigit():
+            continue
+        at, kind, code, value = float(words[0]), words[1], words[2], int(words[3])
+        if kind == "EV_ABS" and code in ("ABS_MT_POSITION_X", "ABS_X"):
+            position[0] = value
+        elif kind == "EV_ABS" and code in ("ABS_MT_POSITION_Y", "ABS_Y"):
+            position[1] = value
+        elif kind == "EV_KEY" and code == "BTN_TOUCH":
+            touching = value == 1
+        elif kind == "EV_SYN" and code == "SYN_REPORT":
+            now = time.time()
+            if base is None:
+                base = (now, at)
+            delay = base[0] + (at - base[1]) - now
+            if delay > 0:
+                time.sleep(delay)
+            scaled = [round((position[i] - ranges[axis][0]) * TABLET_MAX / max(1, ranges[axis][1] - ranges[axis][0]))
+                      for i, axis in enumerate("xy")]
+            events = []
+            if scaled != sent:
+                events += [{"type": "abs", "data": {"axis": "x", "value": scaled[0]}},
+                           {"type": "abs", "data": {"axis": "y", "value": scaled[1]}}]
+                sent = scaled
+            if touching != was_touching:
+                events.append({"type": "btn", "data": {"down": touching, "button": "left"}})
+                was_touching = touching
+            if events:
+                qmp.command("input-send-event", events=events)
+    if was_touching:
+        qmp.command("input-send-event", events=[{"type": "btn", "data": {"down": False, "button": "left"}}])
+
+
+def serial_text(serial):
+    with open(serial, "rb") as log:
+        return log.read()
+
+
+def wait_for_line(pattern, serial, seconds):
+    """The first match of `pattern` on the serial log within `seconds`, or None."""
+    deadline = time.time() + seconds
+    while time.time() < deadline:
+        found = pattern.search(serial_text(serial))
+        if found:
+            return found
+        time.sleep(1)
+    return None
+
+
+def compile_touches(arguments, name, size, dpi, *extra):
+    """Runs deploy/touch/NAME.touch through the same UI on the host at the guest's screen size
+    and density (--binary, the image's own): its events as a recording to play, and the report
+    (with the rectangles its `expect element` lines found)."""
+    events = os.path.join(arguments.out, f"{name}.events")
+    ran = subprocess.run([arguments.binary, "replay", os.path.join(arguments.touch_dir, f"{name}.touch"),
+                          "--size", f"{size[0]}x{size[1]}", "--dpi", str(dpi), "--events-out", events, *extra],
+                         capture_output=True, timeout=300)
+    lines = ran.stdout.decode(errors="replace").strip().splitlines()
+    if ran.returncode != 0 or not lines:
+        fail(f"{name}.touch fails on the host: {ran.stdout.decode(errors='replace')}{ran.stderr.decode(errors='replace')}")
+    return events, json.loads(lines[-1])
+
+
+def hues_in_view(pixels, width, height, view):
+    """Hues (12 bins of 30 degrees) held by at least 0.2 % of the 3-D view's pixels (`view`:
+    x, y, width, height) that are coloured: bright enough and saturated (the rule of
+    `expect view-colours`)."""
+    x0, y0 = max(0, int(view[0])), max(0, int(view[1]))
+    x1, y1 = min(width, int(view[0] + view[2])), min(height, int(view[1] + view[3]))
+    bins, count = [0] * 12, 0
+    for y in range(y0, y1):
+        row = pixels[3 * y * width:3 * (y + 1) * width]
+        for x in range(x0, x1):
+            r, g, b = row[3 * x:3 * x + 3]
+            count += 1
+            high, low = max(r, g, b), min(r, g, b)
+            if high < 64 or (high - low) / high < 0.25:
+                continue
+            if high == r:
+                hue = 60 * (((g - b) / (high - low)) % 6)
+            elif high == g:
+                hue = 60 * ((b - r) / (high - low) + 2)
+            else:
+                hue = 60 * ((r - g) / (high - low) + 4)
+            bins[min(11, int(hue // 30))] += 1
+    return sum(1 for n in bins if n >= max(1, count // 500))
+
+
+def centre(rect, width, height):
+    """The middle of `rect` (x, y, width, height in pixels) as fractions of the screen."""
+    return (rect[0] + rect[2] / 2) / width, (rect[1] + rect[3] / 2) / height
+
+
 def main():
     parser = argparse.ArgumentParser()
     parser.add_argument("--qemu-pid", type=int, required=True)
@@ -141,6 +269,8 @@ def main():
     parser.add_argument("--tap", default="0.5,0.5", help="where to tap, as fractions of width,height")
     parser.add_argument("--dicom-port", type=int, help="host port forwarded to the guest's DICOM receiver")
     parser.add_argument("--dicom-series", help="a DICOM series folder to push with dcmtk's storescu")
+    parser.add_argument("--binary", required=True, help="the image's volasso, to compile the touches on the host")
+    parser.add_argument("--touch-dir", required=True, help="deploy/touch: what a user does, as touch scripts")
     arguments = parser.parse_args()
     deadline = arguments.started + arguments.timeout
     qmp = Qmp(arguments.qmp, deadline, arguments.qemu_pid)
@@ -169,6 +299,31 @@ def main():
     print(f"screendump {width}x{height}: {lit:.1%} of pixels lit")
     if lit < 0.01:
         fail("the screen is blank after the ready line", arguments.serial)
+
+    # What a user does, compiled on the host at the guest's size and density.
+    size = (int(match.group(1)), int(match.group(2)))
+    density = DPI.search(serial_text(arguments.serial))
+    dpi = int(density.group(1)) if density else 150
+    host_data = os.path.join(arguments.out, "host-data")
+    os.makedirs(host_data, exist_ok=True)
+    settings_events, _ = compile_touches(arguments, "settings-pin", size, dpi, "--data-dir", host_data)
+    loops_events, loops = compile_touches(arguments, "two-loops", size, dpi, "--volume", "demo")
+    grid = os.path.join(arguments.out, "card-grid")
+    os.makedirs(grid, exist_ok=True)
+    for name in ("a.nrrd", "b.nrrd", "c.nrrd"):
+        with open(os.path.join(grid, name), "wb") as volume:
+            volume.write(b"NRRD0004\ntype: uint8\ndimension: 3\nsizes: 2 2 2\nencoding: raw\n\n" + bytes(range(1, 9)))
+    _, cards = compile_touches(arguments, "card-grid", size, dpi, "--data-dir", grid)
+    card_rects = [cards["elements"][name] for name in ("Demo: CT foot phantom", "a.nrrd", "b.nrrd", "c.nrrd")]
+    print(f"touches compiled on the host at {size[0]}x{size[1]}, {dpi} dpi")
+
+    # The settings screen, reached as a user reaches it: a long press on the title and a PIN.
+    play(qmp, settings_events, arguments.out, arguments.serial)
+    text = serial_text(arguments.serial)
+    if not SETTINGS_OPEN.search(text) or not SETTINGS_CLOSED.search(text):
+        fail("the long press and the PIN did not open and close the settings screen", arguments.serial)
+    print("settings: a long press on the title, a PIN chosen twice, the settings screen, Done")
+    _, _, before = screenshot(qmp, arguments.out, "1b-start-again")
 
     x_fraction, y_fraction = (float(value) for value in arguments.tap.split(","))
     tap_time = time.time()
@@ -222,6 +377,24 @@ def main():
 
     if arguments.dicom_port and arguments.dicom_series:
         shown = push_dicom_series(qmp, arguments, shown)
+        card = wait_for_line(SERIES_CARD, arguments.serial, 60)
+        if card is None:
+            fail("the received series' card was not named by description, modality and images "
+                 "with a thumbnail within 60 s", arguments.serial)
+        print(f"chooser: card {card.group(1).decode()} is `{card.group(2).decode()}` "
+              f"with a {card.group(4).decode()}x{card.group(5).decode()} thumbnail")
+        shown = wait_until_stable(qmp, arguments.out, "5c-series-card", 30)
+        number = int(card.group(1))
+        if number > len(card_rects):
+            fail(f"the series' card is number {number}; the test knows where the first {len(card_rects)} are")
+        tap(qmp, *centre(card_rects[number - 1], *size))
+        series = wait_for_change(qmp, arguments.out, "5d-series-open", shown, 90)
+        if series is None:
+            fail("tapping the received series' card did not open it within 90 s", arguments.serial)
+        wait_until_stable(qmp, arguments.out, "5d-series-open", 60)
+        print("work screen: the received series opened from its card")
+        tap(qmp, 0.045, 0.045)  # "Volumes", back to the chooser
+        shown = wait_until_stable(qmp, arguments.out, "5e-chooser-again", 30)
 
     # The demo's card (the first) opens the work screen: slices, class bar, 3-D view.
     tap(qmp, 0.13, 0.3)
@@ -232,8 +405,21 @@ def main():
     time.sleep(5)
     screenshot(qmp, arguments.out, "7-work-screen-settled")
     print(f"demo card: the work screen appeared {time.time() - opened - 5:.1f} s after the tap")
-    print("PASS: UI up, reacts to a tap, stays through the console's escape keys, imports a USB stick "
-          "whose volumes appear in the chooser, opens the demo")
+    # Two loops by touch on the demo, each a class: the 3-D view shows both hues.
+    play(qmp, loops_events, arguments.out, arguments.serial)
+    drawn = time.time()
+    hues = 0
+    while hues < 2 and time.time() < drawn + 180:
+        width, height, pixels = screenshot(qmp, arguments.out, "8-two-classes")
+        hues = hues_in_view(pixels, width, height, loops["elements"]["view"])
+        if hues < 2:
+            time.sleep(3)
+    print(f"two loops drawn: the 3-D view shows {hues} hues {time.time() - drawn:.1f} s after the last loop")
+    if hues < 2:
+        fail("after two loops the 3-D view does not show two classes' colours", arguments.serial)
+    print("PASS: UI up, the settings screen through a long press and a PIN, reacts to a tap, stays through "
+          "the console's escape keys, imports a USB stick whose volumes appear in the chooser, opens a pushed "
+          "series from its card, opens the demo and shows two loops' classes in colour in 3-D")
 
 
 def push_dicom_series(qmp, arguments, before):

@@ -1,8 +1,8 @@
 #!/usr/bin/env bash
 # Boots the kiosk image under QEMU and checks that the UI comes up and reacts to a touch.
 #
-#   deploy/test-image.sh [--image deploy/out/volasso.img] [--accel tcg|kvm] [--gpu virtio|bochs]
-#                       [--timeout SECONDS]
+#   deploy/test-image.sh [--image deploy/out/volasso.img] [--binary target/release/volasso]
+#                       [--accel tcg|kvm] [--gpu virtio|bochs] [--timeout SECONDS]
 #
 # QEMU and OVMF come from Debian's packages, fetched with `apt-get download` and unpacked with
 # `dpkg -x` into deploy/out/qemu (never installed: that would downgrade the host's qemu-utils).
@@ -11,17 +11,22 @@
 # unless both are non-blank and differ, presses the console's escape keys and checks the UI
 # stays, then hot-plugs a USB stick labelled VOLASSO and waits for its volumes to be imported,
 # and pushes a DICOM series to the guest's receiver through a forwarded port (user-mode network).
+# What a user does by touch (deploy/touch/*.touch: the settings screen through a long press and a
+# PIN, two loops on the demo) is compiled on the host by `volasso replay --events-out` (--binary,
+# the image's own) at the guest's size and density, and played through the tablet.
 # Screenshots and the serial log go to deploy/out/test.
 set -euo pipefail
 repository=$(cd "$(dirname "$0")/.." && pwd)
 deploy="$repository/deploy"
 image="$deploy/out/volasso.img"
+binary="$repository/target/release/volasso"
 accel=tcg
 gpu=virtio
 timeout_seconds=720
 while [ $# -gt 0 ]; do
     case "$1" in
         --image) image=$2; shift 2 ;;
+        --binary) binary=$2; shift 2 ;;
         --accel) accel=$2; shift 2 ;;
         --gpu) gpu=$2; shift 2 ;;
         --timeout) timeout_seconds=$2; shift 2 ;;
@@ -30,6 +35,7 @@ while [ $# -gt 0 ]; do
     esac
 done
 [ -f "$image" ] || { echo "error: no image at $image: run deploy/build-image.sh first" >&2; exit 1; }
+[ -x "$binary" ] || { echo "error: no volasso binary at $binary (--binary): cargo build --release" >&2; exit 1; }
 
 qemu_root="$deploy/out/qemu/root"
 qemu="$qemu_root/usr/bin/qemu-system-x86_64"
@@ -125,7 +131,8 @@ qemu_pid=$!
 trap 'kill "$qemu_pid" 2>/dev/null || true' EXIT
 status=0
 python3 "$deploy/qmp_check.py" --qemu-pid "$qemu_pid" --qmp "$results/qmp.sock" --stick-volumes 2 --serial "$results/serial.log" \
-    --out "$results" --started "$started" --timeout "$timeout_seconds" "${dicom[@]}" || status=$?
+    --out "$results" --started "$started" --timeout "$timeout_seconds" "${dicom[@]}" \
+    --binary "$binary" --touch-dir "$deploy/touch" || status=$?
 kill "$qemu_pid" 2>/dev/null || true
 wait "$qemu_pid" 2>/dev/null || true
 echo "=== serial log: $results/serial.log; screenshots: $results/*.png"

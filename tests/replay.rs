@@ -476,3 +476,20 @@ fn a_palm_resting_on_the_panel_leaves_the_loop_drawn() {
 fn another_hand_on_the_view_leaves_the_loop_drawn() {
     recording_on_the_demo_volume("other-hand.events", "expect pending 1\nexpect feedback \"\"\n");
 }
+
+/// `expect element NAME` puts where the element is in the report (the image test taps what a
+/// script found on the host): the 3-D view inside the window, at the size asked for.
+#[test]
+fn an_element_a_script_expects_is_reported_with_its_rectangle() {
+    let work = tempfile::tempdir().unwrap();
+    let path = work.path().join("where.touch");
+    std::fs::write(&path, "wait-idle\nexpect element view\nexpect element \"Define class\"\n").unwrap();
+    let report = replay(&["replay", path.to_str().unwrap(), "--volume", "demo", "--size", "1024x600"], work.path());
+    for name in ["view", "Define class"] {
+        let rect: Vec<f64> = report["elements"][name].as_array().unwrap().iter().map(|v| v.as_f64().unwrap()).collect();
+        assert!(
+            rect[2] > 0.0 && rect[3] > 0.0 && rect[0] + rect[2] <= 1024.0 && rect[1] + rect[3] <= 600.0,
+            "{rect:?}"
+        );
+    }
+}

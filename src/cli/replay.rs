@@ -89,6 +89,7 @@ pub fn run(args: &ReplayArgs) -> Result<(), CliError> {
         "events_per_second": report.events as f64 / report.wall_seconds.max(1e-9),
         "final_screen": report.final_screen,
         "ui_thread_syncs": report.ui_thread_syncs,
+        "elements": report.elements,
         "peak_resident_mb": super::memory::resident_memory().map(|m| m.peak_bytes as f64 / 1e6),
     });
     println!("{line}");

@@ -55,6 +55,9 @@ pub struct ReplayReport {
     /// the scripts (the autosave writes on its own thread; a restore's marker is the one write
     /// at start-up); the harness's own screenshots are not counted.
     pub ui_thread_syncs: u64,
+    /// Where each element an `expect element NAME` found was, in screen pixels (x, y, width,
+    /// height): what a test that drives the UI from outside (the image test) needs to know.
+    pub elements: std::collections::BTreeMap<String, [f32; 4]>,
 }
 
 struct Locator<'a>(&'a Harness);
@@ -168,6 +171,11 @@ impl Run {
                     self.results.insert(name.clone(), harness.app().result_digest());
                 }
                 ScriptAction::Expect { key, value } => {
+                    if key == "element"
+                        && let Some(rect) = harness.element_rect(value)
+                    {
+                        self.report.elements.insert(value.clone(), [rect.x, rect.y, rect.width, rect.height]);
+                    }
                     let result = match key.as_str() {
                         "same-result" => checks::same_result(harness, &self.taken, &self.results, value),
                         "view-steady" => checks::view_steady(harness, value),

@@ -118,7 +118,14 @@ pub(crate) fn loader_event(window: &AppWindow, state: &Shared, event: LoaderEven
             let mut state = state.borrow_mut();
             state.thumbnails_pending = state.thumbnails_pending.saturating_sub(1);
             match result {
-                Ok(thumbnail) => state.cards.thumbnail(index, thumbnail),
+                Ok(thumbnail) => {
+                    let size = [thumbnail.image.width, thumbnail.image.height];
+                    state.cards.thumbnail(index, thumbnail);
+                    // The card's name (a description, modality and count, or a file's name; no
+                    // patient data), for whoever reads the journal (the image test does).
+                    let name = state.cards.card(index).map_or(String::new(), |card| card.name.clone());
+                    log::info!("card {}: \"{name}\" with a {}x{} thumbnail", index + 1, size[0], size[1]);
+                }
                 Err(error) => {
                     let message = error.to_string();
                     let source = state.cards.source(index).cloned();

@@ -16,6 +16,7 @@ use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
 use std::time::Duration;
+use volasso_appliance::audit::Event;
 use volasso_appliance::settings::{Effective, Mode};
 use volasso_core::volume::dicom::PatientShown;
 
@@ -26,7 +27,13 @@ pub(crate) fn intent(window: &AppWindow, shared: &Shared, intent: SettingsIntent
     let effects = {
         let mut state = shared.borrow_mut();
         let now = state.config.clock.now();
-        state.settings.update(intent, now)
+        let rows = |state: &State| matches!(state.settings.phase, super::Phase::Rows(_));
+        let before = rows(&state);
+        let effects = state.settings.update(intent, now);
+        if !before && rows(&state) {
+            log::info!("settings screen: open (the PIN was accepted)");
+        }
+        effects
     };
     apply(window, shared, effects);
 }
@@ -53,6 +60,10 @@ fn apply(window: &AppWindow, shared: &Shared, effects: SettingsEffects) {
     {
         let mut state = shared.borrow_mut();
         for (event, detail) in effects.audit {
+            log::info!(
+                "settings screen: {} ({detail})",
+                if event == Event::PinRefused { "a wrong PIN refused" } else { "changed" }
+            );
             state.audit.record(event, None, Some(detail));
         }
         if let Some(effective) = &effects.applied {
@@ -64,10 +75,12 @@ fn apply(window: &AppWindow, shared: &Shared, effects: SettingsEffects) {
     }
     match effects.shown {
         Some(true) => {
+            log::info!("settings screen: the PIN keypad (a long press on the title)");
             crate::attract::view::end(window, shared);
             refresh::show_screen(window, Screen::Settings);
         }
         Some(false) => {
+            log::info!("settings screen: closed");
             refresh::show_screen(window, Screen::Start);
             crate::attract::view::begin(window, shared);
         }
