@@ -139,7 +139,7 @@ pub(super) fn push_status(window: &AppWindow, state: &Shared) {
     session.set_busy(busy);
     session.set_progress(state.ctl.jobs.progress().unwrap_or(0.0));
     session.set_status(crate::words::tr(&status).into());
-    session.set_banner(state.banner.clone().into());
+    session.set_banner(crate::words::tr(&state.banner).into());
 }
 
 /// The numbers, title, edge letters and feedback of one panel, and its picture (grey, classes,

@@ -210,7 +210,7 @@ pub(crate) fn show_cards(state: &Shared) {
 fn to_volume_card(card: &Card) -> VolumeCard {
     VolumeCard {
         name: card.name.clone().into(),
-        detail: card.detail.clone().into(),
+        detail: crate::words::tr(&card.detail).into(),
         patient: card.patient.clone().into(),
         expires: crate::words::tr(&card.expires).into(),
         thumbnail: card.thumbnail.as_ref().map_or_else(slint::Image::default, to_slint_image),

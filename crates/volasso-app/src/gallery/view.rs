@@ -44,13 +44,13 @@ fn card(listed: &Listed) -> ResultCard {
             name: entry.volume_name.clone().into(),
             date: gallery::date_text(entry.saved_unix).into(),
             thumbnail: thumbnail.as_ref().map_or_else(slint::Image::default, refresh::rgba_to_slint_image),
-            problem: if entry.volume_missing() { entry.missing_message().into() } else { "".into() },
+            problem: if entry.volume_missing() { crate::words::tr(&entry.missing_message()).into() } else { "".into() },
         },
         Listed::Damaged { folder, reason } => ResultCard {
             name: folder.file_name().map_or(String::new(), |n| n.to_string_lossy().into_owned()).into(),
             date: "".into(),
             thumbnail: slint::Image::default(),
-            problem: format!("This saved result cannot be read: {reason}").into(),
+            problem: crate::words::tr(&format!("This saved result cannot be read: {reason}")).into(),
         },
     }
 }

@@ -142,7 +142,7 @@ pub(crate) fn push(window: &AppWindow, shared: &Shared) {
     session.set_pacs_several(model.has_several_peers());
     session.set_pacs_typed(model.typed.clone().into());
     session.set_pacs_by_accession(model.field == super::SearchField::Accession);
-    session.set_pacs_message(model.message.clone().into());
+    session.set_pacs_message(crate::words::tr(&model.message).into());
     session.set_pacs_busy(model.busy());
     session.set_pacs_progress(model.progress().unwrap_or(-1.0));
     drop(state);
@@ -157,5 +157,5 @@ pub(crate) fn push_send(window: &AppWindow, shared: &Shared) {
     let work = state.ctl.work.as_ref();
     let blocked = model.send_blocked(work.is_some_and(|w| w.classified.is_some()));
     session.set_send_blocked(blocked.unwrap_or_default().into());
-    session.set_send_message(model.send_message.clone().into());
+    session.set_send_message(crate::words::tr(&model.send_message).into());
 }
