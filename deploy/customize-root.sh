@@ -40,7 +40,7 @@ mkdir -p "$root/var/lib/volasso"
 chroot "$root" systemctl enable volasso.service volasso-keymap.service
 # The DICOM receiver, its network (DHCP on Ethernet, systemd-networkd) and the firewall that
 # opens its port only (/etc/nftables.conf).
-chroot "$root" systemctl enable volasso-receive.service systemd-networkd.service nftables.service
+chroot "$root" systemctl enable volasso-receive.service volasso-firewall.service systemd-networkd.service
 chroot "$root" systemctl set-default multi-user.target
 # No login anywhere (display, serial, container consoles), no Ctrl-Alt-Del reboot, no first-boot
 # questions and nothing that wants a writable root.

@@ -38,6 +38,7 @@ TABLET_MAX = 0x7FFF  # QEMU's absolute axis range for input-send-event
 # The kiosk's journal lines (volasso.service, on the console).
 SETTINGS_OPEN = re.compile(rb"settings screen: open \(the PIN was accepted\)")
 SETTINGS_CLOSED = re.compile(rb"settings screen: closed")
+DEMO_CARD = re.compile(rb'card 1: "Demo: CT foot phantom" with a \d+x\d+ thumbnail')
 SERIES_CARD = re.compile(rb'card (\d+): "([^"\n]*\(CT, (\d+) images\))" with a (\d+)x(\d+) thumbnail')
 DPI = re.compile(rb"UI at (\d+) dpi")
 
@@ -340,7 +341,10 @@ def main():
         fail("the UI did not react to the tap", arguments.serial)
 
     # Lockdown: the console's own escapes must not take the screen away or reboot the guest.
-    # Thumbnails load on a thread: wait until two screendumps 2 s apart agree.
+    # Thumbnails load on a thread: wait for the demo's (the console says when it is shown), then
+    # until two screendumps 2 s apart agree.
+    if wait_for_line(DEMO_CARD, arguments.serial, 90) is None:
+        fail("the demo's card got no thumbnail within 90 s", arguments.serial)
     settled = wait_until_stable(qmp, arguments.out, "3-settled", 90)
     for keys in (["ctrl", "alt", "f2"], ["alt", "f2"], ["ctrl", "alt", "delete"], ["alt", "right"]):
         qmp.command("send-key", keys=[{"type": "qcode", "data": key} for key in keys])

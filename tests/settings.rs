@@ -45,6 +45,25 @@ fn set_changes_one_setting_show_prints_what_is_in_effect_and_the_audit_log_says_
 }
 
 #[test]
+fn get_prints_one_setting_in_effect_as_plain_text_for_a_start_script() {
+    let data = tempfile::tempdir().unwrap();
+    let got = |key: &str| {
+        let output = run(data.path(), &["get", key]);
+        (output.status.success(), String::from_utf8_lossy(&output.stdout).trim().to_string())
+    };
+    assert_eq!(got("receive.port"), (true, "11112".to_string()), "the default without a file");
+    assert!(run(data.path(), &["set", "receive.port", "104"]).status.success());
+    assert!(run(data.path(), &["set", "pacs", "ORTHANC@10.0.0.5:4242, BACKUP@10.0.0.6:104"]).status.success());
+    assert_eq!(got("receive.port"), (true, "104".to_string()));
+    assert_eq!(got("pacs"), (true, "ORTHANC@10.0.0.5:4242,BACKUP@10.0.0.6:104".to_string()));
+    assert_eq!(got("retention_hours"), (true, "24".to_string()), "the mode's default");
+    assert_clean_error(&run(data.path(), &["get", "receive"]), "no setting is called", "a table");
+    // A damaged file: the safe default, and the exit status says so.
+    std::fs::write(data.path().join("settings.toml"), "receive = 3\n").unwrap();
+    assert_eq!(got("receive.port"), (false, "11112".to_string()));
+}
+
+#[test]
 fn a_bad_key_or_value_is_one_clear_line_and_the_file_is_left_as_it_was() {
     let data = tempfile::tempdir().unwrap();
     assert!(run(data.path(), &["set", "mode", "demo"]).status.success());
