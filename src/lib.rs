@@ -64,8 +64,4 @@ pub use volasso_app as app;
 #[doc(hidden)]
 pub mod cli;
 #[doc(hidden)]
-pub mod display;
-#[doc(hidden)]
-pub mod kiosk;
-#[doc(hidden)]
-pub mod touch;
+pub use volasso_kiosk::{display, kiosk, touch};

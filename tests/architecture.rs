@@ -139,3 +139,38 @@ fn the_cycle_finder_finds_a_cycle() {
     assert_eq!(cycle_through(&graph, "a"), Some(vec!["a".into(), "b".into(), "c".into(), "a".into()]));
     assert_eq!(cycle_through(&graph, "d"), None);
 }
+
+/// The crates depend on each other one way, so cargo refuses an import that runs back: the
+/// pipeline knows no UI, display or touch code; the app knows no DRM or evdev code (the kiosk
+/// platform's) and no command line; the appliance's policies know neither the app nor the kiosk.
+#[test]
+fn the_crates_depend_one_way() {
+    // The names a crate's `[dependencies]` tables list (the target-specific ones too).
+    let dependencies = |crate_folder: &str| -> BTreeSet<String> {
+        let manifest = Path::new(env!("CARGO_MANIFEST_DIR")).join(crate_folder).join("Cargo.toml");
+        let text = std::fs::read_to_string(&manifest).unwrap();
+        let mut in_dependencies = false;
+        let mut names = BTreeSet::new();
+        for line in text.lines().map(str::trim) {
+            if line.starts_with('[') {
+                in_dependencies = line.ends_with("dependencies]") && !line.contains("dev-dependencies");
+            } else if in_dependencies && let Some((name, _)) = line.split_once('=') {
+                names.insert(name.trim().to_string());
+            }
+        }
+        names
+    };
+    let forbidden: [(&str, &[&str]); 4] = [
+        ("crates/volasso-core", &["slint", "volasso-ui", "volasso-app", "volasso-kiosk", "evdev", "drm", "winit"]),
+        ("crates/volasso-app", &["volasso-kiosk", "evdev", "drm", "winit", "clap"]),
+        ("crates/volasso-appliance", &["slint", "volasso-app", "volasso-kiosk", "volasso-ui"]),
+        ("crates/volasso-kiosk", &["clap", "volasso-dicom"]),
+    ];
+    for (crate_folder, names) in forbidden {
+        let listed = dependencies(crate_folder);
+        assert!(listed.contains("log"), "{crate_folder}: its dependencies were read: {listed:?}");
+        for name in names {
+            assert!(!listed.contains(*name), "{crate_folder} depends on {name}");
+        }
+    }
+}

@@ -7,7 +7,7 @@
 //! aspect ratio in centimetres (16 x 9 "mm"), and a few the size of the desk they might sit on.
 //! A density outside [`DPI_RANGE`] is taken as unknown.
 //!
-//! Never: reads the EDID itself (src/display does), or scales anything but the UI.
+//! Never: reads the EDID itself (the kiosk crate's display module does), or scales anything but the UI.
 
 /// The smallest touch target, in millimetres (the common guidance for touch kiosks is 9-10 mm:
 /// a fingertip's contact patch, with room for a hurried or gloved finger).

@@ -1,11 +1,11 @@
 //! The Slint platform of the appliance and of the replay harness: Slint's software renderer
 //! drawing into memory, with a clock that is either real or advanced by hand. The same
-//! renderer then serves a DRM display (src/display), screenshots and frame-time measurements,
+//! renderer then serves a DRM display (the kiosk crate's display), screenshots and frame-time measurements,
 //! so what the tests see is what the panel shows.
 //!
 //! Why our own platform and not Slint's linuxkms backend: that backend pulls in libinput and,
 //! next to the wgpu integration, forces Skia (whose build downloads binaries); ours needs
-//! neither, and touch comes from the project's own evdev reader (src/touch).
+//! neither, and touch comes from the project's own evdev reader (the kiosk crate's touch).
 //!
 //! Never: reads input itself; callers dispatch events into [`KioskWindow::dispatch`].
 

@@ -1,5 +1,5 @@
 //! The appliance's main loop: the app drawn by Slint's software renderer straight into a DRM
-//! display's buffers, touch from the project's evdev reader (src/touch) through the same
+//! display's buffers, touch from the project's evdev reader (the kiosk crate's touch) through the same
 //! router as the replay harness (without depending on it), systemd told when the UI is up and that it is alive.
 //!
 //! Why this reader and not Slint's libinput path: it is the code the replay tests exercise,

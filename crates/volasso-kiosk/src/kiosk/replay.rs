@@ -1,5 +1,5 @@
 //! `volasso replay`: runs a touch script against the real UI, headless. A script is
-//! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see src/touch/script) or an
+//! either readable (`tap "Define class"`, `lasso z 0.3,0.4 ...`, see touch/script) or an
 //! event recording (`volasso-events/1` or evemu-record text). Readable commands become
 //! type-B multitouch events of a virtual touchscreen, and every event, scripted or recorded,
 //! goes through the contact tracker and router the appliance uses with a real panel. A
