@@ -233,7 +233,7 @@ impl App {
             config.open_options.max_decoded_bytes = memory::kiosk_memory_ceiling();
         }
         let window = AppWindow::new()?;
-        words::set_language(config.language);
+        settings::view::show_language(config.language);
         window.global::<ui::Theme>().set_dpi(dpi::resolve(config.dpi, None));
         let sources = chooser::library::scan(config.data_dir.as_deref());
         let (restore, banner) = match config.session_dir.as_deref().map(autosave::begin_restore) {

@@ -18,14 +18,15 @@ const GERMAN_PO: &str = include_str!("../../../ui/translations/de/LC_MESSAGES/vo
 /// The language shown: 0 English, 1 German.
 static CURRENT: AtomicU8 = AtomicU8::new(0);
 
-/// Shows the screens in `language` from now on (the Slint words at once; the app's lines as
-/// they are next written).
+/// The app's lines in `language` from now on, as they are next written (the screens' own
+/// words are switched by the view, `settings::view::show_language`).
 pub fn set_language(language: Language) {
     CURRENT.store(if language == Language::De { 1 } else { 0 }, Ordering::Relaxed);
-    let code = if language == Language::De { "de" } else { "en" };
-    if let Err(error) = slint::select_bundled_translation(code) {
-        log::warn!("the screens stay in English: {error}");
-    }
+}
+
+/// `language`'s code, as the catalogs' folders are named.
+pub fn code(language: Language) -> &'static str {
+    if language == Language::De { "de" } else { "en" }
 }
 
 /// The language shown.

@@ -89,11 +89,20 @@ fn apply(window: &AppWindow, shared: &Shared, effects: SettingsEffects) {
     push(window, shared);
 }
 
+/// The screens in `language` from now on: Slint's words at once, the app's lines as they are
+/// next written (words.rs).
+pub(crate) fn show_language(language: volasso_appliance::settings::Language) {
+    crate::words::set_language(language);
+    if let Err(error) = slint::select_bundled_translation(crate::words::code(language)) {
+        log::warn!("the screens stay in English: {error}");
+    }
+}
+
 /// Applies what applies at once; true when the chooser's cards were made anew (the mode
 /// changed whether they show whose scan it is).
 fn apply_settings(state: &mut State, effective: &Effective) -> bool {
     state.config.language = effective.language;
-    crate::words::set_language(effective.language);
+    show_language(effective.language);
     state.idle.timeout = (effective.idle_timeout_s > 0).then(|| Duration::from_secs(effective.idle_timeout_s));
     state
         .expiry
