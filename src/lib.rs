@@ -64,4 +64,11 @@ pub use volasso_app as app;
 #[doc(hidden)]
 pub mod cli;
 #[doc(hidden)]
-pub use volasso_kiosk::{display, kiosk, touch};
+pub use volasso_kiosk::{display, touch};
+/// The kiosk's platform (`volasso-kiosk`) and its replay harness (`volasso-replay`), under one
+/// name as the command line and the tests use them.
+#[doc(hidden)]
+pub mod kiosk {
+    pub use volasso_kiosk::kiosk::*;
+    pub use volasso_replay::{harness, layout, replay};
+}

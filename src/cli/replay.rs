@@ -1,5 +1,5 @@
 //! `volasso replay SCRIPT... [--screenshots DIR]`: the real UI, headless, driven by a touch script
-//! (crates/volasso-kiosk/src/kiosk/replay.rs). Prints one JSON line with what ran and the UI thread's frame times;
+//! (crates/volasso-replay/src/replay.rs). Prints one JSON line with what ran and the UI thread's frame times;
 //! exits non-zero when an expectation failed.
 
 use super::CliError;

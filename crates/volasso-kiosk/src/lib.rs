@@ -1,8 +1,8 @@
-//! The volasso kiosk's platform and its replay harness: the app (`volasso-app`) shown on a DRM
-//! display with touch read from evdev (`display`, `touch`, `kiosk::drm_loop`), touches routed to
-//! the UI (`kiosk::router`), and the harness that drives the real UI from touch scripts and
-//! recordings, headless, on a scripted clock (`kiosk::harness`, `kiosk::replay`), with the
-//! checks that every control fits a finger (`kiosk::layout`).
+//! The volasso kiosk's platform: the app (`volasso-app`) shown on a DRM display with touch read
+//! from evdev (`display`, `touch`, `kiosk::drm_loop`), touches routed to the UI
+//! (`kiosk::router`), and touch scripts and recordings as data (`touch::script`,
+//! `touch::format`). The replay harness that drives the same platform headless is the crate
+//! `volasso-replay`.
 //!
 //! Never: parses a command line or reads the settings file (the `volasso` binary does, and
 //! hands the app its set-up); the app crate knows nothing of this one, so cargo refuses an
@@ -14,4 +14,4 @@ pub mod touch;
 
 // The pipeline's and the app's modules, by the names this crate's code uses for them.
 use volasso_app as app;
-use volasso_core::{atomic_file, input_file, rng, slices, strokes, transfer, volume};
+use volasso_core::{input_file, rng, slices, strokes, transfer, volume};

@@ -25,8 +25,8 @@
 //! Never: touches or waits, other than `view-steady`'s wait for the 3-D view.
 
 use crate::app::dpi;
-use crate::kiosk::harness::Harness;
-use crate::kiosk::layout;
+use crate::harness::Harness;
+use crate::layout;
 use crate::touch::script::{Rect, expectations};
 use crate::transfer::RgbImage;
 use std::collections::HashMap;
