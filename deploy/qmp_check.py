@@ -397,11 +397,11 @@ def main():
             fail("tapping the received series' card did not open it within 90 s", arguments.serial)
         wait_until_stable(qmp, arguments.out, "5d-series-open", 60)
         print("work screen: the received series opened from its card")
-        tap(qmp, 0.045, 0.045)  # "Volumes", back to the chooser
+        tap(qmp, *centre(loops["elements"]["Volumes"], *size))  # back to the chooser
         shown = wait_until_stable(qmp, arguments.out, "5e-chooser-again", 30)
 
     # The demo's card (the first) opens the work screen: slices, class bar, 3-D view.
-    tap(qmp, 0.13, 0.3)
+    tap(qmp, *centre(card_rects[0], *size))
     opened = time.time()
     work = wait_for_change(qmp, arguments.out, "6-work-screen", shown, 90)
     if work is None:
