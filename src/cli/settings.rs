@@ -22,11 +22,11 @@ pub enum SettingsCommand {
     /// Print the settings in effect (each mode's defaults applied) as one JSON object; with a
     /// settings file that cannot be used, the safe defaults and a non-zero exit status.
     Show,
-    /// Print one setting in effect, as plain text (a list comma-separated): what a service's
+    /// Print one setting in effect, as `set` takes it (a list comma-separated): what a service's
     /// start script needs (the appliance's firewall opens `receive.port`); with a settings file
     /// that cannot be used, the safe default and a non-zero exit status.
     Get {
-        /// A key of `show`'s object, dotted (`receive.port`).
+        /// A key `set` takes (`receive.port`).
         key: String,
     },
     /// Change one setting (`default` gives it back to its mode) and write the file atomically.
@@ -66,20 +66,9 @@ pub fn run(args: &SettingsArgs) -> Result<(), CliError> {
         }
         SettingsCommand::Get { key } => {
             let loaded = settings::load(&args.data_dir);
-            let object = serde_json::to_value(loaded.settings.effective()).unwrap_or_default();
-            let value = key.split('.').try_fold(&object, |value, part| value.get(part));
-            let text = match value {
-                Some(serde_json::Value::String(text)) => text.clone(),
-                Some(serde_json::Value::Array(items)) => items
-                    .iter()
-                    .map(|item| item.as_str().map_or(item.to_string(), String::from))
-                    .collect::<Vec<_>>()
-                    .join(","),
-                Some(serde_json::Value::Null) => String::new(),
-                Some(other) if !other.is_object() => other.to_string(),
-                _ => return Err(crate::appliance::settings::SettingsError::UnknownKey { key: key.clone() }.into()),
-            };
-            println!("{text}");
+            let value = loaded.settings.effective().value(key);
+            let value = value.ok_or_else(|| settings::SettingsError::UnknownKey { key: key.clone() })?;
+            println!("{value}");
             match loaded.problem {
                 Some(problem) => Err(problem.into()),
                 None => Ok(()),

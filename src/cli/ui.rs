@@ -3,9 +3,8 @@
 
 use super::CliError;
 use crate::app::{App, AppConfig};
-use crate::appliance::settings::{self, Effective, Mode, Settings};
+use crate::appliance::settings::{self, Effective, Settings};
 use crate::phantom::source::VolumeSource;
-use crate::volume::dicom::PatientShown;
 use clap::{Args, ValueEnum};
 use std::path::PathBuf;
 use std::time::Duration;
@@ -145,23 +144,21 @@ impl UiArgs {
 
     /// [`Self::config`] and the settings it was made from (the settings file read once).
     fn config_and_settings(&self) -> Result<(AppConfig, Effective), CliError> {
-        let (settings, notice) = self.settings();
-        let idle_timeout = self.idle_timeout.unwrap_or(settings.idle_timeout_s);
+        let (mut settings, notice) = self.settings();
+        if let Some(seconds) = self.idle_timeout {
+            settings.idle_timeout_s = seconds;
+        }
         let mut config = AppConfig {
             data_dir: self.data_dir.clone(),
             session_dir: self.session_dir.clone(),
-            idle_timeout: (idle_timeout > 0).then(|| Duration::from_secs(idle_timeout)),
+            idle_timeout: settings.idle_timeout(),
             initial_volume: self.volume.as_ref().map(|path| VolumeSource::from_path(path)),
             dpi: self.dpi.or(settings.panel.dpi),
             pacs: self.pacs.peers(&settings)?,
             notice,
             language: settings.language,
-            retention: (settings.retention_hours > 0).then(|| Duration::from_secs(settings.retention_hours * 3600)),
-            // A bedside shows whose scan it is; a conference stand never reads it.
-            patient: match settings.mode {
-                Mode::Clinical => PatientShown::Shown,
-                Mode::Demo => PatientShown::Hidden,
-            },
+            retention: settings.retention(),
+            patient: settings.patient_shown(),
             ..AppConfig::default()
         };
         // No USB stick gets a snapshot unless the settings allow it (clinical mode's default).

@@ -20,6 +20,7 @@ use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
 use std::time::Duration;
 use volasso_core::atomic_file::write_atomically;
+use volasso_core::volume::dicom::PatientShown;
 
 /// The file's name in the data folder.
 pub const FILE: &str = "settings.toml";
@@ -147,6 +148,46 @@ pub struct EffectiveReceive {
     pub ae_title: String,
     pub port: u16,
     pub allowed_aes: Vec<String>,
+}
+
+impl Effective {
+    /// The setting `key` in effect as [`Settings::set`] takes it: a list comma-separated, a
+    /// density left to the display `default`; `None` for a key `set` does not take.
+    pub fn value(&self, key: &str) -> Option<String> {
+        Some(match key {
+            "mode" => (if self.mode == Mode::Demo { "demo" } else { "clinical" }).into(),
+            "language" => (if self.language == Language::De { "de" } else { "en" }).into(),
+            "idle_timeout_s" => self.idle_timeout_s.to_string(),
+            "retention_hours" => self.retention_hours.to_string(),
+            "usb_export" => self.usb_export.to_string(),
+            "receive.enabled" => self.receive.enabled.to_string(),
+            "receive.ae_title" => self.receive.ae_title.clone(),
+            "receive.port" => self.receive.port.to_string(),
+            "receive.allowed_aes" => self.receive.allowed_aes.join(","),
+            "pacs" => self.pacs.join(","),
+            "panel.rotation_degrees" => self.panel.rotation_degrees.to_string(),
+            "panel.dpi" => self.panel.dpi.map_or("default".into(), |dpi| dpi.to_string()),
+            _ => return None,
+        })
+    }
+
+    /// How long the kiosk waits without a touch; `None`: never.
+    pub fn idle_timeout(&self) -> Option<Duration> {
+        (self.idle_timeout_s > 0).then(|| Duration::from_secs(self.idle_timeout_s))
+    }
+
+    /// How long patient data is kept; `None`: until deleted by hand.
+    pub fn retention(&self) -> Option<Duration> {
+        (self.retention_hours > 0).then(|| Duration::from_secs(self.retention_hours * 3600))
+    }
+
+    /// Whether the screens show whose scan it is: at a bedside, never at a conference stand.
+    pub fn patient_shown(&self) -> PatientShown {
+        match self.mode {
+            Mode::Clinical => PatientShown::Shown,
+            Mode::Demo => PatientShown::Hidden,
+        }
+    }
 }
 
 /// The kiosk's idle timeout when none is set.

@@ -200,7 +200,8 @@ impl SettingsScreen {
                 if let Phase::Rows(rows) = &mut self.phase
                     && let Some(&(key, ..)) = ROWS.iter().find(|row| row.0 == key && row.2.is_empty())
                 {
-                    rows.editing = Some(Editing { key, text: typed_value(key, &rows.settings.effective()) });
+                    rows.editing =
+                        Some(Editing { key, text: rows.settings.effective().value(key).unwrap_or_default() });
                 }
             }
             SettingsIntent::EditKey(key) => {
@@ -275,13 +276,15 @@ impl SettingsScreen {
                 Ok(Verdict::Refused { tries_left }) => {
                     effects.audit.push((Event::PinRefused, "settings screen".into()));
                     entry.message = match tries_left {
-                        0 => format!("Wrong PIN. Wait {} s before the next try", wait_seconds(&self.attempts, now)),
+                        0 => {
+                            format!("Wrong PIN. Wait {} s before the next try", whole_seconds(self.attempts.wait(now)))
+                        }
                         1 => "Wrong PIN. One more try before a wait".into(),
                         n => format!("Wrong PIN. {n} more tries before a wait"),
                     };
                 }
                 Ok(Verdict::Wait(wait)) => {
-                    entry.message = format!("Wait {} s before the next try", wait.as_secs().max(1));
+                    entry.message = format!("Wait {} s before the next try", whole_seconds(wait));
                 }
                 Err(error) => entry.message = format!("{error}: set a PIN with `volasso settings set-pin`"),
             },
@@ -302,7 +305,7 @@ impl SettingsScreen {
     fn step(&mut self, key: &str, direction: i32, effects: &mut SettingsEffects) {
         let Phase::Rows(rows) = &self.phase else { return };
         let Some(&(key, _, choices, _)) = ROWS.iter().find(|row| row.0 == key && !row.2.is_empty()) else { return };
-        let current = typed_value(key, &rows.settings.effective());
+        let current = rows.settings.effective().value(key).unwrap_or_default();
         let value = neighbour(choices, &current, direction);
         self.change(key, &value, effects);
     }
@@ -330,9 +333,9 @@ impl SettingsScreen {
     }
 }
 
-/// Seconds until the next PIN may be tried.
-fn wait_seconds(attempts: &Attempts, now: Duration) -> u64 {
-    attempts.wait(now).as_secs().max(1)
+/// A wait as the keypad says it: whole seconds, at least one.
+fn whole_seconds(wait: Duration) -> u64 {
+    wait.as_secs().max(1)
 }
 
 /// A keypad key applied to `text`: `back` deletes the last character, `clear` all; another key
@@ -366,31 +369,12 @@ fn neighbour(choices: &[&str], current: &str, direction: i32) -> String {
     pick.or(choices.first()).copied().unwrap_or_default().to_string()
 }
 
-/// A setting's value as [`Settings::set`] takes it.
-fn typed_value(key: &str, effective: &Effective) -> String {
-    match key {
-        "mode" => (if effective.mode == Mode::Demo { "demo" } else { "clinical" }).into(),
-        "language" => (if effective.language == Language::De { "de" } else { "en" }).into(),
-        "idle_timeout_s" => effective.idle_timeout_s.to_string(),
-        "retention_hours" => effective.retention_hours.to_string(),
-        "usb_export" => effective.usb_export.to_string(),
-        "receive.enabled" => effective.receive.enabled.to_string(),
-        "receive.ae_title" => effective.receive.ae_title.clone(),
-        "receive.port" => effective.receive.port.to_string(),
-        "receive.allowed_aes" => effective.receive.allowed_aes.join(", "),
-        "pacs" => effective.pacs.join(", "),
-        "panel.rotation_degrees" => effective.panel.rotation_degrees.to_string(),
-        "panel.dpi" => effective.panel.dpi.map_or("default".into(), |dpi| dpi.to_string()),
-        _ => String::new(),
-    }
-}
-
 /// A setting's value in words.
 fn shown_value(key: &str, effective: &Effective) -> String {
     let on_off = |on: bool| (if on { "On" } else { "Off" }).to_string();
     match key {
         "mode" => (if effective.mode == Mode::Demo { "Demo (no patient data)" } else { "Clinical" }).into(),
-        "language" => (if typed_value(key, effective) == "de" { "Deutsch" } else { "English" }).into(),
+        "language" => (if effective.language == Language::De { "Deutsch" } else { "English" }).into(),
         "idle_timeout_s" => match effective.idle_timeout_s {
             0 => "Never".into(),
             s if s % 60 == 0 => format!("{} min", s / 60),
@@ -404,9 +388,11 @@ fn shown_value(key: &str, effective: &Effective) -> String {
         "usb_export" => on_off(effective.usb_export),
         "receive.enabled" => on_off(effective.receive.enabled),
         "receive.allowed_aes" if effective.receive.allowed_aes.is_empty() => "Any".into(),
+        "receive.allowed_aes" => effective.receive.allowed_aes.join(", "),
         "pacs" if effective.pacs.is_empty() => "None".into(),
+        "pacs" => effective.pacs.join(", "),
         "panel.rotation_degrees" => format!("{}°", effective.panel.rotation_degrees),
         "panel.dpi" => effective.panel.dpi.map_or("From the display".into(), |dpi| format!("{dpi} dpi")),
-        _ => typed_value(key, effective),
+        _ => effective.value(key).unwrap_or_default(),
     }
 }

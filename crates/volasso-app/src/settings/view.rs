@@ -15,10 +15,8 @@ use slint::{ComponentHandle, ModelRc, VecModel};
 use std::cell::RefCell;
 use std::path::PathBuf;
 use std::rc::Rc;
-use std::time::Duration;
 use volasso_appliance::audit::Event;
-use volasso_appliance::settings::{Effective, Mode};
-use volasso_core::volume::dicom::PatientShown;
+use volasso_appliance::settings::Effective;
 
 type Shared = Rc<RefCell<State>>;
 
@@ -103,19 +101,14 @@ pub(crate) fn show_language(language: volasso_appliance::settings::Language) {
 fn apply_settings(state: &mut State, effective: &Effective) -> bool {
     state.config.language = effective.language;
     show_language(effective.language);
-    state.idle.timeout = (effective.idle_timeout_s > 0).then(|| Duration::from_secs(effective.idle_timeout_s));
-    state
-        .expiry
-        .set_retention((effective.retention_hours > 0).then(|| Duration::from_secs(effective.retention_hours * 3600)));
+    state.idle.timeout = effective.idle_timeout();
+    state.expiry.set_retention(effective.retention());
     if !effective.usb_export {
         state.config.media_roots.clear();
     } else if state.config.media_roots.is_empty() {
         state.config.media_roots = crate::view3d::snapshot::DEFAULT_MEDIA_ROOTS.map(PathBuf::from).to_vec();
     }
-    let shown = match effective.mode {
-        Mode::Clinical => PatientShown::Shown,
-        Mode::Demo => PatientShown::Hidden,
-    };
+    let shown = effective.patient_shown();
     if shown == state.config.patient {
         return false;
     }
@@ -153,10 +146,9 @@ pub(crate) fn push(window: &AppWindow, shared: &Shared) {
         super::Phase::Rows(rows) => {
             page.set_phase(1);
             page.set_message(tr(&rows.message).into());
-            let shown: Vec<SettingRow> = state
-                .settings
-                .rows()
-                .into_iter()
+            let rows_shown = state.settings.rows();
+            let shown: Vec<SettingRow> = rows_shown
+                .iter()
                 .map(|row| SettingRow {
                     key: row.key.into(),
                     label: tr(row.label).into(),
@@ -170,7 +162,7 @@ pub(crate) fn push(window: &AppWindow, shared: &Shared) {
             page.set_rows_second(ModelRc::new(VecModel::from(shown[half..].to_vec())));
             page.set_editing(rows.editing.is_some());
             if let Some(editing) = &rows.editing {
-                let label = state.settings.rows().into_iter().find(|row| row.key == editing.key).map(|row| row.label);
+                let label = rows_shown.iter().find(|row| row.key == editing.key).map(|row| row.label);
                 page.set_edit_label(tr(label.unwrap_or_default()).into());
                 page.set_edit_text(editing.text.as_str().into());
             }

@@ -116,3 +116,20 @@ fn a_file_written_by_hand_with_some_settings_keeps_the_rest_at_their_defaults() 
     assert_eq!(settings.receive.ae_title, "VOLASSO");
     assert_eq!(settings.effective().idle_timeout_s, DEFAULT_IDLE_TIMEOUT_S);
 }
+
+#[test]
+fn every_key_reads_back_as_set_takes_it() {
+    let mut settings = Settings::default();
+    for (key, value) in [("mode", "demo"), ("pacs", "A@10.0.0.5:104,B@10.0.0.6:4242"), ("panel.dpi", "160")] {
+        settings.set(key, value).unwrap();
+    }
+    for key in KEYS {
+        let value = settings.effective().value(key).unwrap_or_else(|| panic!("{key} has no value"));
+        let mut again = settings.clone();
+        again.set(key, &value).unwrap_or_else(|error| panic!("{key}={value}: {error}"));
+        assert_eq!(again.effective(), settings.effective(), "{key}={value}");
+    }
+    assert_eq!(settings.effective().value("pacs").as_deref(), Some("A@10.0.0.5:104,B@10.0.0.6:4242"));
+    assert_eq!(Settings::default().effective().value("panel.dpi").as_deref(), Some("default"));
+    assert_eq!(Settings::default().effective().value("receive"), None, "a table is no setting");
+}
