@@ -25,9 +25,17 @@ lassoed, and the share of lassoed voxels
 that kept their class; then the means per hand and the worst difference to the forest.
 `--thick N` cuts every scan in slices N times as thick (the mean of N, truth their majority).
 
+`--presets` also scores learned presets: each seed's clean classification is saved as a preset
+(`--save-preset`, with `--modality` ct or mr from the case's kind) and applied with no loops to
+the next seed's scan of the same case whose loops took the same classes (air lassoed or not;
+the last to the first), so both are scored on the same classes; the MRI cases' scans are given
+another receiver gain first (x1.4, x0.75 for 8-bit ones) on top of their own bias field. It
+prints each application's macro Dice beside the target's own clean loops' and, per case, the
+mean of both.
+
 Usage: python3 scripts/heldout.py [--volasso target/release/volasso] [--seeds 101,102,103]
                                   [--only NAME[,NAME]] [--forest-cache DIR] [--keep DIR] [--classify-args="--coherence none"]
-                                  [--hands clean,leaky,offset,wide] [--thick N]
+                                  [--hands clean,leaky,offset,wide] [--thick N] [--presets]
 Needs numpy, scipy, scikit-image and scikit-learn (pip install numpy scipy scikit-image scikit-learn);
 the real brain (mni-t1) also nilearn's data files: pip install nilearn, or unpack its wheel
 (pip download nilearn --no-deps) and set VOLASSO_MNI_DIR to its nilearn/datasets/data folder.
@@ -561,8 +569,8 @@ def score(truth, labels, class_truth, names, masks, lasso_air):
     face_air = air_around_the_body(truth == AIR)
     air_classed = float((labels[face_air] > 0).mean()) if (not lasso_air and face_air.any()) else None
     # A lassoed air's voxels kept as background (label 0: not drawn in 3-D) keep their class.
-    kept = min(float(((labels[m] == k + 1) | ((labels[m] == 0) & (class_truth[k] == AIR))).mean())
-               for k, m in enumerate(masks))
+    kept = min((float(((labels[m] == k + 1) | ((labels[m] == 0) & (class_truth[k] == AIR))).mean())
+                for k, m in enumerate(masks)), default=1.0)
     return float(np.mean(per_class)), per_class, air_classed, kept
 
 
@@ -592,6 +600,49 @@ def ventricle_purity(truth, labels, class_truth):
             float(mine[truth == 6].mean()))
 
 
+def modality_args(name):
+    """`--modality` for a case: its kind from its name (ct, mri or t1)."""
+    if "-ct" in name:
+        return ["--modality", "ct"]
+    if "mri" in name or "t1" in name:
+        return ["--modality", "mr"]
+    return []
+
+
+def preset_pairs(made_cases):
+    """(source, target) seeds: each seed and the next one whose loops took the same classes
+    (air lassoed or not), the last of those back to the first."""
+    pairs = []
+    for lasso_air in (False, True):
+        seeds = sorted(seed for seed, case in made_cases.items() if case[4] == lasso_air)
+        if len(seeds) >= 2:
+            pairs.extend(zip(seeds, seeds[1:] + seeds[:1]))
+    return pairs
+
+
+def apply_presets(args, folder, name, names, made_cases):
+    """Each seed's preset applied with no loops to the next seed's scan (an MRI's with another
+    receiver gain); rows (case, from seed, to seed, preset Dice, own clean loops' Dice)."""
+    rows = []
+    for source, target in preset_pairs(made_cases):
+        image, truth, spacing, _, _, own, _ = made_cases[target]
+        _, _, _, class_truth, lasso_air, _, preset = made_cases[source]
+        if modality_args(name)[-1:] == ["mr"]:
+            gain = 0.75 if image.dtype == np.uint8 else 1.4
+            info = np.iinfo(image.dtype)
+            image = np.clip(np.rint(image.astype(np.float64) * gain), info.min, info.max).astype(image.dtype)
+        volume = os.path.join(folder, f"{name}-{target}-for-preset.nrrd")
+        write_nrrd(volume, image, spacing)
+        out = os.path.join(folder, f"{name}-{target}-preset-{source}.labels.nrrd")
+        subprocess.run([args.volasso, "classify", volume, "--preset", preset, "--out", out] + modality_args(name),
+                       check=True, capture_output=True, text=True)
+        labels = read_nrrd_labels(out, truth.shape)
+        mine = score(truth, labels, class_truth, names, [], lasso_air)[0]
+        print(f"{name:<14}{target:>5} preset of seed {source}: {mine:.3f}   own clean loops {own:.3f}", flush=True)
+        rows.append((name, source, target, mine, own))
+    return rows
+
+
 def main():
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--volasso", default="target/release/volasso")
@@ -602,6 +653,8 @@ def main():
     parser.add_argument("--forest-cache", default=None,
                         help="keep the forest's labels in this folder and reuse them (keyed by image and strokes)")
     parser.add_argument("--keep", default=None, help="keep volumes, strokes and labels in this folder")
+    parser.add_argument("--presets", action="store_true",
+                        help="also apply each seed's clean classification as a preset to the next seed's scan")
     parser.add_argument("--hands", default="clean,leaky",
                         help="the fingers, of clean, leaky, offset (off-centre: over one side, short of the other) "
                              "and wide (4 voxels over); each after the ones before it, so adding one leaves "
@@ -612,7 +665,7 @@ def main():
         parser.error(f"--hands: each of {', '.join(HANDS)}")
     folder = args.keep or tempfile.mkdtemp(prefix="volasso-heldout-")
     os.makedirs(folder, exist_ok=True)
-    rows, purity = [], []
+    rows, purity, preset_rows = [], [], []
     print(f"{'case':<14}{'seed':>5} {'hand':<6}{'air':<5}{'volasso':>8}{'forest':>8}{'diff':>8}"
           f"{'air classed':>12}{'lasso kept':>11}   per class (volasso)")
     for name, make in PHANTOMS.items():
@@ -622,6 +675,7 @@ def main():
             print("mni-t1: skipped (pip install nilearn, or set VOLASSO_MNI_DIR to a folder with the "
                   "ICBM 152 2009a files)", flush=True)
             continue
+        made_cases = {}
         for seed in [int(s) for s in args.seeds.split(",")]:
             rng = np.random.default_rng(seed * 7919 + len(name))
             made = make(rng)
@@ -645,8 +699,10 @@ def main():
                 with open(stroke_path, "w") as f:
                     json.dump(strokes, f)
                 out = os.path.join(folder, f"{name}-{seed}-{hand}.labels.nrrd")
-                subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out] + args.classify_args.split(),
-                               check=True, capture_output=True, text=True)
+                preset = os.path.join(folder, f"{name}-{seed}.volasso-preset")
+                keep_preset = ["--save-preset", preset] + modality_args(name) if hand == "clean" and args.presets else []
+                subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out]
+                               + keep_preset + args.classify_args.split(), check=True, capture_output=True, text=True)
                 masks = lassoed_voxels(strokes, truth.shape)
                 our_labels = read_nrrd_labels(out, truth.shape)
                 forest = cached_forest_labels(args.forest_cache, image, strokes, masks, lasso_air)
@@ -659,11 +715,14 @@ def main():
                     continue
                 ours = score(truth, our_labels, class_truth, names, masks, lasso_air)
                 theirs = score(truth, forest, class_truth, names, masks, lasso_air)
+                if hand == "clean" and args.presets:
+                    made_cases[seed] = (image, truth, spacing, class_truth, lasso_air, ours[0], preset)
                 air = "-" if ours[2] is None else f"{ours[2]:.3f}"
                 print(f"{name:<14}{seed:>5} {hand:<6}{'yes' if lasso_air else 'no':<5}{ours[0]:>8.3f}{theirs[0]:>8.3f}"
                       f"{ours[0] - theirs[0]:>+8.3f}{air:>12}{ours[3]:>11.3f}   "
                       + " ".join(f"{d:.2f}" for d in ours[1]), flush=True)
                 rows.append((name, seed, hand, ours[0], theirs[0], ours[2], ours[3]))
+        preset_rows.extend(apply_presets(args, folder, name, names, made_cases))
     print()
     for hand in hands:
         sel = [r for r in rows if r[2] == hand]
@@ -684,6 +743,12 @@ def main():
                 worst = min(gaps, key=lambda g: clean.get(g[:2], 1) - g[2])
                 if worst[:2] in clean:
                     print(f"clean minus {hand}: worst {clean[worst[:2]] - worst[2]:+.3f} ({worst[0]} seed {worst[1]})")
+    if preset_rows:
+        print("\npresets (trained on one seed, applied to the next; macro Dice: preset, own clean loops)")
+        for case in dict.fromkeys(r[0] for r in preset_rows):
+            sel = [r for r in preset_rows if r[0] == case]
+            mine, own = np.mean([r[3] for r in sel]), np.mean([r[4] for r in sel])
+            print(f"{case:<18} preset {mine:.3f}  own loops {own:.3f}  difference {mine - own:+.3f}")
     if purity:
         print(f"ventricle class: CSF share of it in the brain worst {min(p[3] for p in purity):.3f}, "
               f"grey matter taken worst {max(p[4] for p in purity):.3f}")

@@ -259,3 +259,77 @@ fn accuracy_export_writes_each_method_s_result_beside_the_truth() {
     let macro_dice = expected.iter().sum::<f64>() / expected.len() as f64;
     assert!((printed["macro_dice"].as_f64().unwrap() - macro_dice).abs() < 1e-9, "{printed} against {expected:?}");
 }
+
+/// `classify --save-preset` then `--preset`: the preset classifies the scan again without loops,
+/// takes added loops, and a preset that does not fit (another modality, another version, a
+/// file cut short, a CT preset for a scan not in Hounsfield units) is one clear error with
+/// nothing written.
+#[test]
+fn a_saved_preset_classifies_again_and_refuses_what_it_does_not_fit() {
+    let folder = tempfile::tempdir().unwrap();
+    let path = |name: &str| folder.path().join(name).to_str().unwrap().to_string();
+    let strokes = concat!(env!("CARGO_MANIFEST_DIR"), "/benches/strokes/demo-foot.strokes.json");
+    let (preset, first, again) = (path("foot.volasso-preset"), path("first.nrrd"), path("again.nrrd"));
+    let args =
+        ["classify", "demo", "--modality", "ct", "--strokes", strokes, "--out", &first, "--save-preset", &preset];
+    let output = volasso(&args, folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let saved: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(saved["saved_preset"]["scale"]["kind"], "hounsfield", "{saved}");
+
+    let output =
+        volasso(&["classify", "demo", "--modality", "ct", "--preset", &preset, "--out", &again], folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let applied: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    assert_eq!(applied["preset"]["name"], "foot", "{applied}");
+    assert_eq!(applied["classes"], saved["classes"]);
+    let labels = |file: &str| {
+        let bytes = std::fs::read(file).unwrap();
+        let start = bytes.windows(2).position(|w| w == b"\n\n").unwrap() + 2;
+        bytes[start..].to_vec()
+    };
+    let (first_labels, again_labels) = (labels(&first), labels(&again));
+    let same = first_labels.iter().zip(&again_labels).filter(|(a, b)| a == b).count();
+    assert!(same as f64 > 0.999 * first_labels.len() as f64, "{same} of {}", first_labels.len());
+
+    // A loop of a new class drawn on the scan joins the preset's classes.
+    let extra = path("extra.json");
+    std::fs::write(
+        &extra,
+        r#"{"format":"volasso-strokes/1","classes":[{"name":"probe","strokes":[{"axis":"z","slice":72,"points":[[60,60],[66,60],[66,66],[60,66]]}]}]}"#,
+    )
+    .unwrap();
+    let joined = path("joined.nrrd");
+    let args = ["classify", "demo", "--modality", "ct", "--preset", &preset, "--strokes", &extra, "--out", &joined];
+    let output = volasso(&args, folder.path());
+    assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+    let summary: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+    let classes = summary["classes"].as_array().unwrap();
+    assert_eq!(classes.len(), saved["classes"].as_array().unwrap().len() + 1, "{summary}");
+    assert_ne!(labels(&joined), again_labels);
+
+    let text = std::fs::read_to_string(&preset).unwrap();
+    std::fs::write(path("newer.volasso-preset"), text.replace("volasso-preset/1", "volasso-preset/9")).unwrap();
+    std::fs::write(path("cut.volasso-preset"), &text[..text.len() * 2 / 3]).unwrap();
+    let engine = crate::support::data("engine_256x256x256_uint8.raw");
+    let engine = engine.to_str().unwrap();
+    let raw = ["--dims", "256,256,256", "--type", "uint8"];
+    let cases: [(&str, Vec<&str>, &str); 4] = [
+        ("modality", vec!["demo", "--modality", "mr"], "trained on CT and this scan is MR"),
+        ("version", vec!["demo", "--modality", "ct"], "preset of another version (volasso-preset/9)"),
+        ("truncated", vec!["demo", "--modality", "ct"], "is not a readable volasso preset"),
+        ("not hounsfield", [&[engine][..], &raw].concat(), "not known to be one"),
+    ];
+    for (case, volume, expected) in cases {
+        let file = match case {
+            "version" => path("newer.volasso-preset"),
+            "truncated" => path("cut.volasso-preset"),
+            _ => preset.clone(),
+        };
+        let out = path(&format!("{}.nrrd", case.replace(' ', "-")));
+        let args = [&["classify"][..], &volume, &["--preset", &file, "--out", &out]].concat();
+        let output = volasso(&args, folder.path());
+        crate::support::assert_clean_error(&output, expected, case);
+        assert!(!std::path::Path::new(&out).exists(), "{case}: nothing is written on error");
+    }
+}

@@ -117,6 +117,15 @@ pub enum ClassifierChoice {
     Forest,
 }
 
+/// A scan's modality (`classify --modality`).
+#[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
+pub enum ModalityChoice {
+    /// Computed tomography.
+    Ct,
+    /// Magnetic resonance.
+    Mr,
+}
+
 /// The spatial step `classify` ends with.
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum CoherenceChoice {
@@ -156,9 +165,19 @@ pub struct ClassifyArgs {
     pub volume: PathBuf,
     #[command(flatten)]
     pub open: VolumeArgs,
-    /// The lassos: a volasso-strokes/1 JSON file.
-    #[arg(long)]
-    pub strokes: PathBuf,
+    /// The lassos: a volasso-strokes/1 JSON file (with `--preset`: loops that add to it).
+    #[arg(long, required_unless_present = "preset")]
+    pub strokes: Option<PathBuf>,
+    /// Classify with a learned preset (`*.volasso-preset`) instead of, or as well as, loops.
+    #[arg(long, value_name = "P")]
+    pub preset: Option<PathBuf>,
+    /// Save this classification as a learned preset (written atomically).
+    #[arg(long, value_name = "P")]
+    pub save_preset: Option<PathBuf>,
+    /// The scan's modality, for files that do not say (a DICOM series says it itself): a preset
+    /// trained on one modality refuses the other, and CT in Hounsfield units is kept as it is.
+    #[arg(long, value_enum)]
+    pub modality: Option<ModalityChoice>,
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,

@@ -18,13 +18,14 @@
 //! file is not timed). With `--repeat N` each is the median over N runs: the classification
 //! benchmark (`benches/RESULTS.md`).
 
-use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};
+use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice, ModalityChoice};
 use super::{CliError, outputs};
 use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
 use crate::pipeline::{self, MAX_PAIRWISE_CLASSES, RunControl};
+use crate::preset::{Modality, Preset};
 use crate::segmentation::{
     self, ClassifierKind, Coherence, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter,
 };
@@ -46,14 +47,36 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     if let Some(rgba) = &args.rgba {
         outputs.push(("RGBA volume (--rgba)", rgba));
     }
+    if let Some(preset) = &args.save_preset {
+        outputs.push(("preset (--save-preset)", preset));
+    }
     outputs.extend(export_paths.iter().map(|path| ("feature export (--export-features)", path.as_path())));
-    outputs::check(&[("volume", &args.volume), ("strokes file (--strokes)", &args.strokes)], &outputs)?;
+    let mut inputs: Vec<(&'static str, &Path)> = vec![("volume", &args.volume)];
+    inputs.extend(args.strokes.as_deref().map(|path| ("strokes file (--strokes)", path)));
+    inputs.extend(args.preset.as_deref().map(|path| ("preset (--preset)", path)));
+    outputs::check(&inputs, &outputs)?;
+    if args.export_features.is_some() && args.preset.is_some() {
+        return Err(CliError::Usage("--export-features needs loops only: it cannot be given with --preset".into()));
+    }
+    let preset = args.preset.as_deref().map(Preset::read).transpose()?;
     remove_stale_outputs(args);
     let volume = super::open_volume(&args.volume, &args.open)?;
     outputs::check_mapped("volume's voxel data", &outputs)?;
-    let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
-    let training = TrainingSet::from_strokes(&strokes, volume.dims).map_err(|e| e.with_path(&args.strokes))?;
-    if training.contested_voxels > 0 {
+    let modality = match args.modality {
+        Some(ModalityChoice::Ct) => Modality::Ct,
+        Some(ModalityChoice::Mr) => Modality::Mr,
+        None => crate::preset::modality_of(&args.volume, &args.open.open_options()),
+    };
+    if let Some(preset) = &preset {
+        preset.check_scan(&volume, modality)?;
+    }
+    let strokes_path = args.strokes.clone().unwrap_or_default();
+    let strokes = args.strokes.as_deref().map(|path| StrokesFile::read_for_volume(path, volume.dims)).transpose()?;
+    let training = strokes
+        .as_ref()
+        .map(|strokes| TrainingSet::from_strokes(strokes, volume.dims).map_err(|e| e.with_path(&strokes_path)))
+        .transpose()?;
+    if let Some(training) = training.as_ref().filter(|training| training.contested_voxels > 0) {
         log::warn!("{} voxels were lassoed for two classes and are not used", training.contested_voxels);
     }
     // Properties of the volume, computed once when it is opened (as the app does), not on
@@ -62,8 +85,20 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     volume.body();
     let load_seconds = total.elapsed().as_secs_f64();
 
-    let class_count = strokes.classes.len();
+    let mut class_names: Vec<String> = match (&preset, &strokes) {
+        (Some(preset), Some(strokes)) => {
+            let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
+            crate::preset::joined_classes(&preset.class_names(), &drawn).0
+        }
+        (Some(preset), None) => preset.class_names(),
+        (None, Some(strokes)) => strokes.classes.iter().map(|class| class.name.clone()).collect(),
+        (None, None) => return Err(CliError::Usage("give --strokes, --preset or both".into())),
+    };
+    let class_count = class_names.len();
     let mut options = segmentation_options(args);
+    if let Some(preset) = &preset {
+        options.feature_set = preset.feature_set().unwrap_or(options.feature_set);
+    }
     let mut fallback = None;
     if let Some(forest) = pipeline::forest_fallback(&options, class_count) {
         if let Some(choice) = args.classifier {
@@ -76,17 +111,32 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
             "{class_count} classes: more than the {MAX_PAIRWISE_CLASSES} the SN-SVM classifies, so the random forest classified them"
         );
         log::warn!("{reason}");
-        options =
-            SegmentationOptions { feature_set: args.features.map_or(forest.feature_set, FeatureSet::from), ..forest };
+        let features = match &preset {
+            Some(_) => options.feature_set,
+            None => args.features.map_or(forest.feature_set, FeatureSet::from),
+        };
+        options = SegmentationOptions { feature_set: features, ..forest };
         fallback = Some(reason);
     }
-    pipeline::check_training(&volume, &training, &options)
-        .map_err(|error| super::pipeline_error(error, &args.strokes))?;
+    if let (Some(training), None) = (&training, &preset) {
+        pipeline::check_training(&volume, training, &options)
+            .map_err(|error| super::pipeline_error(error, &strokes_path))?;
+    }
     let mut runs = Vec::new();
     let mut result = None;
     for _ in 0..args.repeat {
         let started = Instant::now();
-        let (segmenter, labels) = pipeline::classify_training(&volume, &training, &options, RunControl::batch())?;
+        let samples = match (&preset, &training) {
+            (Some(preset), training) => {
+                let (samples, names) = pipeline::preset_samples(&volume, preset, modality, training.as_ref(), &options)
+                    .map_err(|error| super::pipeline_error(error, &strokes_path))?;
+                class_names = names;
+                samples
+            }
+            (None, Some(training)) => segmentation::samples(&volume, training, &options)?,
+            (None, None) => unreachable!("checked above"),
+        };
+        let (segmenter, labels) = pipeline::classify_samples(&volume, samples, &options, RunControl::batch())?;
         // Labelling is what the run took beyond computing the training features and training.
         let predict_seconds =
             (started.elapsed().as_secs_f64() - segmenter.summary.features_seconds - segmenter.summary.train_seconds)
@@ -109,10 +159,16 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
 
     // Colours (§3.5): the class table is kept beside the labels, so the renderer can classify
     // after interpolation and restyle without classifying again.
-    let table = ClassTable::compute(&volume, &labels.labels, class_count, HueTemplate::default_for(class_count))?;
+    let template = preset.as_ref().map_or_else(|| HueTemplate::default_for(class_count), |preset| preset.template);
+    let mut table = ClassTable::compute(&volume, &labels.labels, class_count, template)?;
+    if let Some(preset) = &preset {
+        preset.restyle(&mut table);
+    }
     let run = run_id();
+    let trained_from: Vec<String> =
+        args.strokes.iter().chain(&args.preset).map(|path| path.display().to_string()).collect();
     let comment =
-        format!("volasso labels of {} from {}\nvolasso run {run}", volume.source.display(), args.strokes.display());
+        format!("volasso labels of {} from {}\nvolasso run {run}", volume.source.display(), trained_from.join(" and "));
     // Every output is staged (written whole beside its target) before the first is renamed.
     fn output(path: &Path) -> impl FnOnce(std::io::Error) -> CliError + '_ {
         move |source| CliError::Output { source, path: path.to_path_buf() }
@@ -130,7 +186,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         file.write_all(&labels.labels)
     })
     .map_err(output(&args.out))?;
-    let class_names: Vec<&str> = strokes.classes.iter().map(|class| class.name.as_str()).collect();
+    let class_names: Vec<&str> = class_names.iter().map(String::as_str).collect();
     let table_text = serde_json::to_string_pretty(&TableOfRun { table: &table, classes: &class_names, run: &run })
         .map_err(|source| TransferError::TableJson { source, path: table_path.clone() })?;
     let staged_table = stage(&table_path, |file| file.write_all(table_text.as_bytes())).map_err(output(&table_path))?;
@@ -138,6 +194,17 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     if let Some(path) = &args.rgba {
         staged.push(transfer::stage_rgba_nrrd(path, &volume, &labels.labels, &table.styles, &comment)?);
     }
+    let saved_preset = match &args.save_preset {
+        Some(path) => {
+            let name = path.file_stem().map_or_else(|| "preset".into(), |stem| stem.to_string_lossy().to_string());
+            let names: Vec<String> = class_names.iter().map(|name| name.to_string()).collect();
+            let saved = Preset::of(&name, &segmenter, &volume, modality, &names, &table)?;
+            let text = saved.to_json().map_err(output(path))?;
+            staged.push(stage(path, |file| file.write_all(text.as_bytes())).map_err(output(path))?);
+            Some(saved)
+        }
+        None => None,
+    };
     staged.extend([staged_table, staged_labels]);
     commit_in_order(staged).map_err(|(source, path)| CliError::Output { source, path })?;
     let total_seconds = load_seconds + features_seconds + train_seconds + predict_seconds;
@@ -148,7 +215,20 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "voxels": volume.voxel_count(),
         "classified_voxels": labels.classified_voxels,
         "evaluated_voxels": labels.evaluated_voxels,
-        "classes": strokes.classes.iter().map(|c| c.name.as_str()).collect::<Vec<_>>(),
+        "classes": class_names,
+        "modality": modality.name(),
+        "preset": preset.as_ref().map(|preset| json!({
+            "name": preset.name,
+            "path": args.preset.as_ref().map(|path| path.display().to_string()),
+            "modality": preset.modality.name(),
+            "training_vectors": preset.samples.len(),
+        })),
+        "saved_preset": saved_preset.as_ref().map(|saved| json!({
+            "name": saved.name,
+            "path": args.save_preset.as_ref().map(|path| path.display().to_string()),
+            "scale": saved.scale,
+            "training_vectors": saved.samples.len(),
+        })),
         "training_voxels": summary.used_per_class,
         "training_voxels_dropped_by_cap": summary.dropped_per_class,
         "training_cap_per_class": summary.cap_per_class,
@@ -176,8 +256,8 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         },
         "repeats": args.repeat,
     });
-    if let Some(folder) = &args.export_features {
-        export_features(folder, &volume, &segmenter, &training, &options, &labels, &line)?;
+    if let (Some(folder), Some(training)) = (&args.export_features, &training) {
+        export_features(folder, &volume, &segmenter, training, &options, &labels, &line)?;
     }
     println!("{line}");
     Ok(())

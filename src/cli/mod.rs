@@ -52,6 +52,9 @@ pub enum CliError {
     Paths(#[from] outputs::PathClash),
     #[error(transparent)]
     Accuracy(#[from] crate::accuracy::AccuracyError),
+    /// A preset cannot be read, written or applied.
+    #[error(transparent)]
+    Preset(#[from] crate::preset::PresetError),
     /// The kiosk (DRM display, platform, replay harness) failed.
     #[error(transparent)]
     Kiosk(#[from] crate::kiosk::KioskError),
@@ -103,6 +106,7 @@ fn pipeline_error(error: crate::pipeline::PipelineError, strokes: &std::path::Pa
         PipelineError::Transfer(error) => error.into(),
         PipelineError::Volume(error) => error.into(),
         PipelineError::Training(error) => CliError::Training(error),
+        PipelineError::Preset(error) => CliError::Preset(error),
         error @ PipelineError::ScribbleShape { .. } => CliError::Usage(error.to_string()),
     }
 }

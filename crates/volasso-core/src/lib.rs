@@ -25,6 +25,7 @@ pub mod features;
 pub mod input_file;
 pub mod phantom;
 pub mod pipeline;
+pub mod preset;
 pub mod render;
 pub mod rng;
 pub mod segmentation;

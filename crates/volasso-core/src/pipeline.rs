@@ -17,7 +17,10 @@ use std::sync::atomic::AtomicBool;
 use ndarray::{Array3, ArrayView3};
 
 use crate::classify::Inseparable;
-use crate::segmentation::{self, ClassifierKind, LabelVolume, SegmentationError, SegmentationOptions, Segmenter};
+use crate::preset::{self, Modality, Preset, PresetError};
+use crate::segmentation::{
+    self, ClassifierKind, LabelVolume, SegmentationError, SegmentationOptions, Segmenter, TrainingSamples,
+};
 use crate::strokes::{ClassSamples, StrokesError, StrokesFile, TrainingSet};
 use crate::transfer::{ClassTable, HueTemplate, TransferError};
 use crate::volume::{Volume, VolumeError};
@@ -37,6 +40,9 @@ pub enum PipelineError {
     /// The array could not be made into a volume (empty, bad spacing).
     #[error(transparent)]
     Volume(#[from] VolumeError),
+    /// The preset does not fit the scan.
+    #[error(transparent)]
+    Preset(#[from] PresetError),
     /// The training set cannot teach the classifier anything ([`check_training`]).
     #[error(transparent)]
     Training(#[from] TrainingError),
@@ -213,7 +219,18 @@ pub fn classify_training(
     options: &SegmentationOptions,
     control: RunControl<'_>,
 ) -> Result<(Segmenter, LabelVolume), SegmentationError> {
-    let segmenter = segmentation::train(volume, training, options)?;
+    classify_samples(volume, segmentation::samples(volume, training, options)?, options, control)
+}
+
+/// Fits the classifier to `samples` (read off lassos, a preset's, or both: [`preset_samples`])
+/// and labels every voxel of `volume`, as [`classify_training`] does.
+pub fn classify_samples(
+    volume: &Volume,
+    samples: TrainingSamples,
+    options: &SegmentationOptions,
+    control: RunControl<'_>,
+) -> Result<(Segmenter, LabelVolume), SegmentationError> {
+    let segmenter = segmentation::fit(samples, options)?;
     let labels = match control.preview {
         Some(preview) => segmentation::label_volume_with_preview(
             volume,
@@ -226,6 +243,38 @@ pub fn classify_training(
         None => segmentation::label_volume(volume, &segmenter, options.refinement, control.progress, control.cancel)?,
     };
     Ok((segmenter, labels))
+}
+
+/// A preset's training on `volume` (of `modality`), with the loops of `training` added where
+/// given (drawn on this scan: they correct the preset), and every class's name in class order
+/// (the preset's, then drawn classes it lacks). The features are the preset's; the drawn
+/// loops are read with them and capped as any training set. `training`'s class `k` is class
+/// `drawn_ids[k]` of the result.
+pub fn preset_samples(
+    volume: &Volume,
+    preset: &Preset,
+    modality: Modality,
+    training: Option<&TrainingSet>,
+    options: &SegmentationOptions,
+) -> Result<(TrainingSamples, Vec<String>), PipelineError> {
+    let from_preset = preset.samples_for(volume, modality)?;
+    let Some(training) = training.filter(|training| !training.classes.is_empty()) else {
+        return Ok((from_preset, preset.class_names()));
+    };
+    let drawn_names: Vec<String> = training.classes.iter().map(|class| class.name.clone()).collect();
+    let (names, drawn_ids) = preset::joined_classes(&preset.class_names(), &drawn_names);
+    let options = SegmentationOptions { feature_set: from_preset.feature_set, ..options.clone() };
+    check_training(volume, training, &options)?;
+    let drawn = segmentation::samples(volume, training, &options)?;
+    let joined = preset::join_samples(
+        from_preset,
+        preset.air_class,
+        drawn,
+        &drawn_ids,
+        names.len(),
+        options.max_training_per_class,
+    );
+    Ok((joined, names))
 }
 
 /// What a classification gives: the model, the labels and their colours.

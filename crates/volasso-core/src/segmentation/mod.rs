@@ -270,6 +270,8 @@ pub struct Segmenter {
     pub classifier: TrainedClassifier,
     /// What training used and decided.
     pub summary: TrainingSummary,
+    /// What it was fitted on (a preset keeps them: `crate::preset`).
+    pub samples: TrainingSamples,
 }
 
 impl Segmenter {
@@ -347,12 +349,51 @@ impl Segmenter {
     }
 }
 
-/// Trains a [`Segmenter`] on `training` voxels of `volume`.
+/// Trains a [`Segmenter`] on `training` voxels of `volume`: [`samples`], then [`fit`].
 pub fn train(
     volume: &Volume,
     training: &TrainingSet,
     options: &SegmentationOptions,
 ) -> Result<Segmenter, SegmentationError> {
+    fit(samples(volume, training, options)?, options)
+}
+
+/// What a classifier is fitted on, every value in one volume's units: read off its lassos
+/// ([`samples`]) or carried over from another scan by a preset (`crate::preset`).
+#[derive(Clone, Debug)]
+pub struct TrainingSamples {
+    /// Number of classes; class id `k` is the class at position `k - 1`.
+    pub class_count: usize,
+    /// The features the vectors hold.
+    pub feature_set: FeatureSet,
+    /// The training vectors' raw features, row-major (`labels.len() x dim`).
+    pub features: Vec<f32>,
+    /// Each vector's class id.
+    pub labels: Vec<u8>,
+    /// Each class's band of drawn intensities, in class order; `None` for an open gate (a
+    /// class without a finite value, more classes than a gate tells apart).
+    pub bands: Option<Vec<gate::Band>>,
+    /// The background decided for the volume.
+    pub background: BackgroundPlan,
+    /// Lassoed voxels that keep their class whatever the classifier says, with their class ids.
+    pub lassoed: Vec<(usize, u8)>,
+    /// Training vectors per class.
+    pub used_per_class: Vec<usize>,
+    /// Training voxels the cap removed per class.
+    pub dropped_per_class: Vec<usize>,
+    /// Voxels claimed by two classes and dropped from both.
+    pub contested_voxels: usize,
+    /// Time spent reading them (the background rule, the features).
+    pub features_seconds: f64,
+}
+
+/// The training samples of `training` on `volume`: the background rule, the gate's bands and
+/// the lassos' cleaning, the cap, and the features of what is left.
+pub fn samples(
+    volume: &Volume,
+    training: &TrainingSet,
+    options: &SegmentationOptions,
+) -> Result<TrainingSamples, SegmentationError> {
     volume.check_still_mapped()?;
     training.check_every_class_has_voxels()?;
     let started = Instant::now();
@@ -364,8 +405,8 @@ pub fn train(
     let capped = cleaned.capped(options.max_training_per_class, options.seed);
     let (voxels, labels) = capped.labelled_voxels();
     let dim = options.feature_set.dim();
-    let raw_features = features_of_voxels(volume, options.feature_set, &voxels)?;
-    if let Some(position) = raw_features.iter().position(|v| !v.is_finite()) {
+    let features = features_of_voxels(volume, options.feature_set, &voxels)?;
+    if let Some(position) = features.iter().position(|v| !v.is_finite()) {
         let sample = position / dim;
         return Err(SegmentationError::NonFiniteTraining {
             voxel: voxels[sample],
@@ -373,34 +414,62 @@ pub fn train(
             value: volume.value(voxels[sample]),
         });
     }
-    let scaling = options.feature_set.scaling();
-    let standardiser = scaling.fit(&raw_features)?;
-    let values = standardiser.apply(&raw_features)?;
-    let features_seconds = started.elapsed().as_secs_f64();
+    let gate = drawn.gate();
+    let (decided_voxels, decided_ids) = decided.labelled_voxels();
+    Ok(TrainingSamples {
+        class_count: capped.classes.len(),
+        feature_set: options.feature_set,
+        features,
+        labels,
+        bands: (!gate.bands().is_empty()).then(|| gate.bands().to_vec()),
+        background,
+        lassoed: decided_voxels.into_iter().zip(decided_ids).collect(),
+        used_per_class: capped.classes.iter().map(|c| c.voxels.len()).collect(),
+        dropped_per_class: capped.classes.iter().map(|c| c.dropped_by_cap).collect(),
+        contested_voxels: capped.contested_voxels,
+        features_seconds: started.elapsed().as_secs_f64(),
+    })
+}
+
+/// Fits the classifier of `options` to `samples` (their feature set, not `options`').
+pub fn fit(samples: TrainingSamples, options: &SegmentationOptions) -> Result<Segmenter, SegmentationError> {
     let started = Instant::now();
-    let class_ids: Vec<u8> = (1..=capped.classes.len() as u8).collect();
+    let feature_set = samples.feature_set;
+    let dim = feature_set.dim();
+    let scaling = feature_set.scaling();
+    let standardiser = scaling.fit(&samples.features)?;
+    let values = standardiser.apply(&samples.features)?;
+    let features_seconds = samples.features_seconds + started.elapsed().as_secs_f64();
+    let started = Instant::now();
+    let labels = &samples.labels;
+    let class_ids: Vec<u8> = (1..=samples.class_count as u8).collect();
+    let background = &samples.background;
     let mut classifier = options.classifier;
     let trained = match options.classifier_kind {
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
-            // The drawn classes are the trained ones, in order (the background rule and the
-            // cap keep every class); `PairwiseSnSvm::train` opens a gate that does not fit.
             // A class drawn in the air is the air around the body by construction (the
             // region's label), never a voxel the classifier labels.
+            let drawn = match &samples.bands {
+                Some(bands) if samples.class_count <= gate::MAX_CLASSES => {
+                    gate::IntensityGate::from_bands(bands.clone())
+                }
+                _ => gate::IntensityGate::open(samples.class_count),
+            };
             let gate = match background.air_class {
-                Some(position) => drawn.gate().without(position),
-                None => drawn.gate(),
+                Some(position) => drawn.without(position),
+                None => drawn,
             };
             let model = pairwise::PairwiseSnSvm::train(
-                &raw_features,
+                &samples.features,
                 &scaling,
-                &labels,
+                labels,
                 &class_ids,
                 gate,
                 &classifier,
                 options.kernel_width,
                 options.prune_relative,
             )?
-            .with_intensity_features(options.feature_set.intensity_features());
+            .with_intensity_features(feature_set.intensity_features());
             // The first pair's parameters stand for the model's (two classes: the only pair).
             if let Some(first) = model.pairs.first() {
                 classifier = first.params;
@@ -412,14 +481,14 @@ pub fn train(
                 classifier.kernel = Kernel::Rbf { width: median_heuristic_width(&values, dim) };
             }
             let params = classifier.check()?;
-            let model = classify::train_with_classes(&SampleMatrix { dim, values }, &labels, &class_ids, &params)?
+            let model = classify::train_with_classes(&SampleMatrix { dim, values }, labels, &class_ids, &params)?
                 .pruned(options.prune_relative);
             TrainedClassifier::SnSvm(Box::new(model))
         }
         ClassifierKind::Forest(params) => {
             let samples: Vec<f32> = values.iter().map(|&v| v as f32).collect();
             let params = ForestParams { seed: crate::rng::hash64(params.seed, options.seed), ..params };
-            let forest = Forest::train(&samples, dim, &labels, &class_ids, &params)?;
+            let forest = Forest::train(&samples, dim, labels, &class_ids, &params)?;
             TrainedClassifier::Forest(
                 forest.with_thresholds(|feature, threshold| standardiser.raw_threshold(feature, threshold)),
             )
@@ -428,27 +497,26 @@ pub fn train(
     let summary = TrainingSummary {
         classifier,
         classifier_kind: options.classifier_kind,
-        used_per_class: capped.classes.iter().map(|c| c.voxels.len()).collect(),
-        dropped_per_class: capped.classes.iter().map(|c| c.dropped_by_cap).collect(),
+        used_per_class: samples.used_per_class.clone(),
+        dropped_per_class: samples.dropped_per_class.clone(),
         cap_per_class: options.max_training_per_class,
-        contested_voxels: capped.contested_voxels,
+        contested_voxels: samples.contested_voxels,
         background_threshold: background.threshold,
-        background_region: background.face_air,
+        background_region: background.face_air.clone(),
         region_label: background.air_class.map_or(0, |position| position as u8 + 1),
-        dropped_as_air_per_class: background.dropped_per_class,
+        dropped_as_air_per_class: background.dropped_per_class.clone(),
         air_is_a_class: background.air_is_a_class,
         features_seconds,
         train_seconds: started.elapsed().as_secs_f64(),
     };
-    let (decided_voxels, decided_ids) = decided.labelled_voxels();
-    let lassoed = decided_voxels.into_iter().zip(decided_ids).collect();
     Ok(Segmenter {
-        lassoed,
-        feature_set: options.feature_set,
+        lassoed: samples.lassoed.clone(),
+        feature_set,
         coherence: options.coherence,
         standardiser,
         classifier: trained,
         summary,
+        samples,
     })
 }
 
