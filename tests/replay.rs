@@ -115,6 +115,8 @@ const THREE_SIZES: [&str; 3] = ["1280x800", "1024x600", "800x1280"];
 /// * `orientation.touch`: the patient's directions at the panels' edges (the GE head CT);
 /// * `panels.touch`: every screen's controls whole, apart and 9 mm wide;
 /// * `series-picker.touch`: a folder of two DICOM series gives each a card that opens it;
+/// * `presets.touch`: a preset saved on the demo colours it again from the chooser, takes a new
+///   loop, and colours the Philips head CT from the work screen (a data folder with a link to it);
 /// * `gallery-*.touch`, `attract-gallery.touch`: kept results in a data folder of their own;
 /// * `clip.touch`, `opacity.touch` (then `opacity-restored.touch` on its session),
 ///   `snapshot.touch`: the 3-D view's tools on the demo volume;
@@ -189,6 +191,12 @@ fn script_arguments(script: &str, work: &Path) -> Vec<String> {
             let volume = work.join("nan-column.nrrd");
             crate::hostile_cli::write_nan_column(&volume);
             vec!["--volume".into(), volume.display().to_string()]
+        }
+        "presets.touch" => {
+            let data = work.join("data");
+            std::fs::create_dir_all(&data).unwrap();
+            std::os::unix::fs::symlink(support::data("dicom/philips_phantom_5mm"), data.join("philips")).unwrap();
+            vec!["--data-dir".into(), data.display().to_string()]
         }
         "series-picker.touch" => {
             let study = work.join("data/study");

@@ -78,6 +78,10 @@ pub(super) fn wire(window: &AppWindow, state: &Shared) {
         refresh::edit_session(&w, s, |session| session.delete_class(index.max(0) as usize))
     }));
     session.on_toggle_class(handler!(window, state, |w, s, index: i32| { toggle_class(&w, s, index) }));
+    session.on_save_preset(handler!(window, state, |w, s| { crate::presets::view::save(&w, s) }));
+    session.on_apply_preset(handler!(window, state, |w, s, index: i32| { crate::presets::view::apply(&w, s, index) }));
+    session
+        .on_choose_preset(handler!(window, state, |w, s, index: i32| { crate::presets::view::choose(&w, s, index) }));
     session.on_toggle_unsure(handler!(window, state, |w, s| { super::guidance::toggle_unsure(&w, s) }));
     session.on_draw_here_next(handler!(window, state, |w, s| { super::guidance::draw_here_next(&w, s) }));
     session.on_choose_template(handler!(window, state, |w, s, name: slint::SharedString| {
@@ -161,6 +165,7 @@ fn show_chooser(window: &AppWindow, state: &Shared) {
     }
     super::attract::view::end(window, state);
     crate::gallery::view::refresh_cards(state);
+    crate::presets::view::relist(window, state);
     refresh::show_screen(window, Screen::Chooser);
 }
 

@@ -16,12 +16,14 @@
 //! does).
 
 use super::autosave::{SavedLook, SavedSession};
-use super::jobs::{ClassificationJobs, JobOutcome};
+use super::jobs::{AppliedPreset, ClassificationJobs, JobOutcome};
 use super::saver::AutosaveWriter;
 use super::session::{SessionError, WorkSession};
 use super::view3d::ViewRenderer;
 use super::{Work, autosave};
 use std::path::PathBuf;
+use std::sync::Arc;
+use volasso_core::preset::Preset;
 use volasso_core::strokes::{ClassStrokes, StrokesFile};
 use volasso_core::transfer::{ClassStyle, HueTemplate, TemplateType, apply_template};
 
@@ -315,11 +317,12 @@ impl Controller {
         self.save();
         let template = self.template();
         let training = self.training_strokes();
+        let applied = self.applied_preset();
         let Some(work) = self.work.as_mut() else { return Changed::default() };
         let mut failure = Failure::Unchanged;
         match training {
             Some(strokes) if work.requested.as_ref() != Some(&strokes) => {
-                self.jobs.start(work.loaded.volume.clone(), strokes.clone(), template);
+                self.jobs.start(work.loaded.volume.clone(), strokes.clone(), applied, template);
                 work.requested = Some(strokes);
             }
             Some(_) => {}
@@ -357,6 +360,60 @@ impl Controller {
     /// Why the newest classification failed, if it did.
     pub fn failure(&self) -> Option<&str> {
         self.work.as_ref()?.failure.as_deref()
+    }
+
+    /// A learned preset chosen for the open scan: the session becomes the preset's classes (no
+    /// lassos of their own), its colours the preset's, and the scan is classified with it at
+    /// once; loops drawn afterwards add to it. A preset that does not fit the scan (another
+    /// modality, not in Hounsfield units) changes nothing and says why in the banner.
+    pub fn apply_preset(&mut self, preset: Arc<Preset>) -> Changed {
+        let Some(work) = self.work.as_mut() else { return Changed::default() };
+        if let Err(error) = preset.check_scan(&work.loaded.volume, work.loaded.modality) {
+            return Changed { failure: Failure::Failed(error.to_string()), ..Changed::default() };
+        }
+        let classes = preset.classes.iter().map(|class| ClassStrokes { name: class.name.clone(), strokes: Vec::new() });
+        work.session.replace_classes(&StrokesFile { classes: classes.collect() });
+        work.preset = Some(preset.clone());
+        work.requested = None;
+        self.chosen_template = Some(preset.template);
+        self.look = SavedLook::default();
+        Changed { status: Some(String::new()), ..self.session_changed() }
+    }
+
+    /// The classification shown as a learned preset named `name`: its training, its classes'
+    /// names and looks. Why not, when there is no finished classification to keep.
+    pub fn preset_of_shown(&self, name: &str) -> Result<Preset, String> {
+        let work = self.work.as_ref().ok_or("no scan is open")?;
+        let classified = work.classified.as_ref().ok_or("classify the scan first")?;
+        let guidance = classified.guidance.as_ref().ok_or("wait until the classification is finished")?;
+        let names = self.classified_names().ok_or("classify the scan first")?;
+        let mut table = classified.table.clone();
+        if let Some(styles) = self.display_styles() {
+            table.styles = styles;
+        }
+        table.template = self.template();
+        Preset::of(name, &guidance.segmenter, &work.loaded.volume, work.loaded.modality, &names, &table)
+            .map_err(|error| error.to_string())
+    }
+
+    /// The names of the classes the classification is of, in class order: the preset's still
+    /// in the session, then the session's others and the pending lassos' provisional class.
+    fn classified_names(&self) -> Option<Vec<String>> {
+        let strokes = self.training_strokes()?;
+        let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
+        Some(match self.applied_preset() {
+            Some(applied) => volasso_core::preset::joined_classes(&applied.preset.class_names(), &drawn).0,
+            None => drawn,
+        })
+    }
+
+    /// The applied preset with the classes the session still has (a class deleted on this scan
+    /// stays deleted); `None` without a preset or when none of its classes is left.
+    fn applied_preset(&self) -> Option<AppliedPreset> {
+        let work = self.work.as_ref()?;
+        let names: Vec<String> = work.session.classes.iter().map(|class| class.name.clone()).collect();
+        let preset = work.preset.as_ref()?.only(&names)?;
+        Some(AppliedPreset { preset: Arc::new(preset), modality: work.loaded.modality })
     }
 
     /// The defined classes plus the pending lassos as the provisional next class; `None` when

@@ -34,6 +34,7 @@ fn opened(volume: volasso_core::volume::Volume) -> LoadedVolume {
         patient: crate::patient::Patient::NotShown,
         title: None,
         series_uid: None,
+        modality: volasso_core::preset::Modality::Unknown,
     }
 }
 
@@ -379,4 +380,83 @@ fn a_failure_keeps_the_last_good_result_and_the_next_success_clears_its_banner()
     let changed = classified(&mut controller);
     assert_eq!(changed.failure, Failure::Cleared, "{changed:?}");
     assert_eq!(controller.failure(), None);
+}
+
+/// Polls until the shown classification's survey has come back (what saving a preset needs).
+fn surveyed(controller: &mut Controller) {
+    let started = Instant::now();
+    while started.elapsed() < Duration::from_secs(60) {
+        controller.poll();
+        if controller.work.as_ref().and_then(|work| work.classified.as_ref()).is_some_and(|c| c.guidance.is_some()) {
+            return;
+        }
+        std::thread::sleep(Duration::from_millis(10));
+    }
+    panic!("no survey in a minute");
+}
+
+#[test]
+fn a_preset_saved_from_one_classification_colours_the_scan_again_and_a_loop_refines_it() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = inline(None);
+    controller.open(Work::new(loaded.clone()), None);
+    draw(&mut controller, &soft);
+    define(&mut controller);
+    draw(&mut controller, &bone);
+    define(&mut controller);
+    classified(&mut controller);
+    assert!(controller.preset_of_shown("early").is_err(), "the survey has not come back yet");
+    surveyed(&mut controller);
+    let preset = Arc::new(controller.preset_of_shown("foot").unwrap());
+    assert_eq!(preset.class_names(), ["Class 1", "Class 2"]);
+    let first = controller.work.as_ref().unwrap().classified.as_ref().unwrap().labels.clone();
+
+    // The scan opened again and the preset applied: classified at once, without a loop.
+    controller.open(Work::new(loaded), None);
+    let changed = controller.apply_preset(preset.clone());
+    assert!(changed.classes && controller.jobs.busy(), "{changed:?}");
+    let session = &controller.work.as_ref().unwrap().session;
+    assert_eq!(session.classes.iter().map(|c| c.lassos.len()).collect::<Vec<_>>(), [0, 0]);
+    let changed = classified(&mut controller);
+    assert!(changed.status.as_deref().is_some_and(|s| s.starts_with("Classified in")), "{changed:?}");
+    let again = controller.work.as_ref().unwrap().classified.as_ref().unwrap().labels.clone();
+    let same = first.iter().zip(again.iter()).filter(|(a, b)| a == b).count();
+    assert!(same * 1000 > first.len() * 995, "{same} of {}", first.len());
+
+    // A loop of a new class on it: the preset's two and the new one are classified.
+    draw(&mut controller, &soft[..1]);
+    define(&mut controller);
+    assert_eq!(requested_names(&controller), ["Class 1", "Class 2", "Class 3"]);
+    classified(&mut controller);
+    let refined = controller.work.as_ref().unwrap().classified.as_ref().unwrap();
+    assert_eq!(refined.table.styles.len(), 3);
+    assert!(refined.labels.contains(&3));
+
+    // Deleting a preset's class leaves it out of the training.
+    controller.edit(|session| session.delete_class(0));
+    classified(&mut controller);
+    assert_eq!(controller.work.as_ref().unwrap().classified.as_ref().unwrap().table.styles.len(), 2);
+}
+
+#[test]
+fn a_preset_of_another_modality_is_refused_with_a_banner_and_changes_nothing() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = inline(None);
+    controller.open(Work::new(loaded.clone()), None);
+    draw(&mut controller, &soft);
+    define(&mut controller);
+    draw(&mut controller, &bone);
+    define(&mut controller);
+    classified(&mut controller);
+    surveyed(&mut controller);
+    let mut preset = controller.preset_of_shown("foot").unwrap();
+    preset.modality = volasso_core::preset::Modality::Mr;
+    let mut ct = loaded;
+    ct.modality = volasso_core::preset::Modality::Ct;
+    controller.open(Work::new(ct), None);
+    let changed = controller.apply_preset(Arc::new(preset));
+    let Failure::Failed(reason) = &changed.failure else { panic!("{changed:?}") };
+    assert!(reason.contains("trained on MR and this scan is CT"), "{reason}");
+    assert!(controller.work.as_ref().unwrap().session.classes.is_empty());
+    assert!(!controller.jobs.busy());
 }

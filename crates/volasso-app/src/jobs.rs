@@ -13,6 +13,7 @@ use super::worker::{Delivery, Inline, Report, Threaded, Ticket, Worker};
 use std::sync::Arc;
 use std::time::Instant;
 use volasso_core::pipeline::{self, RunControl};
+use volasso_core::preset::{Modality, Preset};
 use volasso_core::segmentation::uncertainty::{self, Survey};
 use volasso_core::segmentation::{LabelVolume, SegmentationOptions, Segmenter};
 use volasso_core::strokes::StrokesFile;
@@ -59,13 +60,22 @@ pub enum JobOutcome {
     Failed(String),
 }
 
-/// One classification to run: the volume, the classes' lassos, the colour template and how to
-/// segment.
+/// One classification to run: the volume, the classes' lassos, the preset they add to (if
+/// one was applied), the colour template and how to segment.
 pub struct ClassifyJob {
     pub volume: Arc<Volume>,
     pub strokes: StrokesFile,
+    pub preset: Option<AppliedPreset>,
     pub template: HueTemplate,
     pub options: SegmentationOptions,
+}
+
+/// A learned preset applied to the open scan, and what the scan is (a preset of one modality
+/// refuses the other).
+#[derive(Clone, Debug)]
+pub struct AppliedPreset {
+    pub preset: Arc<Preset>,
+    pub modality: Modality,
 }
 
 /// Starts, cancels and collects classification jobs; one runs at a time.
@@ -97,11 +107,18 @@ impl ClassificationJobs {
         ClassificationJobs { worker, running: None, finished: None, options: SegmentationOptions::default() }
     }
 
-    /// Classifies `volume` with the classes of `strokes`, cancelling any job still running.
-    pub fn start(&mut self, volume: Arc<Volume>, strokes: StrokesFile, template: HueTemplate) {
+    /// Classifies `volume` with the classes of `strokes` (added to `preset`'s, when given),
+    /// cancelling any job still running.
+    pub fn start(
+        &mut self,
+        volume: Arc<Volume>,
+        strokes: StrokesFile,
+        preset: Option<AppliedPreset>,
+        template: HueTemplate,
+    ) {
         self.cancel();
         let options = self.options.clone();
-        self.running = Some(self.worker.send(ClassifyJob { volume, strokes, template, options }));
+        self.running = Some(self.worker.send(ClassifyJob { volume, strokes, preset, template, options }));
     }
 
     /// Stops the running job, if any; its result will not be reported.
@@ -157,8 +174,8 @@ impl ClassificationJobs {
 /// panic in the pipeline is reported as a failure, so the app hears of it instead of
 /// "Classifying..." forever.
 fn run_job(job: ClassifyJob, ticket: &Ticket, report: &Report<'_, JobOutcome>) {
-    let ClassifyJob { volume, strokes, template, options } = job;
-    let run = || classify(&volume, &strokes, template, &options, ticket, report);
+    let ClassifyJob { volume, strokes, preset, template, options } = job;
+    let run = || classify(&volume, &strokes, preset.as_ref(), template, &options, ticket, report);
     match std::panic::catch_unwind(std::panic::AssertUnwindSafe(run)) {
         Ok(Ok((classified, segmenter))) => {
             report(JobOutcome::Done(classified.clone()));
@@ -173,10 +190,12 @@ fn run_job(job: ClassifyJob, ticket: &Ticket, report: &Report<'_, JobOutcome>) {
 }
 
 /// Trains and labels, reporting the coarse first look through `report`; the exact result and
-/// the trained classifier for the survey.
+/// the trained classifier for the survey. With a preset, the classes of `strokes` that hold
+/// lassos join its training by name (`pipeline::preset_samples`) and the colours keep its look.
 fn classify(
     volume: &Volume,
     strokes: &StrokesFile,
+    preset: Option<&AppliedPreset>,
     template: HueTemplate,
     options: &SegmentationOptions,
     ticket: &Ticket,
@@ -185,8 +204,21 @@ fn classify(
     let started = Instant::now();
     // Training is about a tenth of the work; labelling reports the rest.
     let progressed = |fraction: f32| ticket.set_progress(0.1 + 0.9 * fraction.clamp(0.0, 1.0));
-    let class_count = strokes.classes.len();
-    let preview = |coarse: &LabelVolume| match ClassTable::compute(volume, &coarse.labels, class_count, template) {
+    let class_count = match preset {
+        Some(applied) => {
+            let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
+            volasso_core::preset::joined_classes(&applied.preset.class_names(), &drawn).0.len()
+        }
+        None => strokes.classes.len(),
+    };
+    let table_of = |labels: &[u8]| {
+        let mut table = ClassTable::compute(volume, labels, class_count, template)?;
+        if let Some(applied) = preset {
+            applied.preset.restyle(&mut table);
+        }
+        Ok::<_, volasso_core::transfer::TransferError>(table)
+    };
+    let preview = |coarse: &LabelVolume| match table_of(&coarse.labels) {
         Ok(table) => {
             log::info!("first look in {:.0} ms", started.elapsed().as_secs_f64() * 1000.0);
             report(JobOutcome::Preview(ClassificationResult {
@@ -200,8 +232,9 @@ fn classify(
         Err(error) => log::warn!("no first look: {error}"),
     };
     let control = RunControl { progress: &progressed, cancel: ticket.cancel_flag(), preview: Some(&preview) };
-    let classified =
-        pipeline::classify_strokes(volume, strokes, options, Some(template), control).map_err(|e| e.to_string())?;
+    let applied = preset.map(|applied| (applied.preset.as_ref(), applied.modality));
+    let classified = pipeline::classify_strokes_with_preset(volume, strokes, applied, options, Some(template), control)
+        .map_err(|e| e.to_string())?;
     let labelled = classified.labels;
     let result = ClassificationResult {
         labels: Arc::new(labelled.labels),
@@ -268,8 +301,8 @@ mod tests {
         let strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
         let volume = Arc::new(phantom.volume);
         let mut jobs = ClassificationJobs::default();
-        jobs.start(volume.clone(), strokes.clone(), HueTemplate::default_for(2));
-        jobs.start(volume.clone(), strokes, HueTemplate::default_for(2));
+        jobs.start(volume.clone(), strokes.clone(), None, HueTemplate::default_for(2));
+        jobs.start(volume.clone(), strokes, None, HueTemplate::default_for(2));
         assert!(jobs.busy());
         let mut outcomes = wait_for_end(&mut jobs);
         let classified = match outcomes.pop() {
@@ -308,7 +341,7 @@ mod tests {
         let mut strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
         strokes.classes[1].strokes.clear();
         let mut jobs = ClassificationJobs::default();
-        jobs.start(Arc::new(phantom.volume), strokes, HueTemplate::default_for(2));
+        jobs.start(Arc::new(phantom.volume), strokes, None, HueTemplate::default_for(2));
         let JobOutcome::Failed(message) = wait(&mut jobs) else { panic!("an empty class must fail") };
         assert!(message.contains("Class") || message.contains("class"), "{message}");
     }

@@ -59,6 +59,7 @@ mod painter;
 pub mod patient;
 pub mod pictures;
 mod poll;
+pub mod presets;
 mod queries;
 mod refresh;
 mod saver;
@@ -152,6 +153,8 @@ struct State {
     audit: audit::Audit,
     /// The settings screen behind the PIN.
     settings: settings::SettingsScreen,
+    /// The learned presets in the data folder and the chooser's choice.
+    presets: presets::view::Presets,
 }
 
 impl State {
@@ -202,6 +205,7 @@ impl State {
             || self.tools.snapshots.busy()
             || self.view.dirty
             || self.results.busy()
+            || self.presets.shelf.busy()
             || self.pacs.busy()
     }
 }
@@ -277,6 +281,7 @@ impl App {
             expiry: expiry::Expiry::new(config.retention),
             audit: audit::Audit::new(config.data_dir.as_deref()),
             settings: settings::SettingsScreen::new(config.data_dir.clone()),
+            presets: presets::view::Presets::default(),
             config,
         };
         let state = Rc::new(RefCell::new(state));
@@ -327,6 +332,7 @@ impl App {
         }
         drop(state);
         chooser::loading::show_cards(&self.state);
+        presets::view::relist(&self.window, &self.state);
         refresh::push_status(&self.window, &self.state);
     }
 

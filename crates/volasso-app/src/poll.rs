@@ -27,6 +27,7 @@ pub(super) fn poll(window: &AppWindow, state: &Shared) {
         loading::loader_event(window, state, event);
     }
     crate::gallery::view::poll(window, state);
+    crate::presets::view::poll(window, state);
     crate::attract::view::tick(window, state);
     let changed = state.borrow_mut().ctl.poll();
     if changed != Changed::default() {

@@ -39,6 +39,9 @@ pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),
         "patient" => work.map_or(String::new(), |w| w.loaded.patient.line()),
         "banner" => state.banner.clone(),
+        "status" => state.status.clone(),
+        "presets" => state.presets.shelf.names().len().to_string(),
+        "preset" => work.and_then(|w| w.preset.as_ref()).map_or(String::new(), |preset| preset.name.clone()),
         "pin-message" => match &state.settings.phase {
             super::settings::Phase::Pin(entry) => entry.message.clone(),
             _ => String::new(),

@@ -119,6 +119,7 @@ pub(super) fn push_classes(window: &AppWindow, state: &Shared) {
     session.set_can_undo(work.session.can_undo());
     session.set_can_define(work.session.can_define());
     session.set_can_guide(work.guidance().is_some());
+    session.set_can_save_preset(work.guidance().is_some() && state.config.data_dir.is_some());
     session.set_unsure_shown(work.unsure_shown);
     session.set_template_name(template.template.name().into());
     session.set_template_rotation(template.rotation_degrees.rem_euclid(360.0) as i32);

@@ -122,6 +122,16 @@ impl WorkSession {
         Ok(class.visible)
     }
 
+    /// Every class and lasso replaced by the classes of `file` (a preset's, without lassos;
+    /// undoable). Names of classes defined afterwards go on from the highest number used.
+    pub fn replace_classes(&mut self, file: &StrokesFile) {
+        self.remember();
+        let replaced = WorkSession::from_strokes(file);
+        self.classes = replaced.classes;
+        self.pending.clear();
+        self.next_number = self.next_number.max(replaced.next_number);
+    }
+
     /// Removes every class and lasso (undoable).
     pub fn clear(&mut self) {
         if self.classes.is_empty() && self.pending.is_empty() {

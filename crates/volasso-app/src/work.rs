@@ -41,6 +41,9 @@ pub(crate) struct Work {
     pub(crate) failure: Option<String>,
     /// The training data of the newest job started, so an unchanged set is not sent again.
     pub(crate) requested: Option<StrokesFile>,
+    /// The learned preset applied to this scan: its classes are the session's first ones
+    /// (without lassos of their own until the user draws some), and it trains with them.
+    pub(crate) preset: Option<std::sync::Arc<volasso_core::preset::Preset>>,
     /// The display window of the slices and its name (a preset, or "Custom" after a drag).
     pub(crate) window: DisplayWindow,
     pub(crate) window_name: String,
@@ -81,6 +84,7 @@ impl Work {
             classified: None,
             failure: None,
             requested: None,
+            preset: None,
             window: initial.window,
             window_name: initial.name.to_string(),
             enlarged: None,

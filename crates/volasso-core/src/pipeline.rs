@@ -309,6 +309,36 @@ pub fn classify_strokes(
     Ok(Classified { segmenter, labels, table })
 }
 
+/// [`classify_strokes`] with a learned preset applied to `volume` (of `modality`): the
+/// classes of `strokes` that hold lassos join the preset's training by name
+/// ([`preset_samples`]); the classes are the preset's, then the drawn ones it lacks, coloured
+/// with `template` (`None`: the preset's) in the preset's look. Without a preset, exactly
+/// [`classify_strokes`].
+pub fn classify_strokes_with_preset(
+    volume: &Volume,
+    strokes: &StrokesFile,
+    preset: Option<(&Preset, Modality)>,
+    options: &SegmentationOptions,
+    template: Option<HueTemplate>,
+    control: RunControl<'_>,
+) -> Result<Classified, PipelineError> {
+    let Some((preset, modality)) = preset else {
+        return classify_strokes(volume, strokes, options, template, control);
+    };
+    let mut drawn = strokes.clone();
+    drawn.classes.retain(|class| !class.strokes.is_empty());
+    let training = if drawn.classes.is_empty() { None } else { Some(TrainingSet::from_strokes(&drawn, volume.dims)?) };
+    let (samples, names) = preset_samples(volume, preset, modality, training.as_ref(), options)?;
+    let options = match forest_fallback(options, names.len()) {
+        Some(forest) => SegmentationOptions { feature_set: samples.feature_set, ..forest },
+        None => options.clone(),
+    };
+    let (segmenter, labels) = classify_samples(volume, samples, &options, control)?;
+    let mut table = ClassTable::compute(volume, &labels.labels, names.len(), template.unwrap_or(preset.template))?;
+    preset.restyle(&mut table);
+    Ok(Classified { segmenter, labels, table })
+}
+
 /// What [`classify_array`] gives.
 pub struct ArrayClassified {
     /// The label of every voxel, indexed `[z, y, x]` like the input: 0 background, k class k.

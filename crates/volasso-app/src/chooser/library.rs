@@ -22,6 +22,7 @@ use std::path::{Path, PathBuf};
 use std::sync::Arc;
 pub use volasso_core::phantom::source::VolumeSource;
 use volasso_core::phantom::source::uid_tail;
+use volasso_core::preset::Modality;
 use volasso_core::slices::{SliceEntropies, SliceLayout, foreground_slice_entropies, plane_axes, slice_image};
 use volasso_core::transfer::RgbImage;
 use volasso_core::volume::dicom::{PatientShown, SeriesSummary, list_series};
@@ -53,9 +54,13 @@ pub const THUMBNAIL_SIDE: usize = 256;
 pub const MAX_ENTRIES: usize = 200;
 
 /// Folders of the data folder that hold the appliance's own output, never a DICOM series: kept
-/// results (gallery.rs), snapshots and the audit log.
-pub const RESERVED_FOLDERS: [&str; 3] =
-    [crate::gallery::FOLDER, crate::view3d::snapshot::SNAPSHOT_FOLDER, volasso_appliance::audit::FOLDER];
+/// results (gallery.rs), snapshots, the audit log and learned presets (presets.rs).
+pub const RESERVED_FOLDERS: [&str; 4] = [
+    crate::gallery::FOLDER,
+    crate::view3d::snapshot::SNAPSHOT_FOLDER,
+    volasso_appliance::audit::FOLDER,
+    crate::presets::PRESETS_FOLDER,
+];
 
 /// The volumes to offer: the demo first, then the data folder's volumes by name.
 pub fn scan(data_dir: Option<&Path>) -> Vec<VolumeSource> {
@@ -108,6 +113,7 @@ fn looks_like_volume(path: &Path) -> bool {
 }
 
 /// An opened volume with what the work screen needs at once.
+#[derive(Clone)]
 pub struct LoadedVolume {
     pub source: VolumeSource,
     pub volume: Arc<Volume>,
@@ -121,6 +127,9 @@ pub struct LoadedVolume {
     pub title: Option<String>,
     /// The SeriesInstanceUID of a DICOM series (the audit log names it hashed).
     pub series_uid: Option<String>,
+    /// What kind of scan (a preset of one modality refuses the other): a DICOM series' own;
+    /// the demo is a CT in Hounsfield units; other files say nothing.
+    pub modality: Modality,
 }
 
 /// A card's picture and words.
@@ -184,6 +193,11 @@ pub fn load(source: &VolumeSource, options: &OpenOptions, shown: PatientShown) -
     let summary = crate::patient::series_summary(source, shown, &options.limits());
     let patient = Patient::of(summary.as_ref(), shown);
     let title = summary.as_ref().and_then(|summary| folder_title(source, summary));
+    let modality = match (source, &summary) {
+        (VolumeSource::Demo, _) => Modality::Ct,
+        (_, Some(summary)) => Modality::from_code(&summary.modality),
+        (_, None) => Modality::Unknown,
+    };
     let series_uid = summary.map(|summary| summary.series_uid);
     Ok(LoadedVolume {
         source: source.clone(),
@@ -193,6 +207,7 @@ pub fn load(source: &VolumeSource, options: &OpenOptions, shown: PatientShown) -
         patient,
         title,
         series_uid,
+        modality,
     })
 }
 

@@ -258,6 +258,7 @@ fn open_work(window: &AppWindow, state: &Shared, loaded: LoadedVolume) {
     session.set_view_caption(crate::words::tr(caption).into());
     show_screen(window, Screen::Work);
     apply(window, state, changed);
+    crate::presets::view::apply_chosen(window, state);
 }
 
 /// What the 3-D view says about its home position: nothing when it shows the patient from the

@@ -463,6 +463,27 @@ impl Preset {
             .find(|set| set.name() == self.features)
     }
 
+    /// The preset with only the classes named in `names` (in its own order, renumbered), as a
+    /// user who deleted some of its classes on a scan wants it; `None` when none is left.
+    pub fn only(&self, names: &[String]) -> Option<Preset> {
+        let kept: Vec<usize> = (0..self.classes.len()).filter(|&c| names.contains(&self.classes[c].name)).collect();
+        if kept.is_empty() {
+            return None;
+        }
+        let new_id = |old: u8| kept.iter().position(|&c| c + 1 == old as usize).map(|p| p as u8 + 1);
+        Some(Preset {
+            classes: kept.iter().map(|&c| self.classes[c].clone()).collect(),
+            air_class: self.air_class.and_then(|air| kept.iter().position(|&c| c == air)),
+            bands: self.bands.as_ref().map(|bands| kept.iter().map(|&c| bands[c]).collect()),
+            samples: self
+                .samples
+                .iter()
+                .filter_map(|sample| new_id(sample.class).map(|class| PresetSample { class, ..sample.clone() }))
+                .collect(),
+            ..self.clone()
+        })
+    }
+
     /// The class names, in class order.
     pub fn class_names(&self) -> Vec<String> {
         self.classes.iter().map(|class| class.name.clone()).collect()

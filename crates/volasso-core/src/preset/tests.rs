@@ -179,3 +179,17 @@ fn preset_names_before(phantom: &Phantom) -> Vec<String> {
     let classes: Vec<u8> = (1..phantom.class_names.len() as u8).collect();
     drawn(phantom, &classes).classes.into_iter().map(|class| class.name).collect()
 }
+
+#[test]
+fn a_preset_keeps_only_the_classes_a_user_left() {
+    let phantom = phantom::bodies::head_mri([48, 54, 50], 3).unwrap();
+    let (preset, _) = head_and_preset(&phantom, Modality::Mr);
+    let names = preset.class_names();
+    let left = [names[2].clone(), names[0].clone()];
+    let only = preset.only(&left).unwrap();
+    assert_eq!(only.class_names(), [names[0].clone(), names[2].clone()]);
+    let count = |p: &Preset, class: u8| p.samples.iter().filter(|s| s.class == class).count();
+    assert_eq!((count(&only, 1), count(&only, 2)), (count(&preset, 1), count(&preset, 3)));
+    assert!(only.samples.iter().all(|s| (1..=2).contains(&s.class)));
+    assert!(preset.only(&["none of them".to_string()]).is_none());
+}
