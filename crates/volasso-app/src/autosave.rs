@@ -207,6 +207,10 @@ pub struct SavedLook {
     /// The clip plane through the 3-D view and the slices; `None`: nothing cut.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub clip: Option<ClipPlane>,
+    /// The learned preset the classes were coloured with (its file): its classes are in the
+    /// strokes without lassos of their own. `None`: none.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub preset: Option<std::path::PathBuf>,
 }
 
 impl SavedLook {

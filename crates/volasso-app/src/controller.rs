@@ -138,6 +138,7 @@ impl Controller {
     /// that session was saved for this volume.
     pub fn open(&mut self, mut work: Work, saved: Option<SavedSession>) -> Changed {
         self.look = SavedLook::default();
+        let mut preset_lost = None;
         if let Some(saved) = saved
             && saved.volume == work.loaded.source.key()
         {
@@ -146,12 +147,31 @@ impl Controller {
             self.chosen_template = TemplateType::from_name(&saved.template)
                 .map(|template| HueTemplate::new(template, saved.rotation_degrees));
             self.look = saved.look.sanitised();
+            if let Some(path) = self.look.preset.clone() {
+                match Preset::read(&path) {
+                    Ok(preset) => {
+                        work.preset = Some(Arc::new(preset));
+                        work.preset_path = Some(path);
+                    }
+                    Err(error) => {
+                        // Its classes have no lassos of their own: without it they are nothing.
+                        log::warn!("the saved session's preset is gone: {error}");
+                        work.session.classes.retain(|class| !class.lassos.is_empty());
+                        self.look.preset = None;
+                        preset_lost = Some(format!("The preset of the saved session cannot be read: {error}"));
+                    }
+                }
+            }
         }
         self.jobs.cancel();
         self.renderer.set_volume(work.loaded.volume.clone());
         self.renderer.set_clip(self.look.clip);
         self.work = Some(work);
-        self.session_changed()
+        let changed = self.session_changed();
+        match preset_lost {
+            Some(reason) => Changed { failure: Failure::Failed(reason), ..changed },
+            None => changed,
+        }
     }
 
     /// A lasso drawn, a class defined or deleted, undo, clear: `edit` on the classes and
@@ -366,7 +386,7 @@ impl Controller {
     /// lassos of their own), its colours the preset's, and the scan is classified with it at
     /// once; loops drawn afterwards add to it. A preset that does not fit the scan (another
     /// modality, not in Hounsfield units) changes nothing and says why in the banner.
-    pub fn apply_preset(&mut self, preset: Arc<Preset>) -> Changed {
+    pub fn apply_preset(&mut self, preset: Arc<Preset>, path: Option<PathBuf>) -> Changed {
         let Some(work) = self.work.as_mut() else { return Changed::default() };
         if let Err(error) = preset.check_scan(&work.loaded.volume, work.loaded.modality) {
             return Changed { failure: Failure::Failed(error.to_string()), ..Changed::default() };
@@ -374,6 +394,7 @@ impl Controller {
         let classes = preset.classes.iter().map(|class| ClassStrokes { name: class.name.clone(), strokes: Vec::new() });
         work.session.replace_classes(&StrokesFile { classes: classes.collect() });
         work.preset = Some(preset.clone());
+        work.preset_path = path;
         work.requested = None;
         self.chosen_template = Some(preset.template);
         self.look = SavedLook::default();
@@ -456,6 +477,7 @@ impl Controller {
         let mut look = self.look.clone();
         if let Some(work) = &self.work {
             look.class_opacity.retain(|name, _| work.session.classes.iter().any(|class| &class.name == name));
+            look.preset = work.preset.as_ref().and(work.preset_path.clone());
         }
         look
     }

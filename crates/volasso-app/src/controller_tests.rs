@@ -413,7 +413,7 @@ fn a_preset_saved_from_one_classification_colours_the_scan_again_and_a_loop_refi
 
     // The scan opened again and the preset applied: classified at once, without a loop.
     controller.open(Work::new(loaded), None);
-    let changed = controller.apply_preset(preset.clone());
+    let changed = controller.apply_preset(preset.clone(), None);
     assert!(changed.classes && controller.jobs.busy(), "{changed:?}");
     let session = &controller.work.as_ref().unwrap().session;
     assert_eq!(session.classes.iter().map(|c| c.lassos.len()).collect::<Vec<_>>(), [0, 0]);
@@ -454,9 +454,49 @@ fn a_preset_of_another_modality_is_refused_with_a_banner_and_changes_nothing() {
     let mut ct = loaded;
     ct.modality = volasso_core::preset::Modality::Ct;
     controller.open(Work::new(ct), None);
-    let changed = controller.apply_preset(Arc::new(preset));
+    let changed = controller.apply_preset(Arc::new(preset), None);
     let Failure::Failed(reason) = &changed.failure else { panic!("{changed:?}") };
     assert!(reason.contains("trained on MR and this scan is CT"), "{reason}");
     assert!(controller.work.as_ref().unwrap().session.classes.is_empty());
     assert!(!controller.jobs.busy());
+}
+
+#[test]
+fn a_session_names_its_preset_and_comes_back_with_it_or_says_it_is_gone() {
+    let (loaded, soft, bone) = demo();
+    let mut controller = inline(None);
+    controller.open(Work::new(loaded.clone()), None);
+    draw(&mut controller, &soft);
+    define(&mut controller);
+    draw(&mut controller, &bone);
+    define(&mut controller);
+    classified(&mut controller);
+    surveyed(&mut controller);
+    let folder = tempfile::tempdir().unwrap();
+    let path = folder.path().join("foot.volasso-preset");
+    let preset = controller.preset_of_shown("foot").unwrap();
+    preset.write(&path).unwrap();
+    controller.open(Work::new(loaded.clone()), None);
+    controller.apply_preset(Arc::new(preset), Some(path.clone()));
+    draw(&mut controller, &soft[..1]);
+    define(&mut controller);
+    let saved = controller.saved_session().unwrap();
+    assert_eq!(saved.look.preset.as_deref(), Some(path.as_path()));
+    let record = crate::autosave::to_record(&saved).unwrap();
+    let saved = crate::autosave::from_record(record).unwrap();
+
+    let mut restored = inline(None);
+    restored.open(Work::new(loaded.clone()), Some(saved.clone()));
+    assert!(restored.work.as_ref().unwrap().preset.is_some());
+    assert_eq!(requested_names(&restored), ["Class 1", "Class 2", "Class 3"]);
+    let changed = classified(&mut restored);
+    assert!(changed.status.as_deref().is_some_and(|s| s.starts_with("Classified in")), "{changed:?}");
+
+    std::fs::remove_file(&path).unwrap();
+    let mut orphan = inline(None);
+    let changed = orphan.open(Work::new(loaded), Some(saved));
+    let Failure::Failed(reason) = &changed.failure else { panic!("{changed:?}") };
+    assert!(reason.contains("preset of the saved session cannot be read"), "{reason}");
+    // The preset's classes had no lassos of their own: only the drawn one is left.
+    assert_eq!(orphan.work.as_ref().unwrap().session.classes.len(), 1);
 }

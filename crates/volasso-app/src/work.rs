@@ -44,6 +44,8 @@ pub(crate) struct Work {
     /// The learned preset applied to this scan: its classes are the session's first ones
     /// (without lassos of their own until the user draws some), and it trains with them.
     pub(crate) preset: Option<std::sync::Arc<volasso_core::preset::Preset>>,
+    /// Its file, where it came from one (a saved session names it).
+    pub(crate) preset_path: Option<std::path::PathBuf>,
     /// The display window of the slices and its name (a preset, or "Custom" after a drag).
     pub(crate) window: DisplayWindow,
     pub(crate) window_name: String,
@@ -85,6 +87,7 @@ impl Work {
             failure: None,
             requested: None,
             preset: None,
+            preset_path: None,
             window: initial.window,
             window_name: initial.name.to_string(),
             enlarged: None,

@@ -15,6 +15,7 @@ fn entry(volume: &str, saved_unix: u64) -> GalleryEntry {
             look: SavedLook {
                 class_opacity: [("Class 1".to_string(), 0.25)].into_iter().collect(),
                 clip: Some(ClipPlane { normal: [0.0, 0.6, 0.8], offset_mm: -4.5 }),
+                preset: None,
             },
         },
         volume_name: "foot".into(),

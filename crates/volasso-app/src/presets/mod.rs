@@ -69,9 +69,9 @@ impl Shelf {
         self.presets.iter().map(|(_, preset)| preset.name.clone()).collect()
     }
 
-    /// The preset at `index` of the list.
-    pub fn get(&self, index: usize) -> Option<Arc<Preset>> {
-        self.presets.get(index).map(|(_, preset)| preset.clone())
+    /// The preset at `index` of the list, with its file.
+    pub fn get(&self, index: usize) -> Option<(PathBuf, Arc<Preset>)> {
+        self.presets.get(index).cloned()
     }
 
     /// Whether presets can be saved (there is a data folder).

@@ -81,8 +81,8 @@ pub(crate) fn save(window: &AppWindow, state: &Shared) {
 /// "Apply NAME": the preset at `index` colours the open scan.
 pub(crate) fn apply(window: &AppWindow, state: &Shared, index: i32) {
     let preset = usize::try_from(index).ok().and_then(|index| state.borrow().presets.shelf.get(index));
-    let Some(preset) = preset else { return };
-    let changed = state.borrow_mut().ctl.apply_preset(preset.clone());
+    let Some((path, preset)) = preset else { return };
+    let changed = state.borrow_mut().ctl.apply_preset(preset.clone(), Some(path));
     let applied = changed.failure == crate::controller::Failure::Unchanged;
     refresh::apply(window, state, changed);
     if applied {
