@@ -150,6 +150,11 @@ impl Controller {
             if let Some(path) = self.look.preset.clone() {
                 match Preset::read(&path) {
                     Ok(preset) => {
+                        // Its classes are those it names that have no lassos of their own.
+                        let names = preset.class_names();
+                        for class in &mut work.session.classes {
+                            class.from_preset = class.lassos.is_empty() && names.contains(&class.name);
+                        }
                         work.preset = Some(Arc::new(preset));
                         work.preset_path = Some(path);
                     }
@@ -391,8 +396,7 @@ impl Controller {
         if let Err(error) = preset.check_scan(&work.loaded.volume, work.loaded.modality) {
             return Changed { failure: Failure::Failed(error.to_string()), ..Changed::default() };
         }
-        let classes = preset.classes.iter().map(|class| ClassStrokes { name: class.name.clone(), strokes: Vec::new() });
-        work.session.replace_classes(&StrokesFile { classes: classes.collect() });
+        work.session.replace_with_preset(&preset.class_names());
         work.preset = Some(preset.clone());
         work.preset_path = path;
         work.requested = None;
@@ -428,11 +432,13 @@ impl Controller {
         })
     }
 
-    /// The applied preset with the classes the session still has (a class deleted on this scan
-    /// stays deleted); `None` without a preset or when none of its classes is left.
+    /// The applied preset with its classes the session still has (a class deleted, or the
+    /// application undone, stays out); `None` without a preset or when none of its classes is
+    /// left.
     fn applied_preset(&self) -> Option<AppliedPreset> {
         let work = self.work.as_ref()?;
-        let names: Vec<String> = work.session.classes.iter().map(|class| class.name.clone()).collect();
+        let names: Vec<String> =
+            work.session.classes.iter().filter(|class| class.from_preset).map(|class| class.name.clone()).collect();
         let preset = work.preset.as_ref()?.only(&names)?;
         Some(AppliedPreset { preset: Arc::new(preset), modality: work.loaded.modality })
     }

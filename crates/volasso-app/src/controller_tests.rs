@@ -436,6 +436,14 @@ fn a_preset_saved_from_one_classification_colours_the_scan_again_and_a_loop_refi
     controller.edit(|session| session.delete_class(0));
     classified(&mut controller);
     assert_eq!(controller.work.as_ref().unwrap().classified.as_ref().unwrap().table.styles.len(), 2);
+
+    // Undo (the delete, the class, its lasso, the application): no class is left.
+    for _ in 0..4 {
+        controller.edit(|session| session.undo());
+    }
+    let session = &controller.work.as_ref().unwrap().session;
+    assert!(session.classes.is_empty(), "{:?}", session.classes);
+    assert!(controller.applied_preset().is_none());
 }
 
 #[test]

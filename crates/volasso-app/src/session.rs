@@ -19,6 +19,8 @@ pub struct DefinedClass {
     pub name: String,
     pub lassos: Vec<Lasso>,
     pub visible: bool,
+    /// A class of the learned preset applied (no lassos of its own; the preset trains it).
+    pub from_preset: bool,
 }
 
 /// What the user has drawn and defined; see the module doc.
@@ -59,7 +61,12 @@ impl WorkSession {
             .classes
             .iter()
             .take(MAX_CLASSES)
-            .map(|class| DefinedClass { name: class.name.clone(), lassos: class.strokes.clone(), visible: true })
+            .map(|class| DefinedClass {
+                name: class.name.clone(),
+                lassos: class.strokes.clone(),
+                visible: true,
+                from_preset: false,
+            })
             .collect();
         let next_number = classes.len();
         WorkSession { classes, pending: Vec::new(), undo: Vec::new(), next_number }
@@ -101,7 +108,12 @@ impl WorkSession {
         self.remember();
         self.next_number += 1;
         let lassos = std::mem::take(&mut self.pending);
-        self.classes.push(DefinedClass { name: format!("Class {}", self.next_number), lassos, visible: true });
+        self.classes.push(DefinedClass {
+            name: format!("Class {}", self.next_number),
+            lassos,
+            visible: true,
+            from_preset: false,
+        });
         Ok(self.classes.len() - 1)
     }
 
@@ -122,11 +134,18 @@ impl WorkSession {
         Ok(class.visible)
     }
 
-    /// Every class and lasso replaced by the classes of `file` (a preset's, without lassos;
-    /// undoable). Names of classes defined afterwards go on from the highest number used.
-    pub fn replace_classes(&mut self, file: &StrokesFile) {
+    /// Every class and lasso replaced by a learned preset's classes `names` (without lassos;
+    /// undoable, and undo takes the preset's classes back). Names of classes defined afterwards
+    /// go on from the highest number used.
+    pub fn replace_with_preset(&mut self, names: &[String]) {
         self.remember();
-        let replaced = WorkSession::from_strokes(file);
+        let file = StrokesFile {
+            classes: names.iter().map(|name| ClassStrokes { name: name.clone(), strokes: Vec::new() }).collect(),
+        };
+        let mut replaced = WorkSession::from_strokes(&file);
+        for class in &mut replaced.classes {
+            class.from_preset = true;
+        }
         self.classes = replaced.classes;
         self.pending.clear();
         self.next_number = self.next_number.max(replaced.next_number);
