@@ -5,9 +5,8 @@
 use super::refresh;
 use super::ui::{AppWindow, Session};
 use super::{Screen, State};
-use crate::lasso::slice_actions::{
-    choose_window, enlarge, lasso_down, lasso_move, lasso_up, scrub_slice, shrink, step_slice,
-};
+use crate::lasso::slice_actions::slice_intent;
+use crate::lasso::slices::SliceIntent;
 use crate::view3d::interaction::ViewIntent;
 use crate::view3d::tools::view_intent;
 use slint::ComponentHandle;
@@ -49,21 +48,28 @@ pub(super) fn wire(window: &AppWindow, state: &Shared) {
                                                    width: f32,
                                                    height: f32,
                                                    ms: f32| {
-        lasso_down(&w, s, panel, [x, y], [width, height], ms as f64)
+        let (panel, point, picture_px, ms) = (panel.max(0) as usize, [x, y], [width, height], ms as f64);
+        slice_intent(&w, s, SliceIntent::Down { panel, point, picture_px, ms })
     }));
     session.on_lasso_move(handler!(window, state, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
-        lasso_move(&w, s, panel, [x, y], ms as f64)
+        slice_intent(&w, s, SliceIntent::Move { panel: panel.max(0) as usize, point: [x, y], ms: ms as f64 })
     }));
     session.on_lasso_up(handler!(window, state, |w, s, panel: i32, x: f32, y: f32, ms: f32| {
-        lasso_up(&w, s, panel, [x, y], ms as f64)
+        slice_intent(&w, s, SliceIntent::Up { panel: panel.max(0) as usize, point: [x, y], ms: ms as f64 })
     }));
-    session.on_enlarge(handler!(window, state, |w, s, panel: i32| { enlarge(&w, s, panel) }));
-    session.on_shrink(handler!(window, state, |w, s| { shrink(&w, s) }));
-    session
-        .on_choose_window(handler!(window, state, |w, s, name: slint::SharedString| { choose_window(&w, s, &name) }));
-    session.on_step_slice(handler!(window, state, |w, s, panel: i32, delta: i32| { step_slice(&w, s, panel, delta) }));
-    session
-        .on_scrub_slice(handler!(window, state, |w, s, panel: i32, slice: i32| { scrub_slice(&w, s, panel, slice) }));
+    session.on_enlarge(handler!(window, state, |w, s, panel: i32| {
+        slice_intent(&w, s, SliceIntent::Enlarge(panel.max(0) as usize))
+    }));
+    session.on_shrink(handler!(window, state, |w, s| { slice_intent(&w, s, SliceIntent::Shrink) }));
+    session.on_choose_window(handler!(window, state, |w, s, name: slint::SharedString| {
+        slice_intent(&w, s, SliceIntent::ChooseWindow(name.into()))
+    }));
+    session.on_step_slice(handler!(window, state, |w, s, panel: i32, delta: i32| {
+        slice_intent(&w, s, SliceIntent::Step { panel: panel.max(0) as usize, delta })
+    }));
+    session.on_scrub_slice(handler!(window, state, |w, s, panel: i32, slice: i32| {
+        slice_intent(&w, s, SliceIntent::Scrub { panel: panel.max(0) as usize, slice })
+    }));
     session.on_define_class(handler!(window, state, |w, s| {
         refresh::edit_session(&w, s, |session| session.define_class().map(|_| ()))
     }));

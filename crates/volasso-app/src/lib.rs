@@ -414,7 +414,11 @@ impl App {
     /// `pan` moves it (fractions of the slice's visible area) when that slice is enlarged;
     /// otherwise `pan` drags the display window (windowing.rs).
     pub fn slice_gesture(&self, axis: Axis, zoom: f32, pan: [f32; 2]) {
-        lasso::slice_actions::slice_gesture(&self.window, &self.state, axis, zoom, pan);
+        lasso::slice_actions::slice_intent(
+            &self.window,
+            &self.state,
+            lasso::slices::SliceIntent::Gesture { axis, zoom, pan },
+        );
     }
 
     /// The app's state by name, for replay scripts' `expect KEY VALUE` (the keys: queries.rs).
