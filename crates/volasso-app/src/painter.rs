@@ -3,14 +3,15 @@
 //! a painter thread, and the UI thread only turns finished pictures into Slint images.
 //!
 //! The newest request per panel wins: requests waiting behind a newer one for the same panel
-//! are never drawn, and a picture that comes back after a newer request was made is dropped,
-//! so a panel never shows an older state than the one asked for last.
+//! are never drawn (the [`Serial`] worker skips them), and a picture that comes back after a
+//! newer request was made is dropped, so a panel never shows an older state than the one asked
+//! for last.
 //!
 //! Never: touches the UI, or blocks the caller.
 
 use super::pictures::{Highlight, PictureError, slice_picture};
+use super::worker::{Report, Serial, Supersedes, Task, Ticket, Worker};
 use std::sync::Arc;
-use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use volasso_core::segmentation::{Segmenter, uncertainty};
 use volasso_core::slices::{DisplayWindow, SliceLayout};
 use volasso_core::strokes::Lasso;
@@ -69,18 +70,13 @@ impl PictureRequest {
     }
 }
 
-struct Reply {
-    panel: usize,
-    generation: u64,
-    result: Result<RgbImage, PictureError>,
-}
+/// What the painter reports: the panel and its picture.
+pub type Painted = (usize, Result<RgbImage, PictureError>);
 
-/// The UI thread's handle on the painter thread.
+/// The UI thread's handle on the painter: a [`Serial`] worker (one `painter` thread, a
+/// request waiting behind a newer one for the same panel never drawn).
 pub struct SlicePainter {
-    requests: Option<Sender<(u64, PictureRequest)>>,
-    replies: Receiver<Reply>,
-    sender: Sender<Reply>,
-    next_generation: u64,
+    worker: Box<dyn Worker<PictureRequest, Painted>>,
     /// Per panel: the newest request's generation, and whether its picture is still awaited.
     newest: Vec<(u64, bool)>,
 }
@@ -91,74 +87,58 @@ impl Default for SlicePainter {
     }
 }
 
+/// The painter's task: one picture.
+fn paint_task() -> Task<PictureRequest, Painted> {
+    Arc::new(|request: PictureRequest, _: &Ticket, report: &Report<'_, Painted>| {
+        report((request.panel, request.draw()))
+    })
+}
+
 impl SlicePainter {
-    /// Starts the painter thread; when it cannot start, pictures are drawn on the caller's
-    /// thread (slower, but every panel is still shown).
+    /// The painter on a thread of its own.
     pub fn new() -> SlicePainter {
-        let (sender, replies) = channel();
-        let (requests, received) = channel();
-        let to_ui = sender.clone();
-        let started = std::thread::Builder::new()
-            .name("painter".into())
-            .spawn(move || paint_thread(received, to_ui))
-            .map_err(|error| log::error!("cannot start the painter thread, drawing slices on the UI thread: {error}"))
-            .is_ok();
-        SlicePainter { requests: started.then_some(requests), replies, sender, next_generation: 0, newest: Vec::new() }
+        let supersedes: Supersedes<PictureRequest> = Arc::new(|older, newer| older.panel == newer.panel);
+        SlicePainter::over(Box::new(Serial::new("painter", paint_task(), supersedes)))
+    }
+
+    /// The painter over `worker` (an [`Inline`](crate::worker::Inline) one draws at `poll`, on
+    /// the caller's thread).
+    pub fn over(worker: Box<dyn Worker<PictureRequest, Painted>>) -> SlicePainter {
+        SlicePainter { worker, newest: Vec::new() }
     }
 
     /// Asks for a panel's picture; returns at once.
     pub fn request(&mut self, request: PictureRequest) {
-        self.next_generation += 1;
-        let generation = self.next_generation;
-        if self.newest.len() <= request.panel {
-            self.newest.resize(request.panel + 1, (0, false));
+        let panel = request.panel;
+        let generation = self.worker.send(request);
+        if self.newest.len() <= panel {
+            self.newest.resize(panel + 1, (0, false));
         }
-        self.newest[request.panel] = (generation, true);
-        let unsent = match &self.requests {
-            Some(requests) => match requests.send((generation, request)) {
-                Ok(()) => return,
-                Err(error) => error.0.1,
-            },
-            None => request,
-        };
-        let _ = self.sender.send(Reply { panel: unsent.panel, generation, result: unsent.draw() });
+        self.newest[panel] = (generation, true);
     }
 
     /// The next picture that is the newest asked for its panel, if one is ready; never blocks.
-    pub fn poll(&mut self) -> Option<(usize, Result<RgbImage, PictureError>)> {
-        loop {
-            let reply = match self.replies.try_recv() {
-                Ok(reply) => reply,
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
-            };
-            let Some(newest) = self.newest.get_mut(reply.panel) else { continue };
-            if newest.0 == reply.generation {
+    pub fn poll(&mut self) -> Option<Painted> {
+        while let Some(generation) = self.worker.ended_silently() {
+            // Its drawing panicked (logged): the panel keeps what it shows, nothing is awaited.
+            for newest in self.newest.iter_mut().filter(|newest| newest.0 == generation) {
                 newest.1 = false;
-                return Some((reply.panel, reply.result));
             }
         }
+        while let Some(delivery) = self.worker.poll() {
+            let (panel, result) = delivery.output;
+            let Some(newest) = self.newest.get_mut(panel) else { continue };
+            if newest.0 == delivery.generation {
+                newest.1 = false;
+                return Some((panel, result));
+            }
+        }
+        None
     }
 
     /// True while a panel's newest picture has not come back.
     pub fn busy(&self) -> bool {
         self.newest.iter().any(|&(_, awaited)| awaited)
-    }
-}
-
-fn paint_thread(requests: Receiver<(u64, PictureRequest)>, replies: Sender<Reply>) {
-    while let Ok(first) = requests.recv() {
-        let mut waiting = vec![first];
-        waiting.extend(requests.try_iter());
-        for (index, (generation, request)) in waiting.iter().enumerate() {
-            let superseded = waiting[index + 1..].iter().any(|(_, later)| later.panel == request.panel);
-            if superseded {
-                continue;
-            }
-            let result = request.draw();
-            if replies.send(Reply { panel: request.panel, generation: *generation, result }).is_err() {
-                return;
-            }
-        }
     }
 }
 
@@ -204,5 +184,13 @@ mod tests {
         let expected = request(0, axes[0], 30).draw().unwrap();
         let (_, picture) = shown.iter().find(|(panel, _)| *panel == 0).unwrap();
         assert_eq!(picture.pixels, expected.pixels);
+
+        // Inline, with no thread: every request is drawn at the poll, the newest shown.
+        let mut inline = SlicePainter::over(Box::new(crate::worker::Inline::new(paint_task())));
+        inline.request(request(0, axes[0], 10));
+        inline.request(request(0, axes[0], 30));
+        let (panel, picture) = inline.poll().expect("drawn at the poll");
+        assert_eq!((panel, picture.unwrap().pixels), (0, expected.pixels));
+        assert!(inline.poll().is_none() && !inline.busy());
     }
 }

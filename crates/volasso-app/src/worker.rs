@@ -94,6 +94,8 @@ pub trait Worker<J, O> {
 enum Message<O> {
     Output(u64, O),
     Ended(u64),
+    /// The job was never run: a newer one superseded it ([`Serial`]).
+    Skipped(u64),
 }
 
 /// The generations and tickets of the jobs not yet ended, shared by both workers.
@@ -130,6 +132,12 @@ impl Ledger {
         if silent && self.wanted(generation) {
             self.silent.push_back(generation);
         }
+        self.running.retain(|(ticket, _)| ticket.generation != generation);
+    }
+
+    /// A job that was never run because a newer one made it pointless: it ends, and is not
+    /// one that ended silently.
+    fn skipped(&mut self, generation: u64) {
         self.running.retain(|(ticket, _)| ticket.generation != generation);
     }
 
@@ -218,6 +226,7 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Threaded<J, O> {
                 }
                 Ok(Message::Output(..)) => {}
                 Ok(Message::Ended(generation)) => self.ledger.ended(generation),
+                Ok(Message::Skipped(generation)) => self.ledger.skipped(generation),
                 Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
             }
         }
@@ -237,6 +246,120 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Threaded<J, O> {
 
     fn ended_silently(&mut self) -> Option<u64> {
         self.ledger.ended_silently()
+    }
+}
+
+/// Whether a job waiting to run is made pointless by a newer one sent after it (the newer
+/// picture of the same panel): the older is then never run.
+pub type Supersedes<J> = Arc<dyn Fn(&J, &J) -> bool + Send + Sync>;
+
+/// A [`Worker`] with one long-lived thread, named after the worker, that runs jobs in the
+/// order sent; a job still waiting when a newer one that [`Supersedes`] it arrives is skipped.
+/// Where its thread cannot start, jobs run on the caller's thread at the next `poll` (slower,
+/// but nothing is lost).
+pub struct Serial<J, O> {
+    ledger: Ledger,
+    jobs: Option<Sender<(Ticket, J)>>,
+    receiver: Receiver<Message<O>>,
+    /// Without a thread: the same task, run at `poll`.
+    fallback: Option<Inline<J, O>>,
+}
+
+impl<J: Send + 'static, O: Send + 'static> Serial<J, O> {
+    pub fn new(name: &str, task: Task<J, O>, supersedes: Supersedes<J>) -> Serial<J, O> {
+        let (sender, receiver) = channel();
+        let (jobs, waiting) = channel::<(Ticket, J)>();
+        let thread_name = name.to_string();
+        let thread_task = task.clone();
+        let spawned = std::thread::Builder::new().name(name.to_string()).spawn(move || {
+            while let Ok(first) = waiting.recv() {
+                let mut queue = vec![first];
+                queue.extend(waiting.try_iter());
+                let superseded: Vec<bool> = (0..queue.len())
+                    .map(|k| queue[k + 1..].iter().any(|(_, later)| supersedes(&queue[k].1, later)))
+                    .collect();
+                for ((ticket, job), skip) in queue.into_iter().zip(superseded) {
+                    let generation = ticket.generation;
+                    if skip || ticket.cancelled() {
+                        let _ = sender.send(Message::Skipped(generation));
+                        continue;
+                    }
+                    let report = |output| {
+                        if !ticket.cancelled() {
+                            let _ = sender.send(Message::Output(generation, output));
+                        }
+                    };
+                    run_guarded(&thread_name, &thread_task, job, &ticket, &report);
+                    if sender.send(Message::Ended(generation)).is_err() {
+                        return;
+                    }
+                }
+            }
+        });
+        match spawned {
+            Ok(_) => Serial { ledger: Ledger::new(), jobs: Some(jobs), receiver, fallback: None },
+            Err(error) => {
+                log::error!("cannot start the {name} thread, running its jobs on the caller's thread: {error}");
+                Serial { ledger: Ledger::new(), jobs: None, receiver, fallback: Some(Inline::new(task)) }
+            }
+        }
+    }
+}
+
+impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Serial<J, O> {
+    fn send(&mut self, job: J) -> u64 {
+        if let Some(inline) = self.fallback.as_mut() {
+            return inline.send(job);
+        }
+        let ticket = self.ledger.start();
+        let generation = ticket.generation;
+        if let Some(jobs) = &self.jobs
+            && jobs.send((ticket, job)).is_err()
+        {
+            log::error!("the worker thread has stopped; job {generation} is not run");
+            self.ledger.ended(generation);
+        }
+        generation
+    }
+
+    fn poll(&mut self) -> Option<Delivery<O>> {
+        if let Some(inline) = self.fallback.as_mut() {
+            return inline.poll();
+        }
+        loop {
+            match self.receiver.try_recv() {
+                Ok(Message::Output(generation, output)) if self.ledger.wanted(generation) => {
+                    self.ledger.reported(generation);
+                    return Some(Delivery { generation, output });
+                }
+                Ok(Message::Output(..)) => {}
+                Ok(Message::Ended(generation)) => self.ledger.ended(generation),
+                Ok(Message::Skipped(generation)) => self.ledger.skipped(generation),
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
+            }
+        }
+    }
+
+    fn busy(&self) -> bool {
+        self.fallback.as_ref().map_or_else(|| self.ledger.busy(), |inline| inline.busy())
+    }
+
+    fn progress(&self) -> Option<f32> {
+        self.fallback.as_ref().map_or_else(|| self.ledger.progress(), |inline| inline.progress())
+    }
+
+    fn cancel(&mut self) {
+        match self.fallback.as_mut() {
+            Some(inline) => inline.cancel(),
+            None => self.ledger.cancel(),
+        }
+    }
+
+    fn ended_silently(&mut self) -> Option<u64> {
+        match self.fallback.as_mut() {
+            Some(inline) => inline.ended_silently(),
+            None => self.ledger.ended_silently(),
+        }
     }
 }
 
@@ -323,6 +446,42 @@ mod tests {
                 report(job * 2 + 1);
             }
         })
+    }
+
+    #[test]
+    fn a_serial_worker_runs_jobs_in_order_on_one_thread_and_skips_superseded_ones() {
+        let gate = Arc::new(Mutex::new(()));
+        let held = gate.lock().unwrap();
+        let waiting_on = gate.clone();
+        // Each job waits for the gate, so the later ones queue up behind the first.
+        let task: Task<u32, (u32, String)> = Arc::new(move |job, _: &Ticket, report| {
+            drop(waiting_on.lock());
+            report((job, std::thread::current().name().unwrap_or_default().to_string()));
+        });
+        // Jobs of the same tens supersede each other (the same panel).
+        let supersedes: Supersedes<u32> = Arc::new(|older, newer| older / 10 == newer / 10);
+        let mut worker = Serial::new("serial-test", task, supersedes);
+        for job in [1, 11, 12, 13, 21] {
+            worker.send(job);
+        }
+        assert!(worker.busy());
+        drop(held);
+        let mut reports = Vec::new();
+        for _ in 0..2000 {
+            while let Some(delivery) = worker.poll() {
+                reports.push(delivery.output);
+            }
+            if !worker.busy() {
+                break;
+            }
+            std::thread::sleep(Duration::from_millis(5));
+        }
+        let jobs: Vec<u32> = reports.iter().map(|(job, _)| *job).collect();
+        // The first was already running; of the queued 11, 12, 13 only the newest runs.
+        assert_eq!(jobs.first(), Some(&1));
+        assert!(jobs.contains(&13) && jobs.contains(&21) && !jobs.contains(&11), "{jobs:?}");
+        assert!(reports.iter().all(|(_, thread)| thread == "serial-test"));
+        assert_eq!(worker.ended_silently(), None, "a skipped job did not end silently");
     }
 
     fn drain(worker: &mut dyn Worker<u32, u32>) -> Vec<Delivery<u32>> {
