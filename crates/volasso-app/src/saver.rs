@@ -3,30 +3,33 @@
 //!
 //! Requests are applied in the order given, and the newest wins: when several are waiting, only
 //! the last is carried out, because each (a save, or forgetting the session) decides the whole
-//! of `session.json` alone. [`AutosaveWriter::flush`] waits until everything handed over is on
-//! disk (the idle reset and the app's end call it); dropping the writer flushes too.
+//! of `session.json` alone. It is a [`Serial`] worker whose newer request supersedes a waiting
+//! one. [`AutosaveWriter::flush`] waits until everything handed over is on disk (the idle reset
+//! and the app's end call it); dropping the writer flushes too.
 //!
 //! Never: touches the UI, or leaves a request handed over unwritten when the app ends normally.
 
 use super::autosave::{self, SavedSession};
+use super::worker::{Report, Serial, Supersedes, Task, Ticket, Worker};
+use std::cell::RefCell;
 use std::path::PathBuf;
-use std::sync::mpsc::{Receiver, Sender, channel};
-use std::thread::JoinHandle;
+use std::sync::Arc;
+use std::time::Duration;
 
-/// What the writer thread is asked to do.
+/// The longest [`AutosaveWriter::flush`] waits for the disk.
+pub const FLUSH_LIMIT: Duration = Duration::from_secs(30);
+
+/// What the writer is asked to do; each decides the whole of the folder's session alone.
 enum Request {
     /// Write this session into the folder.
     Save(PathBuf, Box<SavedSession>),
     /// Remove the saved session and the restore marker from the folder.
     Forget(PathBuf),
-    /// Answer once everything before is done.
-    Flush(Sender<()>),
 }
 
-/// The UI thread's handle on the autosave thread.
+/// The UI thread's handle on the autosave writer.
 pub struct AutosaveWriter {
-    requests: Option<Sender<Request>>,
-    thread: Option<JoinHandle<()>>,
+    worker: RefCell<Box<dyn Worker<Request, ()>>>,
 }
 
 impl Default for AutosaveWriter {
@@ -35,24 +38,24 @@ impl Default for AutosaveWriter {
     }
 }
 
+/// The writer's task: one request carried out.
+fn write_task() -> Task<Request, ()> {
+    Arc::new(|request: Request, _: &Ticket, _: &Report<'_, ()>| carry_out(request))
+}
+
 impl AutosaveWriter {
-    /// Starts the thread; when it cannot start, requests are carried out on the caller's thread
-    /// (late, but nothing is lost).
+    /// The writer on a thread of its own (on the caller's thread, late but losing nothing,
+    /// when that cannot start).
     pub fn new() -> AutosaveWriter {
-        let (requests, received) = channel();
-        let thread = std::thread::Builder::new()
-            .name("autosave".into())
-            .spawn(move || write_thread(received))
-            .map_err(|error| log::error!("cannot start the autosave thread, saving on the UI thread: {error}"))
-            .ok();
-        AutosaveWriter { requests: thread.as_ref().map(|_| requests), thread }
+        let supersedes: Supersedes<Request> = Arc::new(|_, _| true);
+        AutosaveWriter { worker: RefCell::new(Box::new(Serial::new("autosave", write_task(), supersedes))) }
     }
 
     /// A writer without a thread: each request is carried out on the caller's thread as it is
     /// handed over. For tests, which must start no thread.
     #[cfg(test)]
     pub fn inline() -> AutosaveWriter {
-        AutosaveWriter { requests: None, thread: None }
+        AutosaveWriter { worker: RefCell::new(Box::new(super::worker::Inline::new(write_task()))) }
     }
 
     /// Saves `session` into `session_dir` soon; returns at once.
@@ -65,48 +68,37 @@ impl AutosaveWriter {
         self.send(Request::Forget(session_dir));
     }
 
-    /// Waits until every request handed over so far is on disk.
+    /// Waits until every request handed over so far is on disk (at most [`FLUSH_LIMIT`]: a
+    /// disk that hangs for longer is logged, and the app goes on).
     pub fn flush(&self) {
-        let (done, finished) = channel();
-        self.send(Request::Flush(done));
-        let _ = finished.recv();
+        let mut worker = self.worker.borrow_mut();
+        let started = std::time::Instant::now();
+        loop {
+            while worker.poll().is_some() {}
+            while worker.ended_silently().is_some() {}
+            if !worker.busy() {
+                return;
+            }
+            if started.elapsed() > FLUSH_LIMIT {
+                log::error!("the session was not written within {} s", FLUSH_LIMIT.as_secs());
+                return;
+            }
+            std::thread::sleep(Duration::from_millis(1));
+        }
     }
 
     fn send(&self, request: Request) {
-        let unsent = match &self.requests {
-            Some(requests) => match requests.send(request) {
-                Ok(()) => return,
-                Err(error) => error.0,
-            },
-            None => request,
-        };
-        carry_out(unsent);
+        let mut worker = self.worker.borrow_mut();
+        worker.send(request);
+        // Collects what has ended (an inline writer carries the request out here).
+        while worker.poll().is_some() {}
+        while worker.ended_silently().is_some() {}
     }
 }
 
 impl Drop for AutosaveWriter {
     fn drop(&mut self) {
-        // Closing the channel ends the thread once it has written what it was given.
-        self.requests = None;
-        if let Some(thread) = self.thread.take()
-            && thread.join().is_err()
-        {
-            log::error!("the autosave thread failed");
-        }
-    }
-}
-
-fn write_thread(requests: Receiver<Request>) {
-    while let Ok(first) = requests.recv() {
-        let mut waiting = vec![first];
-        waiting.extend(requests.try_iter());
-        // The last save or forget decides the file; flushes are answered after it.
-        let newest = waiting.iter().rposition(|request| !matches!(request, Request::Flush(_)));
-        for (index, request) in waiting.into_iter().enumerate() {
-            if matches!(request, Request::Flush(_)) || Some(index) == newest {
-                carry_out(request);
-            }
-        }
+        self.flush();
     }
 }
 
@@ -120,9 +112,6 @@ fn carry_out(request: Request) {
         Request::Forget(dir) => {
             autosave::remove(&dir);
             autosave::restored(&dir);
-        }
-        Request::Flush(done) => {
-            let _ = done.send(());
         }
     }
 }
