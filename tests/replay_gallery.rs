@@ -79,8 +79,11 @@ fn damaged_gallery_entries_and_missing_scans_say_so_on_their_cards() {
 }
 
 /// After the idle timeout the start screen plays a turntable of the demo (an empty gallery):
-/// its pixels change as it turns, and a touch starts (`attract-demo.touch`).
+/// its pixels change as it turns, and a touch starts (`attract-demo.touch`). The turntable of a
+/// kept result runs in every `cargo test`; this one, as long, runs with every script at three
+/// sizes.
 #[test]
+#[ignore = "slow: .ci/replay-sizes runs attract-demo.touch at three panel sizes"]
 fn the_idle_start_screen_turns_the_demo_until_touched() {
     for size in PANEL_SIZES {
         let work = tempfile::tempdir().unwrap();

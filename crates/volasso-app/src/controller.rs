@@ -396,6 +396,15 @@ impl Controller {
         if let Err(error) = preset.check_scan(&work.loaded.volume, work.loaded.modality) {
             return Changed { failure: Failure::Failed(error.to_string()), ..Changed::default() };
         }
+        let count = preset.classes.len();
+        if count > crate::session::MAX_CLASSES {
+            let reason = format!(
+                "the preset '{}' has {count} classes and the class bar holds at most {}",
+                preset.name,
+                crate::session::MAX_CLASSES
+            );
+            return Changed { failure: Failure::Failed(reason), ..Changed::default() };
+        }
         work.session.replace_with_preset(&preset.class_names());
         work.preset = Some(preset.clone());
         work.preset_path = path;

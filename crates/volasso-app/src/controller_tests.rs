@@ -8,6 +8,7 @@ use crate::windowing::WindowChoices;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use volasso_core::phantom::{demo_foot_with, lassos_inside};
+use volasso_core::preset::PresetClass;
 use volasso_core::slices::foreground_slice_entropies;
 use volasso_core::strokes::Lasso;
 use volasso_core::transfer::TemplateType;
@@ -462,11 +463,20 @@ fn a_preset_of_another_modality_is_refused_with_a_banner_and_changes_nothing() {
     let mut ct = loaded;
     ct.modality = volasso_core::preset::Modality::Ct;
     controller.open(Work::new(ct), None);
-    let changed = controller.apply_preset(Arc::new(preset), None);
+    let changed = controller.apply_preset(Arc::new(preset.clone()), None);
     let Failure::Failed(reason) = &changed.failure else { panic!("{changed:?}") };
     assert!(reason.contains("trained on MR and this scan is CT"), "{reason}");
     assert!(controller.work.as_ref().unwrap().session.classes.is_empty());
     assert!(!controller.jobs.busy());
+
+    // More classes than the class bar holds: refused, not cut short.
+    let mut many = preset;
+    many.modality = volasso_core::preset::Modality::Ct;
+    many.classes = (0..12).map(|k| PresetClass { name: format!("Class {k}"), style: None }).collect();
+    let changed = controller.apply_preset(Arc::new(many), None);
+    let Failure::Failed(reason) = &changed.failure else { panic!("{changed:?}") };
+    assert!(reason.contains("has 12 classes and the class bar holds at most 8"), "{reason}");
+    assert!(controller.work.as_ref().unwrap().session.classes.is_empty());
 }
 
 #[test]
