@@ -434,11 +434,7 @@ impl Controller {
     /// in the session, then the session's others and the pending lassos' provisional class.
     fn classified_names(&self) -> Option<Vec<String>> {
         let strokes = self.training_strokes()?;
-        let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
-        Some(match self.applied_preset() {
-            Some(applied) => volasso_core::preset::joined_classes(&applied.preset.class_names(), &drawn).0,
-            None => drawn,
-        })
+        Some(super::jobs::class_names(self.applied_preset().as_ref(), &strokes))
     }
 
     /// The applied preset with its classes the session still has (a class deleted, or the

@@ -3,13 +3,11 @@
 //! without sending the labels again, and a saved session comes back on its volume.
 
 use super::*;
-use crate::chooser::library::{LoadedVolume, VolumeSource};
-use crate::windowing::WindowChoices;
+use crate::chooser::library::LoadedVolume;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 use volasso_core::phantom::{demo_foot_with, lassos_inside};
 use volasso_core::preset::PresetClass;
-use volasso_core::slices::foreground_slice_entropies;
 use volasso_core::strokes::Lasso;
 use volasso_core::transfer::TemplateType;
 
@@ -25,18 +23,7 @@ fn demo() -> (LoadedVolume, Vec<Lasso>, Vec<Lasso>) {
 
 /// `volume` as the chooser opens a scan that is not DICOM, in demo mode.
 fn opened(volume: volasso_core::volume::Volume) -> LoadedVolume {
-    let entropies = foreground_slice_entropies(&volume);
-    let windows = WindowChoices::for_volume(&volume);
-    LoadedVolume {
-        source: VolumeSource::Demo,
-        volume: Arc::new(volume),
-        entropies,
-        windows,
-        patient: crate::patient::Patient::NotShown,
-        title: None,
-        series_uid: None,
-        modality: volasso_core::preset::Modality::Unknown,
-    }
+    crate::chooser::library::opened_for_tests(volume, volasso_core::preset::Modality::Unknown)
 }
 
 /// A controller that starts no thread and opens no GPU: its 3-D view takes requests (the
@@ -383,6 +370,16 @@ fn a_failure_keeps_the_last_good_result_and_the_next_success_clears_its_banner()
     assert_eq!(controller.failure(), None);
 }
 
+/// `loaded` opened, its two classes drawn and defined, and their classification come back.
+fn define_two_and_classify(controller: &mut Controller, loaded: &LoadedVolume, soft: &[Lasso], bone: &[Lasso]) {
+    controller.open(Work::new(loaded.clone()), None);
+    draw(controller, soft);
+    define(controller);
+    draw(controller, bone);
+    define(controller);
+    classified(controller);
+}
+
 /// Polls until the shown classification's survey has come back (what saving a preset needs).
 fn surveyed(controller: &mut Controller) {
     let started = Instant::now();
@@ -400,12 +397,7 @@ fn surveyed(controller: &mut Controller) {
 fn a_preset_saved_from_one_classification_colours_the_scan_again_and_a_loop_refines_it() {
     let (loaded, soft, bone) = demo();
     let mut controller = inline(None);
-    controller.open(Work::new(loaded.clone()), None);
-    draw(&mut controller, &soft);
-    define(&mut controller);
-    draw(&mut controller, &bone);
-    define(&mut controller);
-    classified(&mut controller);
+    define_two_and_classify(&mut controller, &loaded, &soft, &bone);
     assert!(controller.preset_of_shown("early").is_err(), "the survey has not come back yet");
     surveyed(&mut controller);
     let preset = Arc::new(controller.preset_of_shown("foot").unwrap());
@@ -451,12 +443,7 @@ fn a_preset_saved_from_one_classification_colours_the_scan_again_and_a_loop_refi
 fn a_preset_of_another_modality_is_refused_with_a_banner_and_changes_nothing() {
     let (loaded, soft, bone) = demo();
     let mut controller = inline(None);
-    controller.open(Work::new(loaded.clone()), None);
-    draw(&mut controller, &soft);
-    define(&mut controller);
-    draw(&mut controller, &bone);
-    define(&mut controller);
-    classified(&mut controller);
+    define_two_and_classify(&mut controller, &loaded, &soft, &bone);
     surveyed(&mut controller);
     let mut preset = controller.preset_of_shown("foot").unwrap();
     preset.modality = volasso_core::preset::Modality::Mr;
@@ -483,12 +470,7 @@ fn a_preset_of_another_modality_is_refused_with_a_banner_and_changes_nothing() {
 fn a_session_names_its_preset_and_comes_back_with_it_or_says_it_is_gone() {
     let (loaded, soft, bone) = demo();
     let mut controller = inline(None);
-    controller.open(Work::new(loaded.clone()), None);
-    draw(&mut controller, &soft);
-    define(&mut controller);
-    draw(&mut controller, &bone);
-    define(&mut controller);
-    classified(&mut controller);
+    define_two_and_classify(&mut controller, &loaded, &soft, &bone);
     surveyed(&mut controller);
     let folder = tempfile::tempdir().unwrap();
     let path = folder.path().join("foot.volasso-preset");

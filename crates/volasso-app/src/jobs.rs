@@ -60,6 +60,16 @@ pub enum JobOutcome {
     Failed(String),
 }
 
+/// The classes a classification of `strokes` (with `preset`, if one is applied) is of, in
+/// class order: the preset's, then the drawn ones it lacks.
+pub fn class_names(preset: Option<&AppliedPreset>, strokes: &StrokesFile) -> Vec<String> {
+    let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
+    match preset {
+        Some(applied) => volasso_core::preset::joined_classes(&applied.preset.class_names(), &drawn).0,
+        None => drawn,
+    }
+}
+
 /// One classification to run: the volume, the classes' lassos, the preset they add to (if
 /// one was applied), the colour template and how to segment.
 pub struct ClassifyJob {
@@ -204,13 +214,7 @@ fn classify(
     let started = Instant::now();
     // Training is about a tenth of the work; labelling reports the rest.
     let progressed = |fraction: f32| ticket.set_progress(0.1 + 0.9 * fraction.clamp(0.0, 1.0));
-    let class_count = match preset {
-        Some(applied) => {
-            let drawn: Vec<String> = strokes.classes.iter().map(|class| class.name.clone()).collect();
-            volasso_core::preset::joined_classes(&applied.preset.class_names(), &drawn).0.len()
-        }
-        None => strokes.classes.len(),
-    };
+    let class_count = class_names(preset, strokes).len();
     let table_of = |labels: &[u8]| {
         let mut table = ClassTable::compute(volume, labels, class_count, template)?;
         if let Some(applied) = preset {

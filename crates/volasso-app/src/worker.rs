@@ -164,6 +164,23 @@ impl Ledger {
         Some(newest.progress.load(Ordering::Relaxed) as f32 / 1000.0)
     }
 
+    /// The next report of a wanted job among the messages of a job thread, recording the
+    /// ends on the way; never blocks.
+    fn next_delivery<O>(&mut self, receiver: &Receiver<Message<O>>) -> Option<Delivery<O>> {
+        loop {
+            match receiver.try_recv() {
+                Ok(Message::Output(generation, output)) if self.wanted(generation) => {
+                    self.reported(generation);
+                    return Some(Delivery { generation, output });
+                }
+                Ok(Message::Output(..)) => {}
+                Ok(Message::Ended(generation)) => self.ended(generation),
+                Ok(Message::Skipped(generation)) => self.skipped(generation),
+                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
+            }
+        }
+    }
+
     fn cancel(&mut self) {
         for (ticket, _) in &self.running {
             ticket.cancel.store(true, Ordering::Relaxed);
@@ -218,18 +235,7 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Threaded<J, O> {
     }
 
     fn poll(&mut self) -> Option<Delivery<O>> {
-        loop {
-            match self.receiver.try_recv() {
-                Ok(Message::Output(generation, output)) if self.ledger.wanted(generation) => {
-                    self.ledger.reported(generation);
-                    return Some(Delivery { generation, output });
-                }
-                Ok(Message::Output(..)) => {}
-                Ok(Message::Ended(generation)) => self.ledger.ended(generation),
-                Ok(Message::Skipped(generation)) => self.ledger.skipped(generation),
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
-            }
-        }
+        self.ledger.next_delivery(&self.receiver)
     }
 
     fn busy(&self) -> bool {
@@ -326,18 +332,7 @@ impl<J: Send + 'static, O: Send + 'static> Worker<J, O> for Serial<J, O> {
         if let Some(inline) = self.fallback.as_mut() {
             return inline.poll();
         }
-        loop {
-            match self.receiver.try_recv() {
-                Ok(Message::Output(generation, output)) if self.ledger.wanted(generation) => {
-                    self.ledger.reported(generation);
-                    return Some(Delivery { generation, output });
-                }
-                Ok(Message::Output(..)) => {}
-                Ok(Message::Ended(generation)) => self.ledger.ended(generation),
-                Ok(Message::Skipped(generation)) => self.ledger.skipped(generation),
-                Err(TryRecvError::Empty | TryRecvError::Disconnected) => return None,
-            }
-        }
+        self.ledger.next_delivery(&self.receiver)
     }
 
     fn busy(&self) -> bool {

@@ -161,6 +161,24 @@ pub fn guarded<T>(source: &VolumeSource, work: impl FnOnce() -> Result<T, OpenEr
     }
 }
 
+/// `volume` as the chooser opens a scan that is not DICOM, in demo mode, with `modality`: the
+/// app's logic tests' scan.
+#[cfg(test)]
+pub(crate) fn opened_for_tests(volume: Volume, modality: Modality) -> LoadedVolume {
+    let entropies = foreground_slice_entropies(&volume);
+    let windows = WindowChoices::for_volume(&volume);
+    LoadedVolume {
+        source: VolumeSource::Demo,
+        volume: Arc::new(volume),
+        entropies,
+        windows,
+        patient: Patient::NotShown,
+        title: None,
+        series_uid: None,
+        modality,
+    }
+}
+
 /// An error message for a card or banner that already names the file: without the path that
 /// errors carry last (", in /var/lib/volasso/volumes/x.nrrd").
 pub fn reason_for_display(message: &str, source: &VolumeSource) -> String {

@@ -2,26 +2,11 @@
 //! the screen to show again.
 
 use super::*;
-use crate::chooser::library::{LoadedVolume, VolumeSource};
-use crate::windowing::WindowChoices;
-use std::sync::Arc;
 use volasso_core::phantom::demo_foot_with;
-use volasso_core::slices::foreground_slice_entropies;
 
 fn work() -> Work {
     let volume = demo_foot_with([96, 64, 48], 7).unwrap().volume;
-    let entropies = foreground_slice_entropies(&volume);
-    let windows = WindowChoices::for_volume(&volume);
-    Work::new(LoadedVolume {
-        source: VolumeSource::Demo,
-        volume: Arc::new(volume),
-        entropies,
-        windows,
-        patient: crate::patient::Patient::NotShown,
-        title: None,
-        series_uid: None,
-        modality: volasso_core::preset::Modality::Ct,
-    })
+    Work::new(crate::chooser::library::opened_for_tests(volume, volasso_core::preset::Modality::Ct))
 }
 
 /// A finger's path on `panel` through `points`, 20 ms apart; the outcome of its lifting.

@@ -414,14 +414,13 @@ pub fn samples(
             value: volume.value(voxels[sample]),
         });
     }
-    let gate = drawn.gate();
     let (decided_voxels, decided_ids) = decided.labelled_voxels();
     Ok(TrainingSamples {
         class_count: capped.classes.len(),
         feature_set: options.feature_set,
         features,
         labels,
-        bands: (!gate.bands().is_empty()).then(|| gate.bands().to_vec()),
+        bands: drawn.bands(),
         background,
         lassoed: decided_voxels.into_iter().zip(decided_ids).collect(),
         used_per_class: capped.classes.iter().map(|c| c.voxels.len()).collect(),

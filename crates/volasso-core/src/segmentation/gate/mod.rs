@@ -283,10 +283,16 @@ impl DrawnLassos {
     /// whose loops enclose another class's voxels from its other voxels. Open
     /// when a class has no finite value or there are more than [`MAX_CLASSES`] classes.
     pub fn gate(&self) -> IntensityGate {
-        let Some(classes) = self.classes.as_ref().filter(|_| self.count <= MAX_CLASSES) else {
-            return IntensityGate::open(self.count);
-        };
-        let bands = classes
+        match self.bands() {
+            Some(bands) => IntensityGate::from_bands(bands),
+            None => IntensityGate::open(self.count),
+        }
+    }
+
+    /// The bands [`gate`](Self::gate) is made of, in class order; `None` where it is open.
+    pub fn bands(&self) -> Option<Vec<Band>> {
+        let classes = self.classes.as_ref().filter(|_| self.count <= MAX_CLASSES)?;
+        let bands: Vec<Band> = classes
             .iter()
             .zip(&self.leaked)
             .map(|(class, &leaked)| match &class.unenclosed {
@@ -296,7 +302,7 @@ impl DrawnLassos {
             })
             .collect();
         log::debug!("intensity bands: {bands:?}");
-        IntensityGate::from_bands(bands)
+        Some(bands)
     }
 
     /// Per class, the voxels (sorted) it should train on: its core when its lasso's rim leaked
