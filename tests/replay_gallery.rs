@@ -79,9 +79,10 @@ fn damaged_gallery_entries_and_missing_scans_say_so_on_their_cards() {
 }
 
 /// After the idle timeout the start screen plays a turntable of the demo (an empty gallery):
-/// its pixels change as it turns, and a touch starts (`attract-demo.touch`). The turntable of a
-/// kept result runs in every `cargo test`; this one, as long, runs with every script at three
-/// sizes.
+/// its pixels change as it turns, and a touch starts (`attract-demo.touch`). Both turntable
+/// replays wait out two minutes of idle time and render a turn: they run with every script at
+/// three sizes (`.ci/replay-sizes`); `cargo test` tests the attract model without a window
+/// (`attract/tests.rs`).
 #[test]
 #[ignore = "slow: .ci/replay-sizes runs attract-demo.touch at three panel sizes"]
 fn the_idle_start_screen_turns_the_demo_until_touched() {
@@ -94,6 +95,7 @@ fn the_idle_start_screen_turns_the_demo_until_touched() {
 
 /// With a kept result the turntable shows the newest one (`attract-gallery.touch`).
 #[test]
+#[ignore = "slow: .ci/replay-sizes runs attract-gallery.touch at three panel sizes"]
 fn the_idle_start_screen_turns_the_newest_kept_result() {
     let work = tempfile::tempdir().unwrap();
     let data = work.path().join("data");
