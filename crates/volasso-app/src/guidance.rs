@@ -10,12 +10,8 @@
 //!
 //! Never: changes the classes or the classification; it only moves panels and marks pictures.
 
-use super::ui::AppWindow;
-use super::{State, Work, refresh};
-use std::cell::RefCell;
-use std::rc::Rc;
-
-type Shared = Rc<RefCell<State>>;
+use crate::Work;
+use crate::model::{AppModel, Show};
 
 /// Said when there is nothing to be unsure of yet.
 pub const NOTHING_CLASSIFIED: &str = "Draw two classes first: then the classifier can say where it is unsure";
@@ -52,25 +48,21 @@ fn describe(work: &Work) -> String {
     }
 }
 
-/// "Unsure": stripes on or off.
-pub(super) fn toggle_unsure(window: &AppWindow, state: &Shared) {
-    {
-        let mut state = state.borrow_mut();
-        let Some(work) = state.ctl.work.as_mut() else { return };
+impl AppModel {
+    /// "Unsure": stripes on or off.
+    pub(crate) fn toggle_unsure(&mut self) -> Show {
+        let Some(work) = self.ctl.work.as_mut() else { return Show::default() };
         let surveyed = work.guidance().is_some();
         work.unsure_shown = surveyed && !work.unsure_shown;
-        state.status = state.ctl.work.as_ref().map_or_else(String::new, describe);
+        self.status = describe(work);
+        Show::work()
     }
-    refresh::push_work(window, state);
-}
 
-/// "Draw here next": the panel moves to the slice with the most unsure voxels, stripes on.
-pub(super) fn draw_here_next(window: &AppWindow, state: &Shared) {
-    let moved = {
-        let mut state_ref = state.borrow_mut();
-        let Some(work) = state_ref.ctl.work.as_mut() else { return };
+    /// "Draw here next": the panel moves to the slice with the most unsure voxels, stripes on.
+    pub(crate) fn draw_here_next(&mut self) -> Show {
+        let Some(work) = self.ctl.work.as_mut() else { return Show::default() };
         let place = next_place(work);
-        let message = match place {
+        self.status = match place {
             Some((panel, slice, _)) => {
                 let order = &work.loaded.entropies.axis(work.panels[panel].axis).order;
                 let shown = &mut work.panels[panel];
@@ -86,12 +78,6 @@ pub(super) fn draw_here_next(window: &AppWindow, state: &Shared) {
             None if work.guidance().is_some() => "The classifier is sure of every voxel it classified".to_string(),
             None => NOTHING_CLASSIFIED.to_string(),
         };
-        state_ref.status = message;
-        place.is_some()
-    };
-    if moved {
-        refresh::push_work(window, state);
-    } else {
-        refresh::push_status(window, state);
+        if place.is_some() { Show::work() } else { Show::status() }
     }
 }

@@ -101,6 +101,12 @@ impl SlicePainter {
         SlicePainter::over(Box::new(Serial::new("painter", paint_task(), supersedes)))
     }
 
+    /// The painter with no thread: each picture is drawn at `poll`, on the caller's thread.
+    #[cfg(test)]
+    pub fn inline() -> SlicePainter {
+        SlicePainter::over(Box::new(crate::worker::Inline::new(paint_task())))
+    }
+
     /// The painter over `worker` (an [`Inline`](crate::worker::Inline) one draws at `poll`, on
     /// the caller's thread).
     pub fn over(worker: Box<dyn Worker<PictureRequest, Painted>>) -> SlicePainter {

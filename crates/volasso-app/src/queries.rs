@@ -30,10 +30,11 @@ use super::gallery::view as results;
 use super::{State, windowing};
 use volasso_core::slices::Axis;
 
-pub(super) fn query(state: &State, screen: i32, key: &str) -> Option<String> {
+pub(super) fn query(state: &State, key: &str) -> Option<String> {
+    let screen = state.screen as usize;
     let work = state.ctl.work.as_ref();
     let value = match key {
-        "screen" => ["start", "chooser", "work", "pacs", "settings"].get(screen as usize).unwrap_or(&"?").to_string(),
+        "screen" => ["start", "chooser", "work", "pacs", "settings"].get(screen).unwrap_or(&"?").to_string(),
         "classes" => work.map_or(0, |w| w.session.classes.len()).to_string(),
         "pending" => work.map_or(0, |w| w.session.pending.len()).to_string(),
         "volume" => work.map_or(String::new(), |w| w.loaded.source.name()),

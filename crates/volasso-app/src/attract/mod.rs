@@ -16,6 +16,7 @@
 //!
 //! Never: touches the user's session, the autosave or the work screen's 3-D view.
 
+pub(crate) mod app;
 pub(crate) mod view;
 
 use crate::Work;

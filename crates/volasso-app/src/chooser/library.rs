@@ -319,6 +319,33 @@ pub enum LoaderEvent {
     },
 }
 
+/// The loader's two tasks: thumbnails of many sources, one volume opened.
+#[allow(clippy::type_complexity)]
+fn loader_tasks(
+    options: OpenOptions,
+    shown: PatientShown,
+) -> (Task<Vec<(usize, VolumeSource)>, LoaderEvent>, Task<(usize, VolumeSource), LoaderEvent>) {
+    let thumbnail_options = options.clone();
+    let thumbnails: Task<Vec<(usize, VolumeSource)>, LoaderEvent> =
+        Arc::new(move |sources, _: &Ticket, report: &Report<'_, LoaderEvent>| {
+            for (index, source) in sources {
+                let options = &thumbnail_options;
+                if let Ok(Some(series)) = guarded(&source, || Ok(series_of(&source, options))) {
+                    report(LoaderEvent::Series { index, series });
+                    continue;
+                }
+                let result = guarded(&source, || load(&source, options, shown).and_then(|loaded| thumbnail(&loaded)));
+                report(LoaderEvent::Thumbnail { index, result });
+            }
+        });
+    let opens: Task<(usize, VolumeSource), LoaderEvent> =
+        Arc::new(move |(index, source), _: &Ticket, report: &Report<'_, LoaderEvent>| {
+            let result = guarded(&source, || load(&source, &options, shown)).map(Box::new);
+            report(LoaderEvent::Opened { index, result });
+        });
+    (thumbnails, opens)
+}
+
 /// Opens volumes off the UI thread: thumbnails one after another on one thread, and each
 /// volume the user picks on a thread of its own, so a pick never waits behind thumbnails.
 pub struct Loader {
@@ -335,32 +362,23 @@ pub struct Loader {
 impl Loader {
     /// Opens with `options`, reading who the patient is when `shown` (clinical mode).
     pub fn new(options: OpenOptions, shown: PatientShown) -> Loader {
-        let thumbnail_options = options.clone();
-        let thumbnails: Task<Vec<(usize, VolumeSource)>, LoaderEvent> =
-            Arc::new(move |sources, _: &Ticket, report: &Report<'_, LoaderEvent>| {
-                for (index, source) in sources {
-                    let options = &thumbnail_options;
-                    if let Ok(Some(series)) = guarded(&source, || Ok(series_of(&source, options))) {
-                        report(LoaderEvent::Series { index, series });
-                        continue;
-                    }
-                    let result =
-                        guarded(&source, || load(&source, options, shown).and_then(|loaded| thumbnail(&loaded)));
-                    report(LoaderEvent::Thumbnail { index, result });
-                }
-            });
-        let opens: Task<(usize, VolumeSource), LoaderEvent> =
-            Arc::new(move |(index, source), _: &Ticket, report: &Report<'_, LoaderEvent>| {
-                let result = guarded(&source, || load(&source, &options, shown)).map(Box::new);
-                report(LoaderEvent::Opened { index, result });
-            });
-        Loader {
-            thumbnails: Box::new(Threaded::new("thumbnails", thumbnails)),
-            opens: Box::new(Threaded::new("open", opens)),
-            thumbnailing: HashMap::new(),
-            opening: HashMap::new(),
-            failed: VecDeque::new(),
-        }
+        let (thumbnails, opens) = loader_tasks(options, shown);
+        Loader::over(Box::new(Threaded::new("thumbnails", thumbnails)), Box::new(Threaded::new("open", opens)))
+    }
+
+    /// A loader with no thread: each job runs at `poll`, on the caller's thread.
+    #[cfg(test)]
+    pub fn inline(options: OpenOptions, shown: PatientShown) -> Loader {
+        use crate::worker::Inline;
+        let (thumbnails, opens) = loader_tasks(options, shown);
+        Loader::over(Box::new(Inline::new(thumbnails)), Box::new(Inline::new(opens)))
+    }
+
+    fn over(
+        thumbnails: Box<dyn Worker<Vec<(usize, VolumeSource)>, LoaderEvent>>,
+        opens: Box<dyn Worker<(usize, VolumeSource), LoaderEvent>>,
+    ) -> Loader {
+        Loader { thumbnails, opens, thumbnailing: HashMap::new(), opening: HashMap::new(), failed: VecDeque::new() }
     }
 
     /// Thumbnails of `sources`, each reported under its index in the chooser.

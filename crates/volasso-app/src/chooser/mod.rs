@@ -8,3 +8,4 @@
 pub(crate) mod cards;
 pub mod library;
 pub(crate) mod loading;
+pub(crate) mod view;

@@ -14,6 +14,7 @@
 //!
 //! Never: overwrites or deletes an entry; touches Slint.
 
+pub(crate) mod app;
 pub(crate) mod model;
 pub(crate) mod view;
 

@@ -10,6 +10,7 @@
 use super::{GalleryEntry, GalleryError, Listed};
 use crate::autosave::SavedSession;
 use crate::chooser::library::VolumeSource;
+
 use crate::worker::{Report, Task, Threaded, Ticket, Worker};
 use std::path::{Path, PathBuf};
 use std::sync::Arc;

@@ -13,6 +13,7 @@
 //! PACS answered every object with success, offers "Send to PACS" for a volume that did not
 //! come from a DICOM series, or logs a patient's name or ID.
 
+pub(crate) mod app;
 pub mod jobs;
 #[cfg(test)]
 mod tests;
@@ -402,5 +403,21 @@ fn row(study: &StudyFound) -> StudyRow {
         date: date(&study.study_date),
         description: study.description.clone(),
         detail,
+    }
+}
+
+/// The PACS model and its worker, as the app holds them.
+pub(crate) struct Pacs {
+    pub(crate) model: PacsModel,
+    pub(crate) worker: Box<dyn crate::worker::Worker<PacsJob, PacsReport>>,
+    /// The study rows last written into the window: the list is set again only when they
+    /// change (a keypad key changes none).
+    pub(crate) shown_rows: Vec<StudyRow>,
+}
+
+impl Pacs {
+    /// A job of the worker is running (replay's `wait-idle` waits for it).
+    pub(crate) fn busy(&self) -> bool {
+        self.worker.busy()
     }
 }

@@ -6,6 +6,7 @@
 //!
 //! Never: calls Slint, or classifies (the controller applies a preset).
 
+pub(crate) mod app;
 pub(crate) mod view;
 
 use crate::worker::{Report, Task, Threaded, Ticket, Worker};
@@ -141,6 +142,13 @@ fn free_name(folder: &Path, name: &str) -> PathBuf {
 pub fn default_name(scan: &str, classes: &[String]) -> String {
     let name = format!("{scan}: {}", classes.join(", "));
     if name.chars().count() <= 60 { name } else { name.chars().take(59).collect::<String>() + "…" }
+}
+
+/// The presets' part of the app: the shelf and the chooser's choice.
+pub(crate) struct Presets {
+    pub(crate) shelf: Shelf,
+    /// The preset the chooser applies to the next scan opened.
+    pub(crate) chosen: Option<usize>,
 }
 
 #[cfg(test)]

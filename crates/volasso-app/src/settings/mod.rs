@@ -20,6 +20,7 @@ use volasso_appliance::audit::Event;
 use volasso_appliance::pin::{self, Attempts, Verdict};
 use volasso_appliance::settings::{self, Effective, Language, Mode, Settings};
 
+pub(crate) mod app;
 #[cfg(test)]
 mod tests;
 pub(crate) mod view;

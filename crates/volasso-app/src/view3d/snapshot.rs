@@ -71,6 +71,16 @@ pub struct Places {
 }
 
 /// The file name of a snapshot taken at `time`: `volasso-YYYY-MM-DDTHH-MM-SSZ`. Never the
+/// The snapshots in `data_dir`'s [`SNAPSHOT_FOLDER`], sorted.
+pub fn files_in(data_dir: &Path) -> Vec<PathBuf> {
+    let entries = std::fs::read_dir(data_dir.join(SNAPSHOT_FOLDER));
+    let mut files: Vec<PathBuf> =
+        entries.map(|entries| entries.filter_map(|entry| entry.ok().map(|e| e.path())).collect()).unwrap_or_default();
+    files.retain(|path| path.extension().is_some_and(|ext| ext == "png"));
+    files.sort();
+    files
+}
+
 /// scan's name: a folder named after a patient would carry the name onto a USB stick.
 pub fn file_stem(time: SystemTime) -> String {
     let seconds = time.duration_since(SystemTime::UNIX_EPOCH).map_or(0, |d| d.as_secs());
@@ -194,15 +204,24 @@ pub struct SnapshotWriter {
 
 impl Default for SnapshotWriter {
     fn default() -> Self {
-        let task: Task<SnapshotJob, Outcome> =
-            Arc::new(|job: SnapshotJob, _: &Ticket, report: &Report<'_, Outcome>| {
-                report(take(&job.image, &job.places, job.time))
-            });
-        SnapshotWriter { worker: Box::new(Threaded::new("snapshot", task)) }
+        SnapshotWriter { worker: Box::new(Threaded::new("snapshot", snapshot_task())) }
     }
 }
 
+/// The writer's task: one snapshot.
+fn snapshot_task() -> Task<SnapshotJob, Outcome> {
+    Arc::new(|job: SnapshotJob, _: &Ticket, report: &Report<'_, Outcome>| {
+        report(take(&job.image, &job.places, job.time))
+    })
+}
+
 impl SnapshotWriter {
+    /// A writer with no thread: each snapshot is written at `poll`, on the caller's thread.
+    #[cfg(test)]
+    pub fn inline() -> SnapshotWriter {
+        SnapshotWriter { worker: Box::new(crate::worker::Inline::new(snapshot_task())) }
+    }
+
     /// Starts writing `image`; the outcome comes from [`Self::poll`].
     pub fn start(&mut self, image: image::RgbaImage, places: Places) {
         self.worker.send(SnapshotJob { image, places, time: SystemTime::now() });
