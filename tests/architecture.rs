@@ -1,8 +1,9 @@
 //! The app's files import one way: no file of `crates/volasso-app/src` reaches, through its
 //! `crate::` and `super::` imports, a file that reaches it back (the crate root, which declares
 //! them all and holds the shared state, aside). Cargo enforces the boundaries between crates;
-//! this test the one inside the app, so that a feature's glue never needs the poll timer's or
-//! another feature's internals that need it in turn.
+//! this test the one inside the app, so that a feature's part of the model never needs the
+//! view's or another feature's internals that need it in turn. And the app's Slint-bound code
+//! stays glue within its budget.
 
 use std::collections::{BTreeMap, BTreeSet};
 use std::path::{Path, PathBuf};
@@ -178,4 +179,39 @@ fn the_crates_depend_one_way() {
             assert!(!listed.contains(*name), "{crate_folder} depends on {name}");
         }
     }
+}
+
+/// Whether `text` is Slint-bound code: it names Slint, the generated UI module or Slint's
+/// testing backend in an import or a path.
+fn slint_bound(text: &str) -> bool {
+    text.lines().filter(|line| !line.trim_start().starts_with("//")).any(|line| {
+        let line = line.trim_start();
+        line.contains("slint::")
+            || line.starts_with("use crate::ui")
+            || line.starts_with("use super::ui")
+            || line.starts_with("use i_slint")
+            || (line.starts_with("use crate::{") && line.contains(" ui"))
+    })
+}
+
+/// The app's behaviour lives in its Slint-free model (`model/`, each feature's logic and
+/// `app.rs`), tested without a window; the Slint-bound code (the callbacks' table, the view,
+/// the window's set-up) stays glue. A feature whose logic lands in a Slint-bound file instead
+/// has no test without a window: this budget catches it.
+#[test]
+fn the_slint_bound_code_of_the_app_is_glue_of_at_most_1000_lines() {
+    let mut files = Vec::new();
+    rust_files(&app_source(), &mut files);
+    let bound: Vec<(usize, PathBuf)> = files
+        .into_iter()
+        .filter_map(|file| {
+            let text = std::fs::read_to_string(&file).unwrap();
+            slint_bound(&text).then(|| (text.lines().count(), file))
+        })
+        .collect();
+    let model = std::fs::read_to_string(app_source().join("model/mod.rs")).unwrap();
+    assert!(!slint_bound(&model), "the model is Slint-free");
+    assert!(bound.iter().any(|(_, file)| file.ends_with("callbacks.rs")), "the finder finds the callbacks: {bound:?}");
+    let lines: usize = bound.iter().map(|(lines, _)| lines).sum();
+    assert!(lines <= 1000, "{lines} lines of Slint-bound code in the app: {bound:?}");
 }

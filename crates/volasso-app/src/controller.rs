@@ -2,8 +2,8 @@
 //! lassos ([`Work`]), the colour template, and the workers that act on them (classification
 //! jobs, the autosave writer, the 3-D view's renderer). It takes what the user did (a lasso
 //! drawn, a class defined, undo, a class hidden, a template chosen, a volume opened with or
-//! without a saved session) and says what changed ([`Changed`]); the UI layer (callbacks.rs,
-//! refresh.rs) turns that into Slint properties.
+//! without a saved session) and says what changed ([`Changed`]); the app's model
+//! (`AppModel::changed`) turns that into what the view shows again.
 //!
 //! Every edit of the classes is autosaved and, when at least two classes can be told apart
 //! (the defined ones plus the pending lassos as a provisional next class), classified again

@@ -3,7 +3,7 @@
 //! scrubbed slice changes, a slice is enlarged to fill the work area and zoomed and panned there
 //! with two fingers, and the display window is picked from the choices or dragged with two
 //! fingers on a slice of the grid. Each [`SliceIntent`] changes the [`Work`] and says what the
-//! screen must show again ([`SliceOutcome`]); `slice_actions.rs` shows it.
+//! screen must show again ([`SliceOutcome`]); `on_slices.rs` applies it to the app.
 //!
 //! Never: changes what the classifier sees other than through lassos (windows are display
 //! only), or calls Slint.
