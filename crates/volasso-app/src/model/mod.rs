@@ -137,7 +137,7 @@ pub(crate) struct Show {
     pub results: bool,
     /// Both preset menus.
     pub presets: bool,
-    /// The PACS screen.
+    /// The PACS screen and "Send to PACS" (which the work screen's changes reach too).
     pub pacs: bool,
     /// The settings screen.
     pub settings: bool,
@@ -452,7 +452,7 @@ impl AppModel {
         if self.idle.tick(now, working) {
             show = show.and(self.reset_to_start());
         }
-        show.and(Show { status: true, cards: true, pacs: true, ..Show::default() })
+        show.and(Show { status: true, cards: true, ..Show::default() })
     }
 
     /// Collects the slice pictures the painter finished; a slice that cannot be drawn (the file

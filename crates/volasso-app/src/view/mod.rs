@@ -98,7 +98,7 @@ pub(crate) fn show(window: &AppWindow, state: &mut State, show: Show) {
     if show.presets {
         crate::presets::view::show(window, state);
     }
-    if show.pacs {
+    if show.pacs || show.work || show.screen {
         crate::pacs::view::show(window, state);
     }
     if show.settings {
