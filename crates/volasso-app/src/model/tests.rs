@@ -18,7 +18,7 @@ struct Folders {
 
 fn folders() -> Folders {
     let data = tempfile::tempdir().unwrap();
-    let volume = demo_foot_with([96, 64, 48], 7).unwrap().volume;
+    let volume = demo_foot_with([64, 48, 32], 7).unwrap().volume;
     volasso_core::volume::nrrd::write_volume(&data.path().join("foot.nrrd"), &volume, "test").unwrap();
     Folders { data, session: tempfile::tempdir().unwrap() }
 }
