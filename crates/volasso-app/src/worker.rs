@@ -14,7 +14,7 @@
 //! thread could not start).
 
 use std::collections::VecDeque;
-use std::sync::atomic::{AtomicBool, AtomicU32, Ordering};
+use std::sync::atomic::{AtomicBool, AtomicU32, AtomicU64, Ordering};
 use std::sync::mpsc::{Receiver, Sender, TryRecvError, channel};
 use std::sync::{Arc, Mutex};
 
@@ -25,11 +25,19 @@ pub struct Ticket {
     cancel: Arc<AtomicBool>,
     /// Progress in 1/1000ths.
     progress: Arc<AtomicU32>,
+    /// The newest generation sent to the worker.
+    newest: Arc<AtomicU64>,
 }
 
 impl Ticket {
-    fn new(generation: u64) -> Ticket {
-        Ticket { generation, cancel: Arc::new(AtomicBool::new(false)), progress: Arc::new(AtomicU32::new(0)) }
+    fn new(generation: u64, newest: Arc<AtomicU64>) -> Ticket {
+        Ticket { generation, cancel: Arc::new(AtomicBool::new(false)), progress: Arc::new(AtomicU32::new(0)), newest }
+    }
+
+    /// Whether a newer job was sent to the worker since this one: a long job of a stream of
+    /// jobs (the 3-D view's frame being refined) yields to it.
+    pub fn newer_sent(&self) -> bool {
+        self.newest.load(Ordering::Relaxed) > self.generation
     }
 
     /// The job's generation: the count of jobs sent to its worker, this one included.
@@ -53,7 +61,12 @@ impl Ticket {
     }
 
     fn shared(&self) -> Ticket {
-        Ticket { generation: self.generation, cancel: self.cancel.clone(), progress: self.progress.clone() }
+        Ticket {
+            generation: self.generation,
+            cancel: self.cancel.clone(),
+            progress: self.progress.clone(),
+            newest: self.newest.clone(),
+        }
     }
 }
 
@@ -101,6 +114,8 @@ enum Message<O> {
 /// The generations and tickets of the jobs not yet ended, shared by both workers.
 struct Ledger {
     sent: u64,
+    /// `sent`, as the tickets read it.
+    newest: Arc<AtomicU64>,
     /// Reports of jobs of this generation or older are dropped.
     cancelled_through: u64,
     /// The jobs not yet ended, each with whether it has reported anything.
@@ -111,12 +126,19 @@ struct Ledger {
 
 impl Ledger {
     fn new() -> Ledger {
-        Ledger { sent: 0, cancelled_through: 0, running: Vec::new(), silent: VecDeque::new() }
+        Ledger {
+            sent: 0,
+            newest: Arc::new(AtomicU64::new(0)),
+            cancelled_through: 0,
+            running: Vec::new(),
+            silent: VecDeque::new(),
+        }
     }
 
     fn start(&mut self) -> Ticket {
         self.sent += 1;
-        let ticket = Ticket::new(self.sent);
+        self.newest.store(self.sent, Ordering::Relaxed);
+        let ticket = Ticket::new(self.sent, self.newest.clone());
         self.running.push((ticket.shared(), false));
         ticket
     }
@@ -262,13 +284,27 @@ pub type Supersedes<J> = Arc<dyn Fn(&J, &J) -> bool + Send + Sync>;
 /// A [`Worker`] with one long-lived thread, named after the worker, that runs jobs in the
 /// order sent; a job still waiting when a newer one that [`Supersedes`] it arrives is skipped.
 /// Where its thread cannot start, jobs run on the caller's thread at the next `poll` (slower,
-/// but nothing is lost).
+/// but nothing is lost). Dropped, it lets its thread finish the jobs sent (cancel them first to
+/// have them skipped) and waits for it: a process must not exit with the render thread inside
+/// the GPU driver.
 pub struct Serial<J, O> {
     ledger: Ledger,
     jobs: Option<Sender<(Ticket, J)>>,
     receiver: Receiver<Message<O>>,
     /// Without a thread: the same task, run at `poll`.
     fallback: Option<Inline<J, O>>,
+    thread: Option<std::thread::JoinHandle<()>>,
+}
+
+impl<J, O> Drop for Serial<J, O> {
+    fn drop(&mut self) {
+        self.jobs = None;
+        if let Some(thread) = self.thread.take()
+            && thread.join().is_err()
+        {
+            log::error!("a worker thread panicked");
+        }
+    }
 }
 
 impl<J: Send + 'static, O: Send + 'static> Serial<J, O> {
@@ -303,10 +339,12 @@ impl<J: Send + 'static, O: Send + 'static> Serial<J, O> {
             }
         });
         match spawned {
-            Ok(_) => Serial { ledger: Ledger::new(), jobs: Some(jobs), receiver, fallback: None },
+            Ok(thread) => {
+                Serial { ledger: Ledger::new(), jobs: Some(jobs), receiver, fallback: None, thread: Some(thread) }
+            }
             Err(error) => {
                 log::error!("cannot start the {name} thread, running its jobs on the caller's thread: {error}");
-                Serial { ledger: Ledger::new(), jobs: None, receiver, fallback: Some(Inline::new(task)) }
+                Serial { ledger: Ledger::new(), jobs: None, receiver, fallback: Some(Inline::new(task)), thread: None }
             }
         }
     }

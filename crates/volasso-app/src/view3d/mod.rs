@@ -1,11 +1,12 @@
-//! The 3-D view's renderer: a thread that owns the GPU device and the ray caster, draws the
-//! classified volume offscreen and hands back pictures. The UI thread only sends requests and
-//! shows the newest picture, so a slow GPU (lavapipe takes seconds per frame) never blocks it.
-//! Requests are coalesced: while a frame is drawn, newer cameras replace older ones.
+//! The 3-D view's renderer: a [`Serial`] worker whose one thread owns the GPU device and the
+//! ray caster, draws the classified volume offscreen and hands back pictures. The UI thread
+//! only sends requests and shows the newest picture, so a slow GPU (lavapipe takes seconds per
+//! frame) never blocks it. A frame request waiting behind a newer one is skipped.
 //! Frames are progressive ([`volasso_core::render::progressive`]): each request is answered at once
-//! with a preview sized to 150 ms, then, while no new request comes, the full frame is drawn
-//! band by band and sent with the same id; any request abandons it. A caller that keeps only
-//! whole frames (attract mode's turntable) asks for them without a preview.
+//! with a preview sized to 150 ms, then, while no newer request is sent, the full frame is
+//! drawn band by band and sent with the same id; any newer request abandons it, and it is drawn
+//! again once that is applied. A caller that keeps only whole frames (attract mode's
+//! turntable) asks for them without a preview.
 //!
 //! Why offscreen and read back: Slint's software renderer (the appliance on DRM, the replay
 //! harness) can only show pixels, and a GPU panel pays about 4 MB of copy per frame for it.
@@ -23,9 +24,9 @@ pub mod interaction;
 pub mod snapshot;
 pub(crate) mod tools;
 
-use std::sync::Arc;
-use std::sync::mpsc::{Receiver, RecvTimeoutError, Sender, TryRecvError, channel};
-use std::time::{Duration, Instant};
+use crate::worker::{Inline, Report, Serial, Task, Ticket, Worker};
+use std::sync::{Arc, Mutex};
+use std::time::Instant;
 use volasso_core::render::headless::OFFSCREEN_FORMAT;
 use volasso_core::render::progressive::ProgressiveView;
 use volasso_core::render::{Camera, ClipPlane, RayCaster, RenderMode, RenderSettings, gpu};
@@ -87,8 +88,7 @@ pub enum ViewError {
 
 /// The UI thread's handle on the render thread.
 pub struct ViewRenderer {
-    requests: Sender<Request>,
-    replies: Receiver<RenderReply>,
+    worker: Box<dyn Worker<Request, RenderReply>>,
     next_id: u64,
     /// The newest frame asked for and not yet received.
     awaited: Option<u64>,
@@ -96,15 +96,6 @@ pub struct ViewRenderer {
     label_uploads: usize,
     /// The newest frame asked for has come back whole (or failed): nothing more will come.
     settled: bool,
-    /// Joined when the renderer is dropped: a process that exits while this thread is inside
-    /// the GPU driver can hang there (lavapipe registering LLVM passes while the exit handlers
-    /// destroy LLVM's registry spun forever in a replay test).
-    thread: Option<std::thread::JoinHandle<()>>,
-    /// Without a render thread ([`ViewRenderer::without_gpu`]): the requests wait here unread
-    /// (held so that sending them succeeds).
-    _unread: Option<Receiver<Request>>,
-    /// With [`ViewRenderer::blank_pictures`]: where every frame asked for is answered at once.
-    blank: Option<Sender<RenderReply>>,
 }
 
 impl Default for ViewRenderer {
@@ -116,81 +107,60 @@ impl Default for ViewRenderer {
 impl ViewRenderer {
     /// Starts the render thread; the GPU is opened there, on the first request.
     pub fn new() -> ViewRenderer {
-        let (requests, request_receiver) = channel();
-        let (reply_sender, replies) = channel();
-        let spawned = std::thread::Builder::new()
-            .name("render".into())
-            .spawn(move || render_thread(request_receiver, reply_sender));
-        let thread = spawned.map_err(|error| log::error!("cannot start the render thread: {error}")).ok();
-        ViewRenderer::over(requests, replies, thread, None)
+        let frame_after_frame =
+            |older: &Request, newer: &Request| matches!((older, newer), (Request::Frame(_), Request::Frame(_)));
+        ViewRenderer::over(Box::new(Serial::new("render", render_task(), Arc::new(frame_after_frame))))
     }
 
     /// A renderer with no thread and no GPU: requests are taken and counted, no picture ever
     /// comes back. For the logic's tests, which check what is sent, not what is drawn.
     pub fn without_gpu() -> ViewRenderer {
-        let (requests, unread) = channel();
-        ViewRenderer::over(requests, channel().1, None, Some(unread))
+        ViewRenderer::over(Box::new(Inline::new(Arc::new(|_: Request, _: &Ticket, _: &Report<'_, RenderReply>| {}))))
     }
 
-    /// A renderer with no thread and no GPU that answers every frame at once with a blank
-    /// picture of the size asked, filled with a grey from the camera's azimuth (so frames from
-    /// different sides differ). For the tests of logic that waits for pictures.
+    /// A renderer with no thread and no GPU that answers every frame, at the next poll, with a
+    /// blank picture of the size asked, filled with a grey from the camera's azimuth (so frames
+    /// from different sides differ). For the tests of logic that waits for pictures.
     pub fn blank_pictures() -> ViewRenderer {
-        let (replies_sender, replies) = channel();
-        let (requests, unread) = channel();
-        let mut renderer = ViewRenderer::over(requests, replies, None, Some(unread));
-        renderer.blank = Some(replies_sender);
-        renderer
+        let task: Task<Request, RenderReply> =
+            Arc::new(|request: Request, _: &Ticket, report: &Report<'_, RenderReply>| {
+                if let Request::Frame(FrameRequest { id, camera, size, .. }) = request {
+                    let grey = (camera.azimuth_degrees.rem_euclid(360.0) / 2.0) as u8;
+                    let image = image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([grey, grey, grey, 255]));
+                    report(RenderReply::Picture(Picture { id, image, seconds: 0.0, whole: true }));
+                }
+            });
+        ViewRenderer::over(Box::new(Inline::new(task)))
     }
 
-    /// A renderer that has asked for nothing yet, over these channels.
-    fn over(
-        requests: Sender<Request>,
-        replies: Receiver<RenderReply>,
-        thread: Option<std::thread::JoinHandle<()>>,
-        unread: Option<Receiver<Request>>,
-    ) -> ViewRenderer {
-        ViewRenderer {
-            requests,
-            replies,
-            next_id: 0,
-            awaited: None,
-            label_uploads: 0,
-            settled: true,
-            thread,
-            _unread: unread,
-            blank: None,
-        }
+    /// A renderer that has asked for nothing yet, over `worker`.
+    fn over(worker: Box<dyn Worker<Request, RenderReply>>) -> ViewRenderer {
+        ViewRenderer { worker, next_id: 0, awaited: None, label_uploads: 0, settled: true }
     }
 
-    /// Ends the render thread and waits for it (at most the frame it is drawing). Later
+    /// Ends the render thread and waits for it (at most the band it is drawing). Later
     /// requests are ignored.
     pub fn shut_down(&mut self) {
-        // Replacing the only sender disconnects the thread's receiver: it returns after its
-        // current batch.
-        self.requests = channel().0;
-        if let Some(thread) = self.thread.take()
-            && thread.join().is_err()
-        {
-            log::error!("the render thread panicked");
-        }
+        self.worker.cancel();
+        // Dropping the render thread's worker waits for the thread.
+        self.worker = Box::new(Inline::new(Arc::new(|_: Request, _: &Ticket, _: &Report<'_, RenderReply>| {})));
     }
 
-    pub fn set_volume(&self, volume: Arc<Volume>) {
-        let _ = self.requests.send(Request::Volume(volume));
+    pub fn set_volume(&mut self, volume: Arc<Volume>) {
+        self.worker.send(Request::Volume(volume));
     }
 
     /// A new classification: its label volume (uploaded and its bricks rebuilt) and styles.
     pub fn set_labels(&mut self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
         self.label_uploads += 1;
-        let _ = self.requests.send(Request::Labels(labels, styles));
+        self.worker.send(Request::Labels(labels, styles));
     }
 
     /// A first, coarse classification: sent as [`ViewRenderer::set_labels`] sends one, not
     /// counted in [`ViewRenderer::label_uploads`] (whether it comes before the exact one
     /// depends on timing).
     pub fn set_first_look(&mut self, labels: Arc<Vec<u8>>, styles: Vec<ClassStyle>) {
-        let _ = self.requests.send(Request::Labels(labels, styles));
+        self.worker.send(Request::Labels(labels, styles));
     }
 
     /// How many classifications were sent so far (first looks not counted).
@@ -199,19 +169,19 @@ impl ViewRenderer {
     }
 
     /// New colours or visibility for the labels already sent: the class table alone.
-    pub fn set_styles(&self, styles: Vec<ClassStyle>) {
-        let _ = self.requests.send(Request::Styles(styles));
+    pub fn set_styles(&mut self, styles: Vec<ClassStyle>) {
+        self.worker.send(Request::Styles(styles));
     }
 
     /// Class `label` (1-based) drawn with opacity `factor` (1: the default rule's); the class
     /// table alone changes.
-    pub fn set_class_opacity(&self, label: u8, factor: f32) {
-        let _ = self.requests.send(Request::ClassOpacity(label, factor));
+    pub fn set_class_opacity(&mut self, label: u8, factor: f32) {
+        self.worker.send(Request::ClassOpacity(label, factor));
     }
 
     /// The clip plane of the next frames; `None`: nothing cut.
-    pub fn set_clip(&self, clip: Option<ClipPlane>) {
-        let _ = self.requests.send(Request::Clip(clip));
+    pub fn set_clip(&mut self, clip: Option<ClipPlane>) {
+        self.worker.send(Request::Clip(clip));
     }
 
     /// Asks for a frame of `size` pixels: its preview comes first, then the whole frame, with
@@ -231,12 +201,7 @@ impl ViewRenderer {
         self.next_id += 1;
         let scale = (MAX_PICTURE_SIDE as f32 / size[0].max(size[1]).max(1) as f32).min(1.0);
         let size = size.map(|side| ((side as f32 * scale) as u32).max(1));
-        let _ = self.requests.send(Request::Frame(FrameRequest { id: self.next_id, camera, size, preview }));
-        if let Some(blank) = &self.blank {
-            let grey = (camera.azimuth_degrees.rem_euclid(360.0) / 2.0) as u8;
-            let image = image::RgbaImage::from_pixel(size[0], size[1], image::Rgba([grey, grey, grey, 255]));
-            let _ = blank.send(RenderReply::Picture(Picture { id: self.next_id, image, seconds: 0.0, whole: true }));
-        }
+        self.worker.send(Request::Frame(FrameRequest { id: self.next_id, camera, size, preview }));
         self.awaited = Some(self.next_id);
         self.settled = false;
         self.next_id
@@ -255,26 +220,25 @@ impl ViewRenderer {
 
     /// The next reply, if one is ready; never blocks.
     pub fn poll(&mut self) -> Option<RenderReply> {
-        match self.replies.try_recv() {
-            Ok(reply) => {
-                match &reply {
-                    RenderReply::Picture(picture) if Some(picture.id) == self.awaited => self.awaited = None,
-                    RenderReply::Failed(_) => {
-                        self.awaited = None;
-                        self.settled = true;
-                    }
-                    RenderReply::Picture(_) => {}
-                }
-                if let RenderReply::Picture(picture) = &reply
-                    && picture.id == self.next_id
-                    && picture.whole
-                {
-                    self.settled = true;
-                }
-                Some(reply)
+        // A request that drew nothing (a new class table, a frame a newer request abandoned)
+        // ends without a word; that is no failure.
+        while self.worker.ended_silently().is_some() {}
+        let reply = self.worker.poll()?.output;
+        match &reply {
+            RenderReply::Picture(picture) if Some(picture.id) == self.awaited => self.awaited = None,
+            RenderReply::Failed(_) => {
+                self.awaited = None;
+                self.settled = true;
             }
-            Err(TryRecvError::Empty | TryRecvError::Disconnected) => None,
+            RenderReply::Picture(_) => {}
         }
+        if let RenderReply::Picture(picture) = &reply
+            && picture.id == self.next_id
+            && picture.whole
+        {
+            self.settled = true;
+        }
+        Some(reply)
     }
 }
 
@@ -295,103 +259,94 @@ struct GpuScene {
     clip: Option<ClipPlane>,
 }
 
-fn render_thread(requests: Receiver<Request>, replies: Sender<RenderReply>) {
-    let mut scene: Option<GpuScene> = None;
-    let mut failed = false;
-    loop {
-        // While a full frame is refined, draw its next band unless a request is waiting.
-        let first = match scene.as_mut().filter(|scene| scene.refining.is_some()) {
-            Some(scene) => match requests.try_recv() {
-                Ok(request) => request,
-                Err(TryRecvError::Empty) => {
-                    refine(scene, &replies);
-                    continue;
-                }
-                Err(TryRecvError::Disconnected) => return,
-            },
-            None => match requests.recv() {
-                Ok(request) => request,
-                Err(_) => return,
-            },
-        };
-        // Take everything queued; keep only the newest frame request.
-        let mut batch = vec![first];
-        loop {
-            match requests.recv_timeout(Duration::from_millis(1)) {
-                Ok(request) => batch.push(request),
-                Err(RecvTimeoutError::Timeout) => break,
-                Err(RecvTimeoutError::Disconnected) => return,
+/// What the render thread keeps between requests: the GPU scene, opened on the first request,
+/// and whether opening it failed (then every request is ignored).
+struct RenderState {
+    scene: Option<GpuScene>,
+    failed: bool,
+}
+
+/// The render thread's task: each request is applied to the scene; a frame asked for, or the
+/// frame being refined when the request came, is drawn (its preview, then band by band) while
+/// no newer request is sent.
+fn render_task() -> Task<Request, RenderReply> {
+    let state = Mutex::new(RenderState { scene: None, failed: false });
+    Arc::new(move |request: Request, ticket: &Ticket, report: &Report<'_, RenderReply>| {
+        // A job that panicked leaves the lock poisoned: the 3-D view stays as it is.
+        let Ok(mut state) = state.lock() else { return };
+        apply(&mut state, request, ticket, report);
+    })
+}
+
+fn apply(state: &mut RenderState, request: Request, ticket: &Ticket, report: &Report<'_, RenderReply>) {
+    if state.failed {
+        return;
+    }
+    if state.scene.is_none() {
+        match open_scene() {
+            Ok(opened) => state.scene = Some(opened),
+            Err(error) => {
+                state.failed = true;
+                report(RenderReply::Failed(error));
+                return;
             }
         }
-        if failed {
-            continue;
-        }
-        if scene.is_none() {
-            match open_scene() {
-                Ok(opened) => scene = Some(opened),
+    }
+    let Some(scene) = state.scene.as_mut() else { return };
+    // The scene or the camera changes: the full frame being refined is out of date; without a
+    // new camera it is started again.
+    let mut frame = scene.refining.take().map(|(frame, _)| frame);
+    scene.view.cancel_full();
+    let result = match request {
+        Request::Volume(volume) => {
+            scene.has_labels = false;
+            // A volume file truncated since it was opened would crash the upload (SIGBUS on the
+            // lost pages): say so instead.
+            match volume.check_still_mapped() {
                 Err(error) => {
-                    failed = true;
-                    let _ = replies.send(RenderReply::Failed(error));
-                    continue;
-                }
-            }
-        }
-        let Some(scene) = scene.as_mut() else { continue };
-        // The scene or the camera changes: the full frame being refined is out of date; without
-        // a new camera it is started again.
-        let mut frame = scene.refining.take().map(|(frame, _)| frame);
-        scene.view.cancel_full();
-        for request in batch {
-            let result = match request {
-                Request::Volume(volume) => {
-                    scene.has_labels = false;
-                    // A volume file truncated since it was opened would crash the upload
-                    // (SIGBUS on the lost pages): say so instead.
-                    if let Err(error) = volume.check_still_mapped() {
-                        scene.has_volume = false;
-                        let _ = replies.send(RenderReply::Failed(ViewError::VolumeGone(error)));
-                        continue;
-                    }
-                    scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true)
-                }
-                Request::Labels(labels, styles) => scene
-                    .ray_caster
-                    .set_class_table(&styles)
-                    .and_then(|()| scene.ray_caster.set_labels(&labels))
-                    .map(|()| scene.has_labels = true),
-                Request::Styles(styles) => scene.ray_caster.set_class_table(&styles),
-                Request::ClassOpacity(label, factor) if scene.ray_caster.class_opacity(label).is_some() => {
-                    scene.ray_caster.set_class_opacity(label, factor)
-                }
-                // Labels not yet sent: the styles that come with them carry the factor.
-                Request::ClassOpacity(..) => Ok(()),
-                Request::Clip(clip) => {
-                    scene.clip = clip;
+                    scene.has_volume = false;
+                    report(RenderReply::Failed(ViewError::VolumeGone(error)));
                     Ok(())
                 }
-                Request::Frame(request) => {
-                    frame = Some(request);
-                    Ok(())
-                }
-            };
-            if let Err(error) = result {
-                let _ = replies.send(RenderReply::Failed(ViewError::Render(error)));
+                Ok(()) => scene.ray_caster.set_volume(&volume).map(|()| scene.has_volume = true),
             }
         }
-        if let Some(frame) = frame {
-            if !(scene.has_volume && scene.has_labels) {
-                continue;
-            }
-            match draw(scene, frame) {
-                Ok(Some(picture)) => {
-                    let _ = replies.send(RenderReply::Picture(picture));
-                }
-                Ok(None) => {}
-                Err(error) => {
-                    let _ = replies.send(RenderReply::Failed(error));
-                }
-            }
+        Request::Labels(labels, styles) => scene
+            .ray_caster
+            .set_class_table(&styles)
+            .and_then(|()| scene.ray_caster.set_labels(&labels))
+            .map(|()| scene.has_labels = true),
+        Request::Styles(styles) => scene.ray_caster.set_class_table(&styles),
+        Request::ClassOpacity(label, factor) if scene.ray_caster.class_opacity(label).is_some() => {
+            scene.ray_caster.set_class_opacity(label, factor)
         }
+        // Labels not yet sent: the styles that come with them carry the factor.
+        Request::ClassOpacity(..) => Ok(()),
+        Request::Clip(clip) => {
+            scene.clip = clip;
+            Ok(())
+        }
+        Request::Frame(request) => {
+            frame = Some(request);
+            Ok(())
+        }
+    };
+    if let Err(error) = result {
+        report(RenderReply::Failed(ViewError::Render(error)));
+    }
+    let Some(frame) = frame.filter(|_| scene.has_volume && scene.has_labels) else { return };
+    if ticket.newer_sent() || ticket.cancelled() {
+        // The newer request draws it once it is applied.
+        scene.refining = Some((frame, Instant::now()));
+        return;
+    }
+    match draw(scene, frame) {
+        Ok(Some(picture)) => report(RenderReply::Picture(picture)),
+        Ok(None) => {}
+        Err(error) => report(RenderReply::Failed(error)),
+    }
+    while scene.refining.is_some() && !ticket.newer_sent() && !ticket.cancelled() {
+        refine(scene, report);
     }
 }
 
@@ -413,23 +368,18 @@ fn settings(clip: Option<ClipPlane>) -> RenderSettings {
 }
 
 /// Draws the next band of the full frame; sends the frame once it is whole.
-fn refine(scene: &mut GpuScene, replies: &Sender<RenderReply>) {
+fn refine(scene: &mut GpuScene, report: &Report<'_, RenderReply>) {
     let Some((FrameRequest { id, .. }, started)) = scene.refining else { return };
     match scene.view.refine(&mut scene.ray_caster) {
         Ok(None) if scene.view.refining() => {}
         Ok(None) => scene.refining = None,
         Ok(Some(image)) => {
             scene.refining = None;
-            let _ = replies.send(RenderReply::Picture(Picture {
-                id,
-                image,
-                seconds: started.elapsed().as_secs_f64(),
-                whole: true,
-            }));
+            report(RenderReply::Picture(Picture { id, image, seconds: started.elapsed().as_secs_f64(), whole: true }));
         }
         Err(error) => {
             scene.refining = None;
-            let _ = replies.send(RenderReply::Failed(ViewError::Render(error)));
+            report(RenderReply::Failed(ViewError::Render(error)));
         }
     }
 }
@@ -453,6 +403,7 @@ fn draw(scene: &mut GpuScene, frame: FrameRequest) -> Result<Option<Picture>, Vi
 #[cfg(test)]
 mod tests {
     use super::*;
+    use std::time::Duration;
 
     /// A renderer holding a 24-voxel sphere of one class.
     fn sphere_renderer() -> ViewRenderer {
