@@ -64,7 +64,7 @@ pub(super) fn query(state: &State, key: &str) -> Option<String> {
         "send-failed" => yes_no(state.pacs.model.send_message.starts_with("Not sent")),
         "cannot-open" => state.cards.failed().to_string(),
         "template" => {
-            let template = state.template();
+            let template = state.ctl.template();
             format!("{} {}", template.template.name(), template.rotation_degrees)
         }
         "panels" => work.map_or(String::new(), |w| w.panels.map(|p| p.axis.name()).join(",")),
@@ -132,7 +132,7 @@ pub(super) fn result_digest(state: &State) -> String {
             (hash ^ u64::from(label)).wrapping_mul(0x0000_0100_0000_01b3)
         })
     });
-    let template = state.template();
+    let template = state.ctl.template();
     let camera = &state.view.camera;
     format!(
         "{}; classes {}; template {} {}; labels {labels:016x}; camera {:.1} {:.1} {:.2} {:.1},{:.1}",

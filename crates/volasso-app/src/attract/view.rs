@@ -24,8 +24,9 @@ pub(crate) fn show(window: &AppWindow, shown: AttractShow) {
     }
 }
 
-/// The side of a turntable picture in pixels: the start screen's picture at its scale.
+/// The side of a turntable picture in pixels: the start screen's picture at its scale (the
+/// model keeps it within its bounds).
 pub(crate) fn picture_side(window: &AppWindow) -> u32 {
     let scale = window.window().scale_factor();
-    ((window.global::<Session>().get_attract_size() * scale).round() as u32).clamp(64, super::MAX_SIDE)
+    (window.global::<Session>().get_attract_size() * scale).round() as u32
 }

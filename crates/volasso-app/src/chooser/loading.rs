@@ -87,11 +87,18 @@ impl AppModel {
             self.banner = format!("{} holds {series} series: open one of their cards.", source.name());
             return Show::status();
         }
+        let name = source.name();
+        self.start_opening(index, source, &name);
+        Show::status()
+    }
+
+    /// Opens the scan of chooser card `index` on the loader thread (the classification of the
+    /// scan open now stops); the status line says so.
+    pub(crate) fn start_opening(&mut self, index: usize, source: VolumeSource, name: &str) {
         self.ctl.jobs.cancel();
-        self.status = format!("Opening {}...", source.name());
+        self.status = format!("Opening {name}...");
         self.opening = Some(index);
         self.loader.open(index, source);
-        Show::status()
     }
 
     /// Applies what the loader reported since the last poll.

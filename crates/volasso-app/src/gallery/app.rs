@@ -74,11 +74,8 @@ impl AppModel {
             Some(Ok(opening)) => {
                 // A scan outside the data folder joins the chooser, so indices stay aligned.
                 let index = self.add_source(opening.source.clone());
-                self.ctl.jobs.cancel();
-                self.status = format!("Opening {}...", opening.volume_name);
                 self.restore = Some(opening.session);
-                self.opening = Some(index);
-                self.loader.open(index, opening.source);
+                self.start_opening(index, opening.source, &opening.volume_name);
                 Show { status: true, cards: true, ..Show::default() }
             }
         }

@@ -11,7 +11,7 @@
 //! `view.rs` and each feature's `view.rs` write the model into the window.
 //!
 //! Never: touches the window or Slint, waits for a worker, or reads the clock but through
-//! `config.clock`; with [`AppModel::without_threads`] no thread starts and no GPU opens.
+//! `config.clock`; on [`Workers::none`] no thread starts and no GPU opens.
 
 use crate::chooser::cards::Cards;
 use crate::chooser::library::{Loader, VolumeSource};
@@ -517,17 +517,6 @@ impl AppModel {
         self.changed(changed)
     }
 
-    /// The classes the classifier is trained on: the defined ones, and the pending lassos as
-    /// a provisional next class.
-    pub fn training_class_count(&self) -> usize {
-        self.ctl.training_class_count()
-    }
-
-    /// The template in use for the current number of classes.
-    pub fn template(&self) -> HueTemplate {
-        self.ctl.template()
-    }
-
     /// Nothing is being opened, classified or rendered (replay's `wait-idle`).
     pub fn is_idle(&self) -> bool {
         !self.works_for_user() && self.thumbnails_pending == 0 && !self.attract.busy() && !self.expiry.busy()
@@ -572,7 +561,7 @@ impl AppModel {
     /// its turntable.
     pub fn reset_to_start(&mut self) -> Show {
         let now = self.config.clock.now();
-        let settings = self.settings.update(SettingsIntent::Close, now);
+        self.settings.update(SettingsIntent::Close, now);
         self.ctl.forget();
         self.panel_pictures.clear();
         self.restore = None;
@@ -582,7 +571,6 @@ impl AppModel {
         self.banner.clear();
         self.status.clear();
         log::info!("idle timeout: back to the start screen, session cleared");
-        let _ = settings;
         self.screen = Screen::Start;
         Show { screen: true, work: true, view_picture: true, settings: true, ..Show::default() }
             .and(self.begin_attract())

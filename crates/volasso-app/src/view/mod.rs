@@ -176,10 +176,10 @@ fn push_classes(window: &AppWindow, state: &State) {
         session.set_patient("".into());
         return;
     };
-    let template = state.template();
+    let template = state.ctl.template();
     let styles = state.ctl.display_styles();
     let counts = work.classified.as_ref().map(|c| &c.table.voxel_counts);
-    let total = state.training_class_count();
+    let total = state.ctl.training_class_count();
     let entries: Vec<ClassEntry> = work
         .session
         .classes
