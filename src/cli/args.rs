@@ -131,6 +131,7 @@ pub enum ModalityChoice {
 pub enum CoherenceChoice {
     None,
     Majority,
+    Potts,
 }
 
 /// Which voxel features `classify` computes.
@@ -208,9 +209,11 @@ pub struct ClassifyArgs {
     /// Evaluate the classifier on every foreground voxel (no coarse-to-fine refinement).
     #[arg(long)]
     pub exact: bool,
-    /// The spatial step after classification: `majority` (a voxel that disagrees with its
-    /// face neighbours takes its 3x3x3 neighbourhood's majority label) or `none`.
-    #[arg(long, value_enum, default_value = "majority")]
+    /// The spatial step after classification: `potts` (the majority filter, then each voxel at
+    /// a border between classes takes the label of least energy in a Potts model of the
+    /// image), `majority` (a voxel that disagrees with its face neighbours takes its 3x3x3
+    /// neighbourhood's majority label) or `none`.
+    #[arg(long, value_enum, default_value = "potts")]
     pub coherence: CoherenceChoice,
     /// RBF kernel width g in exp(-g |x - y|^2) on standardised features.
     #[arg(long, value_name = "G", allow_negative_numbers = true)]

@@ -332,6 +332,7 @@ pub(super) fn segmentation_options(args: &ClassifyArgs) -> SegmentationOptions {
         coherence: match args.coherence {
             CoherenceChoice::None => Coherence::None,
             CoherenceChoice::Majority => Coherence::Majority,
+            CoherenceChoice::Potts => Coherence::Potts,
         },
         ..defaults
     }

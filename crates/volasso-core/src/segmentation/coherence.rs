@@ -141,7 +141,7 @@ impl<'a> LabelBands<'a> {
     }
 }
 
-/// Passes of the filter the default runs ([`super::Coherence::Majority`]). A second pass
+/// Passes of the filter the default runs ([`super::Coherence::Potts`], before its sweeps). A second pass
 /// settles what the first left ragged (a voxel whose neighbours changed); a third adds next to
 /// nothing (`docs/decisions/0009-majority-filter.md`).
 pub const DEFAULT_PASSES: usize = 2;

@@ -21,6 +21,10 @@
 //! decides which voxels are background: below a threshold, or outside the scanned body (the
 //! dark voxels its outline does not ring, [`face_air`]); a class drawn in that air takes it.
 //!
+//! After labelling, the spatial step: the majority filter ([`coherence`]), then the Potts
+//! sweeps ([`potts`]), where a voxel at a border between classes takes the label whose nearby
+//! intensities it is nearest, weighed against the border's length.
+//!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
 mod background;
@@ -29,6 +33,7 @@ pub mod coherence;
 pub mod face_air;
 pub mod gate;
 pub mod pairwise;
+pub mod potts;
 mod refine;
 pub mod uncertainty;
 
@@ -124,7 +129,7 @@ impl Default for SegmentationOptions {
             classifier: SnSvmParams::default(),
             kernel_width: KernelWidth::Automatic,
             standardisation: Standardisation::PerPair,
-            coherence: Coherence::Majority,
+            coherence: Coherence::Potts,
             max_training_per_class: DEFAULT_TRAINING_CAP,
             background: Background::Automatic,
             refinement: Refinement::CoarseToFine,
@@ -165,6 +170,9 @@ pub enum Coherence {
     /// ([`coherence::majority_passes`]), within each slice on a scan cut in thick slices
     /// ([`coherence::Neighbourhood::for_spacing`]).
     Majority,
+    /// The majority filter, then the Potts model's sweeps over the borders between classes
+    /// ([`potts::potts_sweeps`]; the default).
+    Potts,
 }
 
 /// Which voxels the classifier evaluates.

@@ -203,7 +203,7 @@ fn label_volume_in(
     // Dark voxels inside the body are classified; the air joined to the faces is not: it is
     // background, or the class drawn in the air.
     let mut classified = classified.saturating_add_signed(paint_region(&mut labels, segmenter));
-    if segmenter.coherence == super::Coherence::Majority {
+    if segmenter.coherence != super::Coherence::None {
         let started = std::time::Instant::now();
         let passes = super::coherence::DEFAULT_PASSES;
         let intensity = |voxel: usize| volume.value(voxel) as f32;
@@ -214,6 +214,11 @@ fn label_volume_in(
         let neighbourhood = super::coherence::Neighbourhood::for_spacing(volume.spacing_mm);
         let changed = super::coherence::majority_passes(&mut labels, volume.dims, passes, Some(&bands), neighbourhood);
         log::debug!("coherence: {changed} voxels took their neighbours' label ({:?})", started.elapsed());
+        if segmenter.coherence == super::Coherence::Potts {
+            let started = std::time::Instant::now();
+            let changed = super::potts::potts_sweeps(volume, &mut labels, neighbourhood);
+            log::debug!("coherence: {changed} voxels moved by the Potts sweeps ({:?})", started.elapsed());
+        }
     }
     if segmenter.summary.region_label != 0 {
         // The air class is the air around the body whatever its neighbours' votes.

@@ -1,0 +1,257 @@
+//! Spatial coherence with a stated objective: after the majority filter
+//! ([`super::coherence`]), the labels of a piecewise-smooth image (a Potts model), found by
+//! iterated conditional modes.
+//!
+//! Each voxel at a border between classes (a face neighbour of another class) takes the label,
+//! among its own and its face neighbours', that minimises
+//!
+//! ```text
+//! E(k) = (I - m_k)^2 / (2 sigma^2)  +  BETA * (face neighbours not k)  +  GAMMA * [k != the label it came with]
+//! ```
+//!
+//! `I` is the voxel's intensity, `m_k` the mean intensity of class `k`'s voxels around it (a
+//! 5 x 5 x 5 window; 5 x 5 within the slice on a scan cut in thick slices), `sigma` the scan's
+//! noise ([`noise_deviation`]). The first term is the image: a blurred border between two
+//! tissues lies where the intensity crosses halfway between them, so a partial-volume voxel
+//! joins the side whose nearby intensities it is nearer to, whatever the classifier's other
+//! features said (a bone's blurred edge beside a joint space; a nucleus's rim in a cell), and
+//! the local means follow a bias field. The second is the border's length: a noisy speck
+//! joins its surroundings unless its intensity stands far from theirs (a calcification, a
+//! vessel one voxel wide). The third keeps the label the classifier and the majority filter
+//! gave where image and neighbours do not speak against it. Each sweep moves every border
+//! voxel to its best label given the labels of the sweep before; the sweeps stop when one
+//! changes nothing, after [`SWEEPS`] at most. What chose the weights and what was measured
+//! without the majority filter: `docs/decisions/0018-potts-coherence.md`.
+//!
+//! Never: changes or counts background voxels (label 0), or reads a voxel outside the window.
+
+use super::coherence::Neighbourhood;
+use crate::volume::Volume;
+use rayon::prelude::*;
+
+/// Weight of each face neighbour of another label, in units of the image term (a voxel one
+/// noise deviation from a class's local mean costs 1/2).
+pub const BETA: f64 = 1.0;
+
+/// Weight of leaving the label the voxel came with.
+pub const GAMMA: f64 = 1.0;
+
+/// Sweeps at most.
+pub const SWEEPS: usize = 4;
+
+/// Radius of the window the local class means are taken in, in voxels.
+pub const WINDOW_RADIUS: usize = 2;
+
+/// The scan's noise deviation: the robust spread (1.4826 x the median absolute value) of the
+/// differences between x neighbours of one class, over sqrt 2, sampled on at most about
+/// 200,000 pairs; at least a millionth of a unit. A pair with a voxel at the volume's lowest
+/// or highest value is left out: a value clipped by the scan's window (the lungs and the air
+/// of a windowed CT, stored as 0) carries no noise, and would make every border a cliff.
+pub fn noise_deviation(volume: &Volume, labels: &[u8]) -> f64 {
+    let size_x = volume.dims[0].max(1);
+    let range = volume.value_range();
+    let unclipped = |value: f64| value > range.min && value < range.max;
+    let step = (labels.len() / 200_000).max(1);
+    let mut differences: Vec<f64> = (0..labels.len().saturating_sub(1))
+        .step_by(step)
+        .filter(|&index| index % size_x + 1 < size_x && labels[index] != 0 && labels[index] == labels[index + 1])
+        .map(|index| (volume.value(index), volume.value(index + 1)))
+        .filter(|&(a, b)| unclipped(a) && unclipped(b))
+        .map(|(a, b)| (a - b).abs())
+        .collect();
+    if differences.is_empty() {
+        return 1.0;
+    }
+    let middle = differences.len() / 2;
+    let median = *differences.select_nth_unstable_by(middle, f64::total_cmp).1;
+    (1.4826 * median / std::f64::consts::SQRT_2).max(1e-6)
+}
+
+/// Runs the sweeps on `labels` (`volume`'s dims, x fastest); returns the voxels changed.
+pub fn potts_sweeps(volume: &Volume, labels: &mut [u8], neighbourhood: Neighbourhood) -> usize {
+    let [size_x, size_y, size_z] = volume.dims;
+    let plane = size_x * size_y;
+    if plane == 0 || labels.len() != plane * size_z {
+        return 0;
+    }
+    let sigma = noise_deviation(volume, labels);
+    let came_with: Vec<u8> = labels.to_vec();
+    let depth = if neighbourhood == Neighbourhood::Cube { WINDOW_RADIUS } else { 0 };
+    // Rows (y + size_y * z) to visit: all at first, then those within the window of a change.
+    let mut visit = vec![true; size_y * size_z];
+    let mut changed = 0;
+    for _ in 0..SWEEPS {
+        let sweep = Sweep {
+            volume,
+            labels: &*labels,
+            came_with: &came_with,
+            energy_scale: 1.0 / (2.0 * sigma * sigma),
+            depth,
+            across: neighbourhood == Neighbourhood::Cube,
+        };
+        let changes: Vec<Vec<(usize, u8)>> =
+            (0..size_z).into_par_iter().map(|z| sweep.plane(z, &visit[z * size_y..][..size_y])).collect();
+        visit.fill(false);
+        let mut changed_here = 0;
+        for &(voxel, label) in changes.iter().flatten() {
+            labels[voxel] = label;
+            changed_here += 1;
+            let (y, z) = (voxel / size_x % size_y, voxel / plane);
+            for wz in z.saturating_sub(depth.max(1))..(z + depth.max(1) + 1).min(size_z) {
+                let rows = y.saturating_sub(WINDOW_RADIUS)..(y + WINDOW_RADIUS + 1).min(size_y);
+                visit[wz * size_y..][rows].fill(true);
+            }
+        }
+        changed += changed_here;
+        if changed_here == 0 {
+            break;
+        }
+    }
+    log::debug!("potts: noise deviation {sigma:.3}, {changed} voxels changed");
+    changed
+}
+
+/// One sweep's reading of the labels before it.
+struct Sweep<'a> {
+    volume: &'a Volume,
+    labels: &'a [u8],
+    came_with: &'a [u8],
+    energy_scale: f64,
+    /// Window radius across the slices (0 within the slice).
+    depth: usize,
+    /// Whether the slices above and below are face neighbours.
+    across: bool,
+}
+
+impl Sweep<'_> {
+    /// The changes of plane `z` in the rows `visit` marks: (voxel, its new label).
+    fn plane(&self, z: usize, visit: &[bool]) -> Vec<(usize, u8)> {
+        let [size_x, size_y, size_z] = self.volume.dims;
+        let plane = size_x * size_y;
+        let mut changes = Vec::new();
+        // The window's planes as f32, each row read the first time a window reaches it.
+        let planes = z.saturating_sub(self.depth)..(z + self.depth + 1).min(size_z);
+        let mut values: Vec<f32> = Vec::new();
+        let mut rows_read = vec![false; size_y];
+        let here = &self.labels[z * plane..][..plane];
+        let below = (self.across && z > 0).then(|| &self.labels[(z - 1) * plane..][..plane]);
+        let above = (self.across && z + 1 < size_z).then(|| &self.labels[(z + 1) * plane..][..plane]);
+        for y in (0..size_y).filter(|&y| visit[y]) {
+            let row = &here[y * size_x..][..size_x];
+            let other_rows = [
+                y.checked_sub(1).map(|up| &here[up * size_x..][..size_x]),
+                (y + 1 < size_y).then(|| &here[(y + 1) * size_x..][..size_x]),
+                below.map(|p| &p[y * size_x..][..size_x]),
+                above.map(|p| &p[y * size_x..][..size_x]),
+            ];
+            for x in 0..size_x {
+                let own = row[x];
+                if own == 0 {
+                    continue;
+                }
+                let differs = |label: u8| label != own && label != 0;
+                let faces = [
+                    if x > 0 { row[x - 1] } else { 0 },
+                    if x + 1 < size_x { row[x + 1] } else { 0 },
+                    other_rows[0].map_or(0, |r| r[x]),
+                    other_rows[1].map_or(0, |r| r[x]),
+                    other_rows[2].map_or(0, |r| r[x]),
+                    other_rows[3].map_or(0, |r| r[x]),
+                ];
+                if !faces.iter().any(|&label| differs(label)) {
+                    continue;
+                }
+                if values.is_empty() {
+                    values.resize(planes.len() * plane, 0.0);
+                }
+                for wy in y.saturating_sub(WINDOW_RADIUS)..(y + WINDOW_RADIUS + 1).min(size_y) {
+                    if !rows_read[wy] {
+                        rows_read[wy] = true;
+                        for (wz, out) in planes.clone().zip(values.chunks_exact_mut(plane)) {
+                            self.volume.read_f32(wz * plane + wy * size_x, &mut out[wy * size_x..][..size_x]);
+                        }
+                    }
+                }
+                let voxel = z * plane + y * size_x + x;
+                let best = self.best_label(voxel, [x, y, z], &faces, &values, planes.start);
+                if best != own {
+                    changes.push((voxel, best));
+                }
+            }
+        }
+        changes
+    }
+
+    /// The label of least energy for `voxel` at `position`, among its own and its `faces'`;
+    /// `values` holds the window's planes from `first_plane` on.
+    fn best_label(
+        &self,
+        voxel: usize,
+        [x, y, z]: [usize; 3],
+        faces: &[u8; 6],
+        values: &[f32],
+        first_plane: usize,
+    ) -> u8 {
+        let [size_x, size_y, size_z] = self.volume.dims;
+        let plane = size_x * size_y;
+        let own = self.labels[voxel];
+        // Candidates: (label, sum of intensities, count) in the window; `slot` maps a label
+        // to its candidate's position plus one (0: not a candidate).
+        let mut candidates = [(0u8, 0.0f64, 0u32); 7];
+        let mut slot = [0u8; 256];
+        candidates[0].0 = own;
+        slot[usize::from(own)] = 1;
+        let mut count = 1;
+        for &label in faces {
+            if label != 0 && slot[usize::from(label)] == 0 {
+                candidates[count].0 = label;
+                count += 1;
+                slot[usize::from(label)] = count as u8;
+            }
+        }
+        let (mut sums, mut counts) = ([0f32; 8], [0u32; 8]);
+        let columns = x.saturating_sub(WINDOW_RADIUS)..(x + WINDOW_RADIUS + 1).min(size_x);
+        for wz in z.saturating_sub(self.depth)..(z + self.depth + 1).min(size_z) {
+            let plane_values = &values[(wz - first_plane) * plane..][..plane];
+            for wy in y.saturating_sub(WINDOW_RADIUS)..(y + WINDOW_RADIUS + 1).min(size_y) {
+                let row = wy * size_x;
+                let row_labels = &self.labels[wz * plane + row..][..size_x][columns.clone()];
+                let row_values = &plane_values[row..][..size_x][columns.clone()];
+                for (&label, &value) in row_labels.iter().zip(row_values) {
+                    let position = usize::from(slot[usize::from(label)]);
+                    sums[position] += value;
+                    counts[position] += 1;
+                }
+            }
+        }
+        let candidates = &mut candidates[..count];
+        for (position, candidate) in candidates.iter_mut().enumerate() {
+            candidate.1 = f64::from(sums[position + 1]);
+            candidate.2 = counts[position + 1];
+        }
+        // The voxel itself is not its own evidence.
+        let intensity = f64::from(values[(z - first_plane) * plane + y * size_x + x]);
+        candidates[0].1 -= intensity;
+        candidates[0].2 -= 1;
+        let energy = |&(label, sum, count): &(u8, f64, u32)| {
+            if count == 0 {
+                return f64::INFINITY;
+            }
+            let mean = sum / f64::from(count);
+            let disagreeing = faces.iter().filter(|&&face| face != 0 && face != label).count();
+            let moved = if label == self.came_with[voxel] { 0.0 } else { GAMMA };
+            (intensity - mean).powi(2) * self.energy_scale + BETA * disagreeing as f64 + moved
+        };
+        let mut best = (energy(&candidates[0]), own);
+        for candidate in candidates.iter().skip(1) {
+            let candidate_energy = energy(candidate);
+            if candidate_energy < best.0 {
+                best = (candidate_energy, candidate.0);
+            }
+        }
+        best.1
+    }
+}
+
+#[cfg(test)]
+mod tests;
