@@ -322,7 +322,7 @@ fn positions_of(block: &[u8; 32], label: u8) -> u32 {
 /// The labels of the six face neighbours of (x, y) (in the plane `here`, and at the same place
 /// in the planes below and above), in opposite pairs: -x, +x, -y, +y, below, above; `None`
 /// outside the volume.
-fn face_labels(
+pub(super) fn face_labels(
     below: Option<&[u8]>,
     here: &[u8],
     above: Option<&[u8]>,

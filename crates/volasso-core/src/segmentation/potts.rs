@@ -25,7 +25,8 @@
 //!
 //! Never: changes or counts background voxels (label 0), or reads a voxel outside the window.
 
-use super::coherence::Neighbourhood;
+use super::background::median_in_place;
+use super::coherence::{Neighbourhood, face_labels};
 use crate::volume::Volume;
 use rayon::prelude::*;
 
@@ -62,9 +63,7 @@ pub fn noise_deviation(volume: &Volume, labels: &[u8]) -> f64 {
     if differences.is_empty() {
         return 1.0;
     }
-    let middle = differences.len() / 2;
-    let median = *differences.select_nth_unstable_by(middle, f64::total_cmp).1;
-    (1.4826 * median / std::f64::consts::SQRT_2).max(1e-6)
+    (1.4826 * median_in_place(&mut differences) / std::f64::consts::SQRT_2).max(1e-6)
 }
 
 /// Runs the sweeps on `labels` (`volume`'s dims, x fastest); returns the voxels changed.
@@ -137,28 +136,14 @@ impl Sweep<'_> {
         let below = (self.across && z > 0).then(|| &self.labels[(z - 1) * plane..][..plane]);
         let above = (self.across && z + 1 < size_z).then(|| &self.labels[(z + 1) * plane..][..plane]);
         for y in (0..size_y).filter(|&y| visit[y]) {
-            let row = &here[y * size_x..][..size_x];
-            let other_rows = [
-                y.checked_sub(1).map(|up| &here[up * size_x..][..size_x]),
-                (y + 1 < size_y).then(|| &here[(y + 1) * size_x..][..size_x]),
-                below.map(|p| &p[y * size_x..][..size_x]),
-                above.map(|p| &p[y * size_x..][..size_x]),
-            ];
             for x in 0..size_x {
-                let own = row[x];
+                let own = here[y * size_x + x];
                 if own == 0 {
                     continue;
                 }
-                let differs = |label: u8| label != own && label != 0;
-                let faces = [
-                    if x > 0 { row[x - 1] } else { 0 },
-                    if x + 1 < size_x { row[x + 1] } else { 0 },
-                    other_rows[0].map_or(0, |r| r[x]),
-                    other_rows[1].map_or(0, |r| r[x]),
-                    other_rows[2].map_or(0, |r| r[x]),
-                    other_rows[3].map_or(0, |r| r[x]),
-                ];
-                if !faces.iter().any(|&label| differs(label)) {
+                // Outside the volume counts as background: it neither votes nor is a candidate.
+                let faces = face_labels(below, here, above, size_x, size_y, x, y).map(|face| face.unwrap_or(0));
+                if faces.iter().all(|&label| label == own || label == 0) {
                     continue;
                 }
                 if values.is_empty() {
