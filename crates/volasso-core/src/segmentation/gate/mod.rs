@@ -9,8 +9,7 @@
 //! joint space (a class of steep gradients) in three pairs and comes out soft tissue; on the
 //! shells phantom the small seed takes half the rind. An intensity the user drew for one class
 //! only is that class; a voxel that several bands hold is left to the vote among those classes;
-//! one between bands to the vote between the band below and the band above, and the bands
-//! that end near those ([`BETWEEN_REACH`]); one beyond every
+//! one between bands to the vote between the band below and the band above; one beyond every
 //! band to the vote among the classes whose bands end near the outermost band's end
 //! ([`BEYOND_REACH`]), taken as if it lay at that end (its intensities moved there, its
 //! gradient kept), since far from every drawn voxel the vote is little more than each pair's
@@ -87,13 +86,6 @@ pub const MIN_CORE_VOXELS: usize = 32;
 /// leaky soft-tissue band votes on a bone's cortex; 0.25 to 0.75 score alike on the tuning
 /// cases (`docs/decisions/0005-intensity-gate.md`).
 pub const BEYOND_REACH: f32 = 0.5;
-
-/// Between bands, the classes whose bands end within this share of the nearest band's width
-/// (below the voxel and above it) of that band's end are left to the vote, for the same
-/// reason as [`BEYOND_REACH`]: a bone's leaky loop carries its band's low end a few units past
-/// the soft tissue's, and the fat below both would go to the bone alone. 0.25 has the best
-/// worst case with leaky lassos (`docs/decisions/0005-intensity-gate.md`).
-pub const BETWEEN_REACH: f32 = 0.25;
 
 /// Least share of a class's drawn voxels its lassos' core must hold for the class to train on
 /// the core alone when its rim leaked ([`DrawnLassos::training_voxels`]): a loop one
@@ -185,7 +177,7 @@ impl IntensityGate {
     }
 
     /// The classes `intensity` allows: those whose band holds it; else the nearest band below
-    /// and the nearest above, with the bands that end near them ([`BETWEEN_REACH`]); beyond
+    /// and the nearest above; beyond
     /// every band, the outermost band's class and the classes whose bands end near its end
     /// ([`BEYOND_REACH`]). Empty for a non-finite intensity.
     pub fn allowed(&self, intensity: f32) -> ClassSet {
@@ -234,14 +226,7 @@ fn allowed_by_bands(bands: &[Band], intensity: f32) -> ClassSet {
             let reach = outermost.low + BEYOND_REACH * (outermost.high - outermost.low);
             classes_where(bands, |band| band.low <= reach)
         }
-        (Some(below), Some(above)) => {
-            let (below, above) = (bands[below], bands[above]);
-            let reach_below = below.high - BETWEEN_REACH * (below.high - below.low);
-            let reach_above = above.low + BETWEEN_REACH * (above.high - above.low);
-            classes_where(bands, |band| {
-                (reach_below..intensity).contains(&band.high) || (intensity..=reach_above).contains(&band.low)
-            })
-        }
+        (Some(below), Some(above)) => (1 << below) | (1 << above),
         (None, None) => 0,
     }
 }

@@ -41,17 +41,6 @@ fn the_tabulated_gate_answers_as_its_bands_do() {
 }
 
 #[test]
-fn between_bands_the_bands_ending_near_the_nearest_ones_are_allowed_too() {
-    // Air, soft tissue drawn over muscle, and a bone whose leaky loop carried its band a
-    // little below the muscle's: fat, darker than both, is left to the vote of all three.
-    let leaky = gate(&[(-1030.0, -970.0), (6.0, 77.0), (-54.0, 1549.0)]);
-    assert_eq!(leaky.allowed(-80.0), 0b111);
-    // A band that ends far from the nearest stays out.
-    let far = gate(&[(-1030.0, -970.0), (6.0, 77.0), (-54.0, 46.0)]);
-    assert_eq!(far.allowed(-80.0), 0b101);
-}
-
-#[test]
 fn beyond_every_band_the_classes_whose_bands_end_near_the_outermost_end_are_allowed() {
     // A thin joint's band reaches past a bone drawn over its marrow: the cortex, brighter
     // than both, is left to the vote of the two, never to soft tissue.
