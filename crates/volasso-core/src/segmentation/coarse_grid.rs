@@ -1,13 +1,11 @@
-//! The coarse grid of coarse-to-fine labelling and the test that decides, per fine voxel,
-//! whether it takes its coarse neighbours' label or must be evaluated (see the module doc of
-//! `segmentation`).
+//! The coarse grid of coarse-to-fine labelling and the per-voxel test: take the coarse
+//! neighbours' label, or be evaluated (`docs/decisions/0014-coarse-to-fine.md`).
 
 use crate::volume::any_at_or_above;
 use std::ops::{Range, RangeInclusive};
 
-/// The coarse coordinates next to fine coordinate `p` along an axis of `coarse_size` coarse
-/// voxels: an odd coordinate lies between two, an even one (or an odd one at the far border)
-/// on one, which the pair then holds twice.
+/// The coarse coordinates next to fine `p` on an axis `coarse_size` long: an odd `p` lies
+/// between two, an even one (or an odd one at the far border) on one, held twice.
 #[inline]
 fn coarse_neighbours(p: usize, coarse_size: usize) -> [usize; 2] {
     [p / 2, (p / 2 + p % 2).min(coarse_size - 1)]
@@ -18,8 +16,7 @@ fn distinct(pair: &[usize; 2]) -> &[usize] {
     if pair[0] == pair[1] { &pair[..1] } else { pair }
 }
 
-/// Labels and intensities of every second voxel along each axis (even coordinates), for all
-/// coarse z planes or a run of them.
+/// Labels and intensities of every second voxel along each axis, for all coarse planes or a run.
 pub(super) struct CoarseGrid {
     /// Coarse voxels per row and column, and the coarse planes held.
     pub dims: [usize; 3],
@@ -40,8 +37,7 @@ impl CoarseGrid {
         grid
     }
 
-    /// Makes the grid hold coarse planes `planes` of a volume of `fine` dimensions, labels
-    /// zeroed (values are written before they are read).
+    /// Makes the grid hold coarse planes `planes` of a volume of `fine` dimensions, labels zeroed.
     pub fn hold(&mut self, fine: [usize; 3], planes: Range<usize>) {
         let [coarse_x, coarse_y, volume_planes] = fine.map(|d| d.div_ceil(2));
         self.dims = [coarse_x, coarse_y, planes.len()];
@@ -59,31 +55,25 @@ impl CoarseGrid {
     }
 }
 
-/// What the coarse voxels around one fine row say, per coarse column: which classes the
-/// foreground coarse voxels in the (up to four) coarse rows next to the fine row have (a bit
-/// per class), and their intensity range. Summarising a row once makes each fine voxel's test
-/// two lookups; the summary is branch-free so that it vectorises.
+/// The coarse rows next to one fine row, per coarse column: their foreground voxels' classes (a bit
+/// each) and intensity range, so that each fine voxel's test is two lookups.
 #[derive(Default)]
 pub(super) struct RowNeighbours {
     classes: Vec<u32>,
     low: Vec<f32>,
     high: Vec<f32>,
-    /// Per fine column (of the span summarised): the one class its coarse neighbours have
-    /// (0: none or several), and their intensity range widened by the tolerance.
+    /// Per fine column: its coarse neighbours' one class (0: none or several) and widened range.
     single_class: Vec<u8>,
     fine_low: Vec<f32>,
     fine_high: Vec<f32>,
 }
 
 impl RowNeighbours {
-    /// Classes a bit set can hold: class k is bit k - 1 of a `u32`. With more classes the
-    /// volume is labelled exactly.
+    /// Classes a `u32` bit set holds (class k is bit k - 1); with more, labelling is exact.
     pub const MAX_CLASSES: usize = 31;
 
-    /// Summarises the coarse rows next to fine row `y` of fine plane `z`, at coarse columns
-    /// `columns` (clamped to the grid), for the fine columns between them (`2 * start` up to
-    /// `2 * end`; the others keep stale values and must not be asked for), with intensity
-    /// ranges widened by `tolerance`.
+    /// Summarises the coarse rows next to fine row `y` of plane `z` at coarse `columns`, for
+    /// fine columns `2 * start..=2 * end` only (others stay stale), ranges widened by `tolerance`.
     pub fn summarise(&mut self, grid: &CoarseGrid, y: usize, z: usize, columns: RangeInclusive<usize>, tolerance: f32) {
         #[cfg(target_arch = "x86_64")]
         if crate::cpu::has_avx2_fma() {
@@ -139,9 +129,7 @@ impl RowNeighbours {
                 let row_values = &grid.values[start + columns.start..start + columns.end];
                 let summary = classes.iter_mut().zip(low.iter_mut()).zip(high.iter_mut());
                 for (((classes, low), high), (&label, &value)) in summary.zip(row_labels.iter().zip(row_values)) {
-                    // Label 0 (background) sets no bit and leaves the range alone (its value
-                    // may be stale). Plain comparisons, as in `FineSpread::write`: foreground
-                    // values are never NaN.
+                    // Background, whose value may be stale, sets no bit and no range.
                     *classes |= 1u32.wrapping_shl(u32::from(label)) >> 1;
                     let foreground = label != 0;
                     let (lower, higher) = if foreground { (value, value) } else { (f32::INFINITY, f32::NEG_INFINITY) };
@@ -153,10 +141,8 @@ impl RowNeighbours {
         self.spread_to_fine_columns(columns, tolerance);
     }
 
-    /// The fine columns' summaries from the coarse columns `columns`: an even fine column
-    /// 2c lies on coarse column c, an odd one 2c + 1 between c and c + 1 (see
-    /// [`coarse_neighbours`]; the last one summarised sees column c only). Done once per row
-    /// so that [`Self::label_row`] reads one entry per voxel, in order, without branches.
+    /// The fine columns' summaries from coarse `columns`: 2c lies on c, 2c + 1 between c and
+    /// c + 1 ([`coarse_neighbours`]), so [`Self::label_row`] reads one entry per voxel.
     #[inline(always)]
     fn spread_to_fine_columns(&mut self, columns: Range<usize>, tolerance: f32) {
         let fine_len = 2 * self.classes.len();
@@ -167,8 +153,7 @@ impl RowNeighbours {
             return;
         };
         let RowNeighbours { classes, low, high, single_class: single, fine_low, fine_high } = self;
-        // Each column with its right neighbour, through windows and chunks (no index checks,
-        // so that the loop vectorises); then the last column with itself.
+        // Each column with its right neighbour (windows and chunks vectorise), then the last.
         let pairs = columns.start..last + 1;
         let fine = 2 * columns.start..2 * last;
         let coarse = classes[pairs.clone()].windows(2).zip(low[pairs.clone()].windows(2)).zip(high[pairs].windows(2));
@@ -186,15 +171,9 @@ impl RowNeighbours {
         coarse.write(&mut single[fine.clone()], &mut fine_low[fine.clone()], &mut fine_high[fine], tolerance);
     }
 
-    /// Labels the foreground voxels of `row` that take a label from their coarse neighbours
-    /// and writes the plane indices of the others, which must be evaluated, to the front of
-    /// `selected` (at least as long as the row). Returns how many it wrote and how many
-    /// voxels were foreground. A voxel inherits when its foreground coarse neighbours agree
-    /// on one class and its intensity lies within theirs widened by the tolerance. Background
-    /// neighbours do not veto: at a surface the voxel's own intensity already says it is
-    /// foreground, and a partial-volume voxel there falls outside the interior's range.
-    /// Branch-free per voxel (at boundaries the outcomes alternate unpredictably), the labels
-    /// in one pass over the fine summaries, the selection in a second.
+    /// Labels each foreground voxel of `row` whose foreground coarse neighbours agree on one class
+    /// and hold its intensity; writes the others' plane indices to the front of `selected` and
+    /// returns (written, foreground). Background neighbours do not veto.
     pub fn label_row(&self, row: Row, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         #[cfg(target_arch = "x86_64")]
         if crate::cpu::has_avx2_fma() {
@@ -242,8 +221,7 @@ impl RowNeighbours {
     }
 }
 
-/// A coarse column and its right neighbour, as [`RowNeighbours::spread_to_fine_columns`]
-/// reads them.
+/// A coarse column and its right neighbour ([`RowNeighbours::spread_to_fine_columns`]).
 struct FineSpread {
     classes: [u32; 2],
     low: [f32; 2],
@@ -251,8 +229,7 @@ struct FineSpread {
 }
 
 impl FineSpread {
-    /// The summaries of the fine column on the coarse column and of the one after it
-    /// (`single`, `fine_low`, `fine_high`: two entries each).
+    /// The summaries of the fine column on the coarse column and of the one after it.
     #[inline(always)]
     fn write(&self, single: &mut [u8], fine_low: &mut [f32], fine_high: &mut [f32], tolerance: f32) {
         let FineSpread { classes: [classes, right_classes], low: [low, right_low], high: [high, right_high] } = *self;
@@ -260,8 +237,7 @@ impl FineSpread {
         fine_low[0] = low - tolerance;
         fine_high[0] = high + tolerance;
         single[1] = single_class(classes | right_classes);
-        // Plain comparisons, not `f32::min`: no value here is NaN (coarse foreground is at or
-        // above the threshold, the rest is ±infinity), and NaN rules cost blends.
+        // Plain comparisons, not `f32::min`: no value here is NaN, and NaN rules cost blends.
         fine_low[1] = if right_low < low { right_low } else { low } - tolerance;
         fine_high[1] = if right_high > high { right_high } else { high } + tolerance;
     }
@@ -270,15 +246,13 @@ impl FineSpread {
 /// The class whose bit is the only one set in `classes`, or 0 for none or several.
 #[inline(always)]
 fn single_class(classes: u32) -> u8 {
-    // The bit's position is the f32 exponent of the set (exact: a power of two below 2^31, as
-    // `MAX_CLASSES` keeps it), which vectorises where a bit scan does not.
+    // The bit's position is the f32 exponent (exact below 2^31): unlike a bit scan, it vectorises.
     let position = (((classes & 0x7fff_ffff) as i32 as f32).to_bits() >> 23).wrapping_sub(126);
     let single = (classes != 0) & (classes & classes.wrapping_sub(1) == 0) & (classes >> 31 == 0);
     if single { position as u8 } else { 0 }
 }
 
-/// A span of one fine row: its voxels' values and labels from column `first` on, and the
-/// plane index of that first voxel.
+/// A span of one fine row: values and labels from column `first` (plane index `first_index`).
 pub(super) struct Row<'a> {
     pub first: usize,
     pub first_index: usize,
@@ -290,9 +264,7 @@ impl<'a> Row<'a> {
     /// Voxels per chunk that [`Row::chunks_with_foreground`] tests at once.
     const CHUNK: usize = 32;
 
-    /// The row's chunks that hold a foreground voxel, with their offset in the row: runs of
-    /// air inside the span (between the parts of an object, or noise above the threshold
-    /// scattered through the air) are skipped a vectorised test at a time.
+    /// The row's chunks that hold a foreground voxel, with their offsets (air skipped per chunk).
     #[inline(always)]
     fn chunks_with_foreground(self, threshold: f32) -> impl Iterator<Item = (usize, &'a [f32], &'a mut [u8])> {
         self.values
@@ -303,9 +275,7 @@ impl<'a> Row<'a> {
             .map(|(chunk, (values, labels))| (chunk * Self::CHUNK, values, labels))
     }
 
-    /// Writes the plane indices of the foreground voxels to the front of `selected` (exact
-    /// labelling: every one is evaluated); returns their count twice, as
-    /// [`RowNeighbours::label_row`] does.
+    /// Writes each foreground voxel's plane index to `selected`'s front; returns the count twice.
     pub fn select_foreground(self, threshold: f32, selected: &mut [usize]) -> (usize, usize) {
         let first_index = self.first_index;
         let mut count = 0;

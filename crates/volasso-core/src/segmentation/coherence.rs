@@ -1,46 +1,22 @@
-//! Spatial coherence after classification: a voxel whose label disagrees with a face
-//! neighbour takes the label most of its 3 x 3 x 3 neighbourhood holds (a majority, or mode,
-//! filter over the classified voxels).
+//! Spatial coherence after classification: a voxel whose label disagrees with a face neighbour
+//! takes its 3 x 3 x 3 neighbourhood's majority label, over [`DEFAULT_PASSES`] passes. The rule:
+//! remove isolated wrong voxels and ragged borders, but not what the image says is one voxel thin.
 //!
-//! Voxel-by-voxel labels are noisy: a voxel's features see at most one voxel around it, so
-//! noise and partial volume give isolated voxels of a wrong class inside a structure and
-//! ragged borders. One pass of the filter removes isolated voxels and smooths borders; a
-//! second settles the voxels whose neighbours the first changed ([`DEFAULT_PASSES`]).
-//! Voxels whose six face neighbours all agree with them (or are background) keep their label
-//! unread, which leaves the interiors of structures alone and makes the pass cost little more
-//! than a scan of the label volume.
+//! Bands: a voxel inside its own label's band ([`LabelBands`]) takes only a label its intensity
+//! could be mixed from ([`PARTIAL_VOLUME_REACH`]), so a small structure far brighter or darker
+//! than its surroundings is not voted away (`docs/decisions/0009-majority-filter.md`).
 //!
-//! Given each label's band of drawn intensities ([`LabelBands`], the intensity gate's), a voxel
-//! whose intensity lies in its own label's band takes a neighbour's label only where its
-//! intensity could be a mix of the labels around it: within the span of their bands (its own
-//! label left out), each widened by [`PARTIAL_VOLUME_REACH`] of its width. A partial-volume
-//! shell between two structures, a noisy voxel inside one, or a voxel outside its own label's
-//! band (streaks on a CT table between the brain's and the bone's bands) still joins its
-//! surroundings; a small structure far brighter or darker than everything around it (a
-//! calcification, a contrast-filled vessel two voxels wide) is not voted away by its sheer size.
+//! Face anchor: a voxel with at least [`FACE_ANCHOR`] faces of its own label keeps it where its
+//! band holds its intensity and the winner's does not, so the vote does not erase what is one
+//! voxel thin: sulcal CSF, a nucleus's rim, a granule (`docs/decisions/0009-majority-filter.md`).
 //!
-//! With the bands, a voxel whose own label holds [`FACE_ANCHOR`] of its six face neighbours
-//! keeps its label where its intensity speaks for it: its own band holds the intensity and the
-//! band of the label that outvotes it does not. A 3 x 3 x 3 majority erases whatever is one
-//! voxel thin (a sheet holds 9 of its 27 neighbours but 4 of its 6 faces, a line 3 and 2): the
-//! cerebrospinal fluid in a brain's sulci, a nucleus's rim, a granule, a small vessel. One face
-//! is anchor enough: a line's end, or a pair of voxels whose intensity is its label's and not
-//! the majority's, as the speckled cerebrospinal fluid of a brain's sulci at 1 mm is. A single
-//! voxel, specks of labels whose bands overlap (noise between brain and scalp on a CT), still
-//! go, and so does a partial-volume shell (a third label where two structures
-//! meet): two labels on opposite faces of the voxel sandwich it and its intensity lies between
-//! their band centres, and there the majority decides however many faces the shell holds. Two
-//! labels merely around it (on its faces at a corner, or diagonal to it) do not make a shell:
-//! the cerebrospinal fluid between a brain's grey matter and the dark layer outside it, two or
-//! three voxels thick, keeps its label at the layer's edges
-//! (`docs/decisions/0009-majority-filter.md`).
+//! Sandwich: an anchored voxel between two other labels on opposite faces, its intensity between
+//! their band centres, is a partial-volume shell and follows the majority, so a shell around a
+//! bone at a vessel's intensity does not stay a vessel (`docs/decisions/0009-majority-filter.md`).
 //!
-//! A scan cut in thick slices (5 mm slices of 0.5-0.9 mm pixels, as most hospital CT series
-//! and many MRI series are) votes within each slice ([`Neighbourhood::Plane`]): the slices
-//! above and below lie several pixels' widths away and are no neighbours, and whatever is thin
-//! across the slices (a joint space, a layer the slices cut across) is one voxel thick there,
-//! a sheet the 3 x 3 x 3 vote erases, such as a knee's joint space one slice thick
-//! (`docs/decisions/0010-thick-slices.md`).
+//! Thick slices: slices more than [`THICK_SLICE_RATIO`] times the pixel size apart vote each
+//! within itself ([`Neighbourhood::Plane`]), so a layer one slice thick (a knee's joint space)
+//! is not erased (`docs/decisions/0010-thick-slices.md`).
 //!
 //! Never: changes background voxels (label 0) or counts them as votes, so it never grows a
 //! class into the air or erodes it there.
@@ -50,20 +26,17 @@ mod rows;
 use rayon::prelude::*;
 use rows::{ROW_COUNT_SHARE, classified_span, disagreeing_voxels, unflag_unbeatable, unopposed};
 
-/// How far past its drawn band a label's intensities may reach for a voxel to take that label,
-/// as a share of the band's width. At 0 the bands are too narrow for noise; of 0, 1/4, 1/2 and
-/// 1, 1/2 is the only reach that loses on no mean of `volasso accuracy` or `scripts/heldout.py`
+/// How far past its band a label reaches for a voxel to take it, as a share of the band's
+/// width; at 0 the bands are too narrow for noise, and noisy voxels keep a wrong label
 /// (`docs/decisions/0009-majority-filter.md`).
 pub const PARTIAL_VOLUME_REACH: f32 = 0.5;
 
-/// Face neighbours of its own label that anchor a voxel whose intensity speaks for its label
-/// (module doc): 3 keeps a sheet, 2 a one-voxel line as well, 1 also a pair of voxels, as the
-/// speckled sulcal CSF of a real brain at 1 mm is; `volasso accuracy`'s phantoms, whose noise
-/// leaves more two-voxel specks, lose a little to it (`docs/decisions/0009-majority-filter.md`).
+/// Face neighbours of its own label that anchor a voxel whose intensity speaks for its label;
+/// at 2 the vote erases pairs of voxels such as a real brain's speckled sulcal CSF
+/// (`docs/decisions/0009-majority-filter.md`).
 pub const FACE_ANCHOR: usize = 1;
 
-/// Each label's band of intensities and each voxel's intensity, for the filter's rule that a
-/// voxel takes only a label its intensity could be mixed from.
+/// Each label's intensity band and each voxel's intensity, for the filter's band rules.
 pub struct LabelBands<'a> {
     /// Per label (index = label), its band (low, high); `None`: any intensity.
     bands: Vec<Option<(f32, f32)>>,
@@ -98,10 +71,8 @@ impl<'a> LabelBands<'a> {
         self.band(label).is_some_and(|(low, high)| low <= intensity && intensity <= high)
     }
 
-    /// Whether the voxel `voxel` of label `own` may take a label of its 3 x 3 x 3
-    /// neighbourhood, whose labels other than `own` and background are `others` (each once):
-    /// its intensity lies within the span of their widened bands, or outside its own label's
-    /// band (then its own label is no surer than its neighbours').
+    /// Whether `voxel` of label `own` may take a label of `others` (the neighbourhood's labels but
+    /// `own` and background): its intensity lies within their widened bands or outside its own.
     fn allows(&self, voxel: usize, own: u8, others: &[u8]) -> bool {
         let intensity = (self.intensity)(voxel);
         if !self.holds(own, intensity) {
@@ -118,11 +89,9 @@ impl<'a> LabelBands<'a> {
         low <= intensity && intensity <= high
     }
 
-    /// Whether a voxel that [`FACE_ANCHOR`] of its faces hold in label `own` may still take
-    /// label `best`: when its intensity does not set the two apart (its own label's band does
-    /// not hold it, or `best`'s does), or when it lies between the band centres of two of the
-    /// labels `sandwich` that lie on opposite faces of it (a mix of them, as on a
-    /// partial-volume shell; [`sandwiching_labels`]).
+    /// Whether an anchored voxel of label `own` may still take `best`: its intensity does not
+    /// set the two apart, or lies between the band centres of two `sandwich` labels on opposite
+    /// faces ([`sandwiching_labels`]).
     fn releases_anchored(&self, voxel: usize, own: u8, best: u8, sandwich: &[u8]) -> bool {
         let intensity = (self.intensity)(voxel);
         if !self.holds(own, intensity) || self.holds(best, intensity) {
@@ -141,9 +110,8 @@ impl<'a> LabelBands<'a> {
     }
 }
 
-/// Passes of the filter the default runs ([`super::Coherence::Potts`], before its sweeps). A second pass
-/// settles what the first left ragged (a voxel whose neighbours changed); a third adds next to
-/// nothing (`docs/decisions/0009-majority-filter.md`).
+/// Passes of the filter before the Potts sweeps ([`super::Coherence::Potts`]); with one, borders
+/// the first pass changed stay ragged (`docs/decisions/0009-majority-filter.md`).
 pub const DEFAULT_PASSES: usize = 2;
 
 /// Which voxels around a voxel vote ([`majority_passes`]).
@@ -151,16 +119,13 @@ pub const DEFAULT_PASSES: usize = 2;
 pub enum Neighbourhood {
     /// Its 3 x 3 x 3 neighbourhood.
     Cube,
-    /// Its 3 x 3 neighbourhood within its z plane: the slices of a scan cut thick lie too far
-    /// apart for their voxels to speak for each other ([`Neighbourhood::for_spacing`]).
+    /// Its 3 x 3 neighbourhood in its z plane, for thick slices ([`Neighbourhood::for_spacing`]).
     Plane,
 }
 
-/// How many times the in-plane voxel size the slice spacing (z) may be for the planes above
-/// and below to vote ([`Neighbourhood::for_spacing`]). Scans are thin-sliced (a ratio up to
-/// about 2) or thick-sliced (5 and more); between, the phantoms disagree on which vote is
-/// better, and at 3.5 every case of `scripts/heldout.py` at its own spacing (the thickest 3.1)
-/// votes in the cube (`docs/decisions/0010-thick-slices.md`).
+/// The largest slice spacing, in in-plane voxel sizes, at which the planes above and below vote;
+/// past it the cube erases layers one slice thick, such as a knee's joint space
+/// (`docs/decisions/0010-thick-slices.md`).
 pub const THICK_SLICE_RATIO: f64 = 3.5;
 
 impl Neighbourhood {
@@ -171,8 +136,7 @@ impl Neighbourhood {
         if spacing_mm[2] > THICK_SLICE_RATIO * in_plane { Neighbourhood::Plane } else { Neighbourhood::Cube }
     }
 
-    /// Votes a voxel's own label needs in the neighbourhood (itself included) so that no other
-    /// label can have strictly more: more than half of 27, or of 9.
+    /// Votes of its own label (itself included) that no other label can beat: 14 of 27, 5 of 9.
     fn unbeatable_votes(self) -> u8 {
         let voxels = match self {
             Neighbourhood::Cube => 27,
@@ -182,18 +146,14 @@ impl Neighbourhood {
     }
 }
 
-/// One pass over `labels` (`dims`, x fastest), in parallel over z planes, without bands;
-/// returns the voxels changed.
+/// One unbanded pass in the cube over `labels` (`dims`, x fastest); returns the voxels changed.
 pub fn majority_pass(labels: &mut [u8], dims: [usize; 3]) -> usize {
     majority_passes(labels, dims, 1, None, Neighbourhood::Cube)
 }
 
 /// `passes` passes, each on the labels the one before left; returns the voxels changed in all.
-/// With `bands`, a voxel takes only a label its intensity could be mixed from
-/// ([`LabelBands`]). After the first, a pass visits only the planes a change of the pass before
-/// can reach (in the cube the planes next to a changed plane, within the plane that plane
-/// alone: a plane whose neighbourhood kept its labels would give the same result again), and
-/// the passes stop early once one changes nothing.
+/// With `bands`, the band rules apply ([`LabelBands`]). A later pass visits only the planes a
+/// change can reach, and the passes stop once one changes nothing.
 pub fn majority_passes(
     labels: &mut [u8],
     dims: [usize; 3],
@@ -254,9 +214,7 @@ fn majority_plane(
     let mut flags = vec![0u8; size_x];
     let mut votes = vec![0u8; size_x];
     for (y, row) in here.chunks_exact(size_x).enumerate() {
-        // Only the span from the row's first to its last classified voxel can hold a flagged
-        // voxel: most rows of a scan are background, and a body fills a fraction of each row
-        // it crosses.
+        // Only the span between the row's first and last classified voxel can hold a flagged one.
         let Some((first, last)) = classified_span(row) else {
             continue;
         };
@@ -270,8 +228,7 @@ fn majority_plane(
         ];
         let row_span = &row[span.clone()];
         if unopposed(row_span, row[first], neighbours) {
-            // Inside a structure or a classified air (every voxel of a scan with air as a
-            // class): nothing here disagrees with a face neighbour.
+            // Nothing here disagrees with a face neighbour.
             continue;
         }
         let flags = &mut flags[..row_span.len()];
@@ -319,9 +276,8 @@ fn positions_of(block: &[u8; 32], label: u8) -> u32 {
     block.iter().enumerate().fold(0u32, |bits, (position, &held)| bits | u32::from(held == label) << position)
 }
 
-/// The labels of the six face neighbours of (x, y) (in the plane `here`, and at the same place
-/// in the planes below and above), in opposite pairs: -x, +x, -y, +y, below, above; `None`
-/// outside the volume.
+/// The labels of the six face neighbours of (x, y) (in `here`, `below`, `above`), in opposite
+/// pairs: -x, +x, -y, +y, below, above; `None` outside the volume.
 pub(super) fn face_labels(
     below: Option<&[u8]>,
     here: &[u8],
@@ -347,9 +303,8 @@ fn own_faces(faces: &[Option<u8>; 6], own: u8) -> usize {
     faces.iter().filter(|&&label| label == Some(own)).count()
 }
 
-/// The labels on opposite `faces` ([`face_labels`]) of a voxel of label `own` where the two
-/// differ and neither is `own` or background: the structures the voxel lies between along an
-/// axis, as a shell one voxel thick does. Up to three pairs; the count of labels filled in.
+/// The pairs of labels on opposite `faces` ([`face_labels`]) that differ and are neither `own`
+/// nor background (a one-voxel shell's sides), up to three pairs, and the count filled in.
 fn sandwiching_labels(faces: &[Option<u8>; 6], own: u8) -> ([u8; 6], usize) {
     let mut labels = [0u8; 6];
     let mut count = 0;
@@ -366,9 +321,8 @@ fn sandwiching_labels(faces: &[Option<u8>; 6], own: u8) -> ([u8; 6], usize) {
     (labels, count)
 }
 
-/// The non-zero label with the most votes in the 3 x 3 x 3 neighbourhood of (x, y) over
-/// `planes`; `own` unless another has strictly more and `allowed` admits the change (given the
-/// neighbourhood's labels other than `own` and background, each once).
+/// The non-zero label with the most votes around (x, y) over `planes`: `own` unless another has
+/// strictly more and `allowed` (given the other labels, each once) admits the change.
 #[allow(clippy::too_many_arguments)]
 fn neighbourhood_majority(
     planes: [Option<&[u8]>; 3],
@@ -379,8 +333,7 @@ fn neighbourhood_majority(
     own: u8,
     allowed: &dyn Fn(&[u8], u8) -> bool,
 ) -> u8 {
-    // The neighbourhood's labels in a fixed block, background (0, no vote) past its end, so
-    // the counts below are loops of fixed length without branches.
+    // A fixed block, background (no vote) past its end, so the counts below never branch.
     let mut block = [0u8; 32];
     let mut filled = 0;
     if let ([Some(below), Some(here), Some(above)], true) =
@@ -405,8 +358,7 @@ fn neighbourhood_majority(
             }
         }
     }
-    // The common case first: the neighbourhood holds its own label and at most one other
-    // (the largest other label; it is the only one when its votes are all the others').
+    // Common case: at most one other label (the largest; the only one if it has every other vote).
     let (mut own_votes, mut voting, mut other) = (0u8, 0u8, 0u8);
     for &label in &block {
         own_votes += u8::from(label == own);
@@ -417,9 +369,8 @@ fn neighbourhood_majority(
     if voting - own_votes == other_votes {
         return if other_votes > own_votes && allowed(&[other], other) { other } else { own };
     }
-    // Several other labels: each one's votes from a comparison of the whole block, label by
-    // label in the order they first appear (no histogram in memory: its stores and loads
-    // would wait on each other).
+    // Several others: each one's votes from one comparison of the block (a histogram's stores
+    // and loads would wait on each other).
     let (mut others, mut count) = ([0u8; 27], 0);
     let (mut best, mut best_votes) = (own, own_votes);
     let mut remaining = !positions_of(&block, 0) & !positions_of(&block, own);

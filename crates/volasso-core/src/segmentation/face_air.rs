@@ -1,17 +1,7 @@
-//! The dark region connected to the volume's faces: the air around a body in CT and MRI alike.
-//!
-//! A voxel is *dark* when it lies outside the scanned body at a level (the volume's Otsu
-//! threshold, see `super::background`; [`Volume::body_at`]): below the level, and not ringed
-//! by the body in its own axial slice. The face region is every dark voxel that a path of dark
-//! voxels joins to one of the volume's six faces. Dark voxels inside a body (lungs, sinuses,
-//! bowel gas) are not in it, also where they reach a face: a chest CT's lungs leave the volume
-//! through its top face by the trachea and their apices, and a windowed scan makes them as dark
-//! as the air, but the chest wall rings them in every axial slice.
-//!
-//! No search is needed: the body's outline fills every dark voxel of an axial slice that no
-//! 4-connected path of dark voxels joins to the slice's edge, and the slice's edge lies on the
-//! volume's faces, so every dark voxel left is joined to a face within its own slice. The face
-//! region is the outside of the body, and a voxel reaches a face exactly when it is dark.
+//! The face region, the air around a body: the voxels below a level and outside the body's
+//! outline ([`Volume::body_at`]), each joined to a face within its axial slice. What the body
+//! rings in a slice (lungs, sinuses) is not in it, even at a face
+//! (`docs/decisions/0008-background.md`).
 //!
 //! Never: decides what is background (that is `super::background`'s rule), or reads files.
 
@@ -85,8 +75,7 @@ impl FaceRegion {
     }
 }
 
-/// For each of `voxels`: true when it is dark (below `level`, outside the body) and so joined
-/// to a face (see the module doc).
+/// For each of `voxels`: whether it is in the face region at `level` (below it, outside the body).
 pub fn reaches_face(volume: &Volume, level: f64, voxels: &[usize]) -> Vec<bool> {
     let body = volume.body_at(level);
     voxels.iter().map(|&index| !body.contains(index)).collect()

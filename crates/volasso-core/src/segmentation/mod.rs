@@ -1,29 +1,28 @@
 //! Segmentation: from a training set to a label volume, end to end (paper §3.2-§3.4 joined).
 //!
 //! [`train`] caps the training voxels per class (stratified over strokes), computes their
-//! features, standardises them, chooses the background threshold and trains the classifier
-//! into a [`Segmenter`]. [`label_volume`] then classifies every voxel: voxels below the
-//! background threshold get label 0 without being evaluated; the rest are classified in
-//! parallel z slabs, with progress reporting and cancellation. Shaped so that the kernel sum
-//! ([`crate::classify::Model::predict_block`]) is the only hot part and a GPU can replace it.
+//! features, standardises them and trains the classifier ([`ClassifierKind`]: the SN-SVM on the
+//! paper's features by default, or a random forest) into a [`Segmenter`]. [`label_volume`]
+//! classifies every voxel that is not background in parallel z slabs, with progress and
+//! cancellation; [`Refinement::CoarseToFine`] evaluates every second voxel along each axis and
+//! then only where those disagree or the voxel's intensity leaves their range
+//! (`docs/decisions/0014-coarse-to-fine.md`). The kernel sums are the only hot part.
 //!
-//! Speed beyond the paper: [`Refinement::CoarseToFine`] evaluates the classifier on every
-//! second voxel along each axis, and then only where the foreground ones among the eight
-//! coarse neighbours of a voxel disagree or are none, or where the voxel's intensity leaves
-//! their range (thin structures that the coarse grid straddles). Elsewhere the voxel takes
-//! its neighbours' common label; background neighbours do not veto it, as its own intensity
-//! says it is foreground. [`Refinement::Exact`] evaluates every foreground voxel.
-//!
-//! The classifier is a [`ClassifierKind`]: the paper's SN-SVM on the 5-D features (the
-//! default, [`SegmentationOptions::default`]) or a random forest ([`SegmentationOptions::forest`]).
-//!
-//! Before training, the background rule (`background`) drops the air a lasso took in and
-//! decides which voxels are background: below a threshold, or outside the scanned body (the
-//! dark voxels its outline does not ring, [`face_air`]); a class drawn in that air takes it.
+//! Before training, what the loops mean:
+//! * **The body and the world** (`background`, [`face_air`]). The face air (the dark region
+//!   joined to the volume's faces that the body does not ring in its axial slices), and what is
+//!   darker than every loop inside the body, is background: label 0, never evaluated. Lungs,
+//!   sinuses and bowel gas are inside the body however dark. A class drawn mostly in the face
+//!   air is the air: the air around the body is that class. A dark voxel far below its class's
+//!   own spread is air a finger took in.
+//! * **A loop's voxels are noisy labels** ([`gate`]). A class's band is its drawn intensities,
+//!   trimmed; a voxel one band holds is that class, else only the nearest bands' classes vote.
+//!   A loop whose rim holds another class's intensities leaked: its core alone gives the band
+//!   and the training voxels. A clean loop's enclosed voxels of another class are set aside.
 //!
 //! After labelling, the spatial step: the majority filter ([`coherence`]), then the Potts
-//! sweeps ([`potts`]), where a voxel at a border between classes takes the label whose nearby
-//! intensities it is nearest, weighed against the border's length.
+//! sweeps ([`potts`]), where a border voxel takes the label whose nearby intensities it is
+//! nearest, weighed against the border's length.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 

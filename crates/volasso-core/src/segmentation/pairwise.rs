@@ -1,21 +1,9 @@
-//! One-vs-one SN-SVM with each pair of classes on its own standardisation, as the paper's
-//! code trains it (snsvm.md §11: MATLAB's `svmtrain` autoscales each pair's training data).
-//!
-//! One standardisation for all classes fails on scans with a wide range of values: in a CT
-//! with air (-1000 HU) and bone (1000 HU) lassoed, the 50 HU between muscle and liver shrink to
-//! a twentieth of a deviation, and one RBF width cannot tell them apart
-//! (`docs/decisions/0002-per-pair-standardisation.md`). Each pair z-scored on its own two
-//! classes sees them at their own scale; the automatic RBF width then comes from the pair's own
-//! distances ([`super::median_heuristic_width`]).
-//!
-//! Two classes are one pair: the model is exactly the single SN-SVM on the two classes'
-//! standardisation. With more, a voxel's features are standardised once per pair, each pair's
-//! decision value votes, and the vote is [`crate::classify::Model`]'s: most votes, then the
-//! larger summed |f| of the winning votes, then the smaller class id.
-//!
-//! The [`IntensityGate`] comes first: a voxel whose intensity only one class's drawn band
-//! allows is that class without a vote, and only the pairs of allowed classes vote on the rest
-//! (and only they are evaluated there: the kernel sums are the cost of prediction).
+//! One-vs-one SN-SVM with each pair of classes z-scored on its own two classes, as the paper's
+//! code trains it (snsvm.md §11), so close classes stay apart beside a far one
+//! (`docs/decisions/0002-per-pair-standardisation.md`). Each pair's automatic RBF width comes
+//! from its own distances ([`super::median_heuristic_width`]); the vote is
+//! [`crate::classify::Model`]'s. The [`IntensityGate`] decides first: a voxel that one class's
+//! band alone allows is that class, and only the pairs of allowed classes vote on the rest.
 //!
 //! Never: chooses the training voxels, or the background.
 
@@ -43,21 +31,19 @@ pub struct PairwiseSnSvm {
     pub pairs: Vec<PairSnSvm>,
     /// Sorted class ids.
     pub class_ids: Vec<u8>,
-    /// Every pair's training report, in pair order; `expansion_points` is the sum over pairs
-    /// (the kernel terms a voxel costs).
+    /// Every pair's training report, in pair order; `expansion_points` sums over the pairs.
     pub report: TrainReport,
     /// The classes each intensity allows (bands in `class_ids` order).
     pub gate: IntensityGate,
-    /// Which features are intensities (the voxel's or averages of them, as opposed to
-    /// gradients): a voxel beyond every band is voted on with them moved into the drawn range.
+    /// Which features are intensities (not gradients): those a voxel beyond every band has moved
+    /// into the drawn range.
     pub intensity_features: Vec<bool>,
 }
 
 impl PairwiseSnSvm {
-    /// Trains on `raw` feature vectors (one value per weight of `scaling` in a row, finite; the
-    /// first is the intensity) with class `labels` from `class_ids` (sorted, each present);
-    /// each pair's standardisation is fitted on the pair's vectors with `scaling`. `gate`
-    /// holds a band per class in `class_ids` order (or is open).
+    /// Trains an SN-SVM per pair of `class_ids` (sorted, each in `labels`) on finite `raw` rows
+    /// (intensity first), standardised per pair with `scaling`, pruned at `prune_relative`
+    /// (`docs/decisions/0015-pruning.md`); `gate` holds a band per class, or is open.
     #[allow(clippy::too_many_arguments)]
     pub fn train(
         raw: &[f32],
@@ -115,14 +101,12 @@ impl PairwiseSnSvm {
         Ok(PairwiseSnSvm { pairs, class_ids: class_ids.to_vec(), report, gate, intensity_features })
     }
 
-    /// The same model, with `intensity_features` (one flag per feature) marking the features
-    /// that are intensities; [`train`](Self::train) marks the first alone.
+    /// The same model with `intensity_features` (a flag per feature) marking the intensities.
     pub fn with_intensity_features(self, intensity_features: Vec<bool>) -> PairwiseSnSvm {
         PairwiseSnSvm { intensity_features, ..self }
     }
 
-    /// The class a voxel of `intensity` (finite) is whatever its other features: the one class
-    /// the gate allows; `None` when the vote decides.
+    /// The one class the gate allows at `intensity` (finite); `None` when the vote decides.
     pub fn class_by_intensity(&self, intensity: f32) -> Option<u8> {
         self.only_class(self.gate.allowed(intensity))
     }
@@ -138,8 +122,7 @@ impl PairwiseSnSvm {
         (allowed.count_ones() == 1).then(|| self.class_ids[allowed.trailing_zeros() as usize])
     }
 
-    /// Class ids of a block of raw feature vectors (row-major, `out.len()` rows), into `out`;
-    /// `features` is scratch. A voxel with a non-finite feature is not classified (0).
+    /// Class ids of the raw rows of `features` (scratch) into `out`; 0 for a non-finite value.
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
         let dim = features.len() / out.len().max(1);
         // The gate first: most voxels' intensity allows one class only.
@@ -169,10 +152,8 @@ impl PairwiseSnSvm {
         Ok(())
     }
 
-    /// Moves the intensity features of each row of `features` whose intensity lies beyond
-    /// every band to the nearer end of the drawn range: far from every training voxel a
-    /// kernel's value is little more than its pair's bias, and at the range's end the vote
-    /// among the classes the gate leaves (those drawn nearest that end) sees their voxels.
+    /// Moves the intensity features of each row beyond every band to the drawn range's nearer
+    /// end, where the kernels see training voxels (`docs/decisions/0005-intensity-gate.md`).
     fn move_into_drawn_range(&self, features: &mut [f32], dim: usize) {
         let Some(range) = self.gate.drawn_range() else { return };
         for row in features.chunks_exact_mut(dim.max(1)) {
@@ -187,8 +168,7 @@ impl PairwiseSnSvm {
         }
     }
 
-    /// The vote of the pairs whose classes `allowed_sets` allows, one set per row of `features`
-    /// (raw, finite; scratch).
+    /// The vote of the pairs `allowed_sets` allows, per row of raw finite `features` (scratch).
     fn vote_block(
         &self,
         features: &mut [f32],
@@ -217,11 +197,9 @@ impl PairwiseSnSvm {
         Ok(())
     }
 
-    /// Each pair's decision value for each row of raw `features`, row by row into `values` (one
-    /// value per pair, in pair order), where the row's allowed set (`allowed_sets`, one per row)
-    /// holds both of the pair's classes; 0 where it does not. A pair is evaluated on those rows
-    /// only: the others do not vote, and the kernel sums are the whole cost (a finger's loop in
-    /// the air of a scan with four classes leaves most voxels to one pair of the six).
+    /// Each pair's decision value per row of raw `features` into `values` (row-major, pair
+    /// order); a pair is evaluated only on rows whose set in `allowed_sets` holds both its
+    /// classes, 0 elsewhere (`docs/decisions/0005-intensity-gate.md`).
     pub fn pair_values_block(
         &self,
         features: &[f32],
@@ -269,8 +247,7 @@ impl PairwiseSnSvm {
         self.pairs.iter().map(|pair| (position(pair.classes.0), position(pair.classes.1))).collect()
     }
 
-    /// The classes the gate allows for each row of raw `features` (`dim` values a row); none
-    /// for a row with a non-finite value (not classified).
+    /// The classes the gate allows per row of raw `features` (`dim` a row); none if not finite.
     pub fn allowed_sets(&self, features: &[f32], dim: usize) -> Vec<ClassSet> {
         features
             .chunks_exact(dim.max(1))

@@ -1,27 +1,10 @@
-//! Spatial coherence with a stated objective: after the majority filter
-//! ([`super::coherence`]), the labels of a piecewise-smooth image (a Potts model), found by
-//! iterated conditional modes.
-//!
-//! Each voxel at a border between classes (a face neighbour of another class) takes the label,
-//! among its own and its face neighbours', that minimises
-//!
-//! ```text
-//! E(k) = (I - m_k)^2 / (2 sigma^2)  +  BETA * (face neighbours not k)  +  GAMMA * [k != the label it came with]
-//! ```
-//!
-//! `I` is the voxel's intensity, `m_k` the mean intensity of class `k`'s voxels around it (a
-//! 5 x 5 x 5 window; 5 x 5 within the slice on a scan cut in thick slices), `sigma` the scan's
-//! noise ([`noise_deviation`]). The first term is the image: a blurred border between two
-//! tissues lies where the intensity crosses halfway between them, so a partial-volume voxel
-//! joins the side whose nearby intensities it is nearer to, whatever the classifier's other
-//! features said (a bone's blurred edge beside a joint space; a nucleus's rim in a cell), and
-//! the local means follow a bias field. The second is the border's length: a noisy speck
-//! joins its surroundings unless its intensity stands far from theirs (a calcification, a
-//! vessel one voxel wide). The third keeps the label the classifier and the majority filter
-//! gave where image and neighbours do not speak against it. Each sweep moves every border
-//! voxel to its best label given the labels of the sweep before; the sweeps stop when one
-//! changes nothing, after [`SWEEPS`] at most. What chose the weights and what was measured
-//! without the majority filter: `docs/decisions/0018-potts-coherence.md`.
+//! Border voxels settle by a Potts model of the image after the majority filter
+//! ([`super::coherence`]): each voxel with a face neighbour of another class takes the label,
+//! among its own and its faces', of least
+//! `E(k) = (I - m_k)^2 / (2 sigma^2) + BETA * (faces not k) + GAMMA * [k is not its label]`
+//! (`m_k`: class `k`'s mean in the window around it; `sigma`: [`noise_deviation`]). The image
+//! term puts a blurred border where the intensity crosses halfway, so partial-volume voxels do
+//! not go to the wrong side, as beside a knee's bone (`docs/decisions/0018-potts-coherence.md`).
 //!
 //! Never: changes or counts background voxels (label 0), or reads a voxel outside the window.
 
@@ -30,24 +13,23 @@ use super::coherence::{Neighbourhood, face_labels};
 use crate::volume::Volume;
 use rayon::prelude::*;
 
-/// Weight of each face neighbour of another label, in units of the image term (a voxel one
-/// noise deviation from a class's local mean costs 1/2).
+/// Weight of each face neighbour of another label (one noise deviation from a local mean costs
+/// 1/2); without it noisy specks stay (`docs/decisions/0018-potts-coherence.md`).
 pub const BETA: f64 = 1.0;
 
-/// Weight of leaving the label the voxel came with.
+/// Weight of leaving the label the voxel came with: it keeps the classifier's label where image
+/// and neighbours do not speak against it (`docs/decisions/0018-potts-coherence.md`).
 pub const GAMMA: f64 = 1.0;
 
-/// Sweeps at most.
+/// Sweeps at most; two leave a cell phantom further below the forest
+/// (`docs/decisions/0018-potts-coherence.md`).
 pub const SWEEPS: usize = 4;
 
-/// Radius of the window the local class means are taken in, in voxels.
+/// Radius in voxels of the window the local class means are taken in.
 pub const WINDOW_RADIUS: usize = 2;
 
-/// The scan's noise deviation: the robust spread (1.4826 x the median absolute value) of the
-/// differences between x neighbours of one class, over sqrt 2, sampled on at most about
-/// 200,000 pairs; at least a millionth of a unit. A pair with a voxel at the volume's lowest
-/// or highest value is left out: a value clipped by the scan's window (the lungs and the air
-/// of a windowed CT, stored as 0) carries no noise, and would make every border a cliff.
+/// The scan's noise: 1.4826 x the median |difference| of x neighbours of one class over sqrt 2,
+/// without clipped values (a windowed CT's lungs), whose zero noise makes every border a cliff.
 pub fn noise_deviation(volume: &Volume, labels: &[u8]) -> f64 {
     let size_x = volume.dims[0].max(1);
     let range = volume.value_range();
@@ -167,8 +149,7 @@ impl Sweep<'_> {
         changes
     }
 
-    /// The label of least energy for `voxel` at `position`, among its own and its `faces'`;
-    /// `values` holds the window's planes from `first_plane` on.
+    /// The label of least energy for `voxel` among its own and its `faces'`.
     fn best_label(
         &self,
         voxel: usize,
@@ -180,8 +161,7 @@ impl Sweep<'_> {
         let [size_x, size_y, size_z] = self.volume.dims;
         let plane = size_x * size_y;
         let own = self.labels[voxel];
-        // Candidates: (label, sum of intensities, count) in the window; `slot` maps a label
-        // to its candidate's position plus one (0: not a candidate).
+        // (label, sum, count) per candidate; `slot[label]`: its position plus one (0: none).
         let mut candidates = [(0u8, 0.0f64, 0u32); 7];
         let mut slot = [0u8; 256];
         candidates[0].0 = own;

@@ -1,20 +1,8 @@
-//! Whole-volume labelling, exact or coarse-to-fine (see the module doc of `segmentation`).
-//!
-//! A first parallel pass finds the foreground span of every row ([`ForegroundRows`], on the
-//! stored bytes of 8-bit scans): the passes after it skip air rows without reading them, and
-//! the feature readers decode only the rows near foreground.
-//!
-//! Work is split into z slabs run in parallel; each slab reads its planes once (the feature
-//! reader's plane buffers serve both the voxel selection and the features), selects the voxels
-//! to evaluate, computes only their features ([`FeatureSlabReader::compute_selected`]),
-//! standardises them and hands the block to [`crate::classify::Model::predict_block`].
-//!
-//! Coarse-to-fine runs in one of two orders. For the paper's features, a parallel pass labels
-//! the whole coarse grid, then a second refines every plane. The multi-scale features smooth a
-//! block of planes before they give any voxel's features, and two passes would smooth every
-//! block twice; so there each slab labels its own coarse planes and the first of the next slab
-//! (which that slab labels too: one coarse plane in about 15 twice), then refines its planes,
-//! all from one smoothed block. Both orders give the same labels.
+//! Whole-volume labelling, exact or coarse-to-fine (`docs/decisions/0014-coarse-to-fine.md`).
+//! Row foreground spans ([`ForegroundRows`]) let every pass skip air rows unread; parallel z
+//! slabs compute only the selected voxels' features ([`FeatureSlabReader::compute_selected`]).
+//! Coarse-to-fine labels the coarse grid, then the fine planes; with multi-scale features each
+//! slab labels its own coarse planes, so no block is smoothed twice (the labels are the same).
 
 use super::coarse_grid::{CoarseGrid, Row, RowNeighbours};
 use super::{LabelVolume, Refinement, SegmentationError, Segmenter};
@@ -23,9 +11,9 @@ use crate::volume::{ForegroundRows, Volume};
 use rayon::prelude::*;
 use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
 
-/// A fine voxel copies its coarse neighbours' common label only when its intensity lies within
-/// their range widened by this fraction of the training intensities' deviation; otherwise it
-/// is evaluated (it may belong to a structure thinner than the coarse grid).
+/// Widening of the coarse neighbours' intensity range, in training deviations, within which a
+/// fine voxel copies their label; a voxel outside is evaluated, so a structure thinner than the
+/// coarse grid is not lost (`docs/decisions/0014-coarse-to-fine.md`).
 const INTENSITY_TOLERANCE: f64 = 0.05;
 
 /// Which order coarse-to-fine labelling runs in (see the module doc).
@@ -66,8 +54,7 @@ impl Job<'_> {
         if self.cancel.load(Ordering::Relaxed) { Err(SegmentationError::Cancelled) } else { Ok(()) }
     }
 
-    /// Labels coarse planes `first..` (one per `coarse_size` chunk of `labels` and `values`)
-    /// with `worker`, and counts those before `ticked_until` as progress.
+    /// Labels coarse planes `first..` with `worker`; those before `ticked_until` count as progress.
     #[allow(clippy::too_many_arguments)]
     fn classify_coarse_planes(
         &self,
@@ -92,8 +79,7 @@ impl Job<'_> {
         Ok(())
     }
 
-    /// Labels the fine planes of a slab (`slab_labels`, from plane `first` on) with `worker`;
-    /// returns the voxels above the threshold.
+    /// Labels a slab's fine planes from plane `first` on; returns the voxels above the threshold.
     fn label_fine_planes(
         &self,
         worker: &mut Worker,
@@ -139,9 +125,7 @@ pub(super) fn label_volume(
         }
         Refinement::CoarseToFine | Refinement::Exact => Order::Exact,
     };
-    // z planes per parallel task: enough to amortise the feature reader's buffers (a rolling
-    // plane buffer, or the multi-scale blocks' halo), few enough to balance the cores. Even,
-    // so that slabs hold whole pairs of planes.
+    // Planes per task: enough to amortise the reader's buffers, few to balance the cores; even.
     let slab_depth = segmenter.feature_set.preferred_slab_depth(volume.dims).next_multiple_of(2);
     label_volume_in(volume, segmenter, order, slab_depth, progress, cancel, preview)
 }
@@ -200,8 +184,7 @@ fn label_volume_in(
         job.evaluated.load(Ordering::Relaxed),
         started.elapsed()
     );
-    // Dark voxels inside the body are classified; the air joined to the faces is not: it is
-    // background, or the class drawn in the air.
+    // Dark voxels inside the body stay classified; the air joined to the faces takes its label.
     let mut classified = classified.saturating_add_signed(paint_region(&mut labels, segmenter));
     if segmenter.coherence != super::Coherence::None {
         let started = std::time::Instant::now();
@@ -238,8 +221,7 @@ fn label_volume_in(
     })
 }
 
-/// The coarse grid's labels copied to every voxel (each takes the label of the coarse voxel at
-/// half its coordinates), the air joined to the faces left out.
+/// The first look: each voxel takes the label of the coarse voxel at half its coordinates.
 fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) -> LabelVolume {
     let plane = dims[0] * dims[1];
     let [coarse_x, coarse_y, _] = grid.dims;
@@ -256,8 +238,8 @@ fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) ->
     LabelVolume { dims, labels, classified_voxels: classified, evaluated_voxels: 0 }
 }
 
-/// Gives the voxels of the air joined to the faces (`background_region`) their label: 0, or the
-/// class drawn in the air. Returns the change in classified voxels.
+/// Gives the air joined to the faces its label (0, or the class drawn in the air); returns the
+/// change in classified voxels.
 fn paint_region(labels: &mut [u8], segmenter: &Segmenter) -> isize {
     let Some(region) = &segmenter.summary.background_region else { return 0 };
     let region_label = segmenter.summary.region_label;
@@ -269,8 +251,7 @@ fn paint_region(labels: &mut [u8], segmenter: &Segmenter) -> isize {
     change
 }
 
-/// Labels every fine plane, slab by slab in parallel, from the whole volume's coarse grid
-/// (`None`: exactly). Returns the voxels above the threshold.
+/// Labels every fine plane from `coarse` (`None`: exactly); returns the foreground count.
 fn label_slabs(job: &Job, coarse: Option<&CoarseGrid>, labels: &mut [u8]) -> Result<usize, SegmentationError> {
     let plane = job.volume.dims[0] * job.volume.dims[1];
     let classified = labels
@@ -313,8 +294,8 @@ fn classify_coarse_grid(job: &Job, grid: &mut CoarseGrid) -> Result<(), Segmenta
         .collect::<Result<(), SegmentationError>>()
 }
 
-/// Coarse-to-fine, slab by slab in parallel: each slab labels the coarse planes it needs (its
-/// own and the next slab's first), then its fine planes (see the module doc).
+/// Coarse-to-fine in one sweep: each slab labels its coarse planes and the next slab's first,
+/// then its fine planes.
 fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, SegmentationError> {
     let dims = job.volume.dims;
     let plane = dims[0] * dims[1];
@@ -327,8 +308,7 @@ fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, Segme
             |(worker, row_neighbours, grid, coarse_indices), (slab, slab_labels)| -> Result<usize, SegmentationError> {
                 let first = slab * job.slab_depth;
                 let end = first + slab_labels.len() / plane;
-                // Coarse planes next to the slab's fine planes: first / 2 up to end / 2 (the
-                // next slab's first plane), clamped at the volume's last.
+                // Coarse planes first / 2 to end / 2 (the next slab's first), within the volume.
                 let held = first / 2..(end / 2 + 1).min(coarse_planes);
                 let own = end.div_ceil(2);
                 grid.hold(dims, held.clone());
@@ -343,24 +323,20 @@ fn label_slabs_in_one_sweep(job: &Job, labels: &mut [u8]) -> Result<usize, Segme
     Ok(classified.into_iter().sum())
 }
 
-/// Per-thread buffers: the feature reader (which also holds the plane values), the voxels
-/// selected in a plane, their features and predicted labels.
+/// Per-thread buffers: the feature reader, a plane's selected voxels, their features and labels.
 struct Worker<'a> {
     reader: FeatureSlabReader<'a>,
     segmenter: &'a Segmenter,
     rows: &'a ForegroundRows,
     size_x: usize,
     selected: Vec<usize>,
-    /// One row's selection before it joins `selected` (room for a whole row; a row fills a
-    /// prefix).
+    /// One row's selection before it joins `selected` (room for a whole row).
     row_selected: Vec<usize>,
     features: Vec<f32>,
     predicted: Vec<u8>,
-    /// Whether the intensity alone may decide a voxel ([`Segmenter::class_by_intensity`]):
-    /// every feature of a volume without non-finite values is finite.
+    /// Whether [`Segmenter::class_by_intensity`] may decide a voxel (no non-finite values).
     intensity_decides: bool,
-    /// Positions in `selected` of the voxels the intensity left undecided, their plane indices,
-    /// and their labels.
+    /// The voxels the intensity left undecided: positions in `selected`, plane indices, labels.
     undecided: Vec<usize>,
     undecided_indices: Vec<usize>,
     undecided_predicted: Vec<u8>,
@@ -385,10 +361,8 @@ impl<'a> Worker<'a> {
         }
     }
 
-    /// Classifies the voxels of fine plane `z` (even) that lie on the coarse grid and above the
-    /// threshold, into that coarse plane's `labels` (`coarse_size` x by y, zero on entry), and
-    /// records their `values` (the only ones [`RowNeighbours::summarise`] reads).
-    /// `coarse_indices` is scratch.
+    /// Classifies fine plane `z`'s (even) voxels on the coarse grid and above the threshold into
+    /// the coarse plane's `labels` (zeroed), recording `values` for [`RowNeighbours::summarise`].
     fn classify_coarse_plane(
         &mut self,
         z: usize,
@@ -426,10 +400,8 @@ impl<'a> Worker<'a> {
         Ok(())
     }
 
-    /// Labels fine plane `z` into `plane_labels` (zero on entry): with a coarse grid holding
-    /// the coarse planes next to `z`, evaluates only the voxels whose coarse neighbours are not
-    /// conclusive; without one, every voxel above the threshold. Returns the voxels above the
-    /// threshold and those evaluated.
+    /// Labels fine plane `z` into `plane_labels` (zeroed), evaluating only voxels whose coarse
+    /// neighbours are not conclusive (every one without `coarse`); returns (foreground, evaluated).
     fn label_plane(
         &mut self,
         z: usize,
@@ -445,7 +417,6 @@ impl<'a> Worker<'a> {
         let mut classified = 0;
         let rows = values.chunks_exact(size_x).zip(plane_labels.chunks_exact_mut(size_x));
         for (y, (row_values, row_labels)) in rows.enumerate() {
-            // Most rows of a scan are air.
             let Some(span) = self.rows.span(y, z) else {
                 continue;
             };

@@ -1,22 +1,9 @@
-//! Where the classifier is unsure: each classified voxel's margin, the voxels with the
-//! smallest margins, and the slice that holds most of them. The paper's user survey (§4.1)
-//! found that users miss regions the slices do not show; this answers where to draw next with
-//! the classifier's own doubt, so the next lasso goes where it changes the most labels.
-//!
-//! A voxel's margin is how far its vote was from going the other way, in the classifier's own
-//! units:
-//! * SN-SVM (and the plain SVM): |f| of the pair between the winning class and the runner-up
-//!   (for two classes, the one pair). The SN-SVM is a soft-margin SVM in its transformed
-//!   feature space (snsvm.md §4), so |f| = 1 is the edge of its margin band in every pair.
-//! * Forest: the winner's votes minus the runner-up's, as a share of the trees.
-//!
-//! [`survey`] evaluates the margins on a sparse grid over the classified voxels (at most
-//! [`SURVEY_VOXELS`]) and sets the threshold below which a voxel is unsure: the
-//! [`UNSURE_SHARE`] quantile of those margins, never above the classifier's own boundary
-//! ([`SVM_BOUNDARY`], [`FOREST_BOUNDARY`]), so a confident classification marks few voxels and
-//! a doubtful one marks at most about a tenth. It counts the unsure voxels per plane along each
-//! axis; [`Survey::most_unsure_slice`] picks the plane with the most. [`slice_unsure`] marks
-//! the unsure voxels of one slice exactly, for the slice pictures.
+//! Where the classifier is unsure: each classified voxel's margin, the unsure voxels, and the
+//! slice holding most of them, so the next lasso goes where it changes the most labels (users
+//! miss regions the slices do not show: the paper's user survey, §4.1). A margin is how far the
+//! vote was from going the other way: |f| of the winner's pair with the runner-up for an SVM
+//! (|f| = 1 ends its margin band, snsvm.md §4), the winner's lead as a share of the trees for a
+//! forest. [`survey`] finds the unsure voxels (`docs/method.md` §10).
 //!
 //! Never: changes labels, or decides what is shown.
 
@@ -27,20 +14,17 @@ use crate::features::features_of_voxels;
 use crate::slices::{Axis, SliceGeometry};
 use crate::volume::Volume;
 
-/// At most this many voxels are evaluated by [`survey`] (a sparse grid): about a tenth of a
-/// second of prediction on two cores for the default classifier.
+/// The most voxels [`survey`] evaluates: about 0.1 s of the default classifier on two cores.
 pub const SURVEY_VOXELS: usize = 300_000;
 
-/// The share of the surveyed classified voxels with the smallest margins that are unsure
-/// (fewer when the classifier is sure of more).
+/// The margin quantile that sets the unsure threshold: a doubtful classification marks at most
+/// about this share of its voxels.
 pub const UNSURE_SHARE: f64 = 0.1;
 
-/// An SVM's margin band ends at |f| = 1: beyond it a voxel is as sure as the training voxels
-/// that hold the boundary.
+/// The unsure threshold's ceiling for an SVM: its margin band ends at |f| = 1.
 pub const SVM_BOUNDARY: f32 = 1.0;
 
-/// A forest's vote is doubtful while its winner leads the runner-up by less than this share of
-/// the trees.
+/// The unsure threshold's ceiling for a forest: a lead below this share of the trees is doubtful.
 pub const FOREST_BOUNDARY: f32 = 0.5;
 
 /// Voxels per block handed to the classifier.
@@ -51,20 +35,19 @@ const BLOCK_VOXELS: usize = 4096;
 pub struct Survey {
     /// A voxel whose margin is below this is unsure.
     pub threshold: f32,
-    /// Every `stride`-th voxel along each axis was evaluated.
+    /// Every `stride`-th voxel along each axis is evaluated.
     pub stride: usize,
     /// Classified voxels evaluated.
     pub evaluated: usize,
     /// Of those, the unsure ones.
     pub unsure: usize,
-    /// Per axis (x, y, z) and plane index: the unsure voxels found in that plane (only planes
-    /// at multiples of `stride` hold any).
+    /// Unsure voxels per axis (x, y, z) and plane index (only the grid's planes hold any).
     pub unsure_per_plane: [Vec<u32>; 3],
 }
 
 impl Survey {
-    /// The plane along `axis` with the most unsure voxels and their count (the first of equal
-    /// ones); `None` when no voxel is unsure.
+    /// The plane along `axis` with the most unsure voxels (the first of equal ones) and their
+    /// count; `None` when no voxel is unsure.
     pub fn most_unsure_slice(&self, axis: Axis) -> Option<(usize, u32)> {
         let counts = &self.unsure_per_plane[axis.position()];
         let (slice, &count) =
@@ -78,8 +61,7 @@ impl Survey {
     }
 }
 
-/// Margins of a block of raw feature vectors (row-major, `margins.len()` rows) into `margins`;
-/// `features` is scratch. A non-finite feature gives a NaN margin.
+/// Margins of the raw rows of `features` (scratch) into `margins`; NaN for a non-finite value.
 pub fn margins_block(
     segmenter: &Segmenter,
     features: &mut [f32],
@@ -122,11 +104,9 @@ pub fn margins_block(
     Ok(())
 }
 
-/// One-vs-one margins: the winner is the class with the most votes (then the larger summed
-/// |f| of its votes), the runner-up the best of the others; the margin is |f| of their pair.
-/// With `allowed` (a class set per voxel, [`super::gate`]), only the allowed classes vote and
-/// run up; a voxel its intensity gives to one class is sure (infinite margin), one it allows
-/// none is not classified (NaN).
+/// One-vs-one margins: |f| of the pair of the vote's winner and runner-up. With `allowed` (a
+/// class set per voxel, [`super::gate`]) only allowed classes take part; a voxel allowed one
+/// class is sure (infinite), one allowed none is not classified (NaN).
 fn pair_margins(
     class_ids: &[u8],
     pairs: &[(u8, u8)],
@@ -186,8 +166,9 @@ pub fn voxel_margins(volume: &Volume, segmenter: &Segmenter, voxels: &[usize]) -
     Ok(blocks.concat())
 }
 
-/// Surveys the classified voxels of `labels` (0 background, x fastest) on a sparse grid: their
-/// margins, the unsure threshold, and the unsure voxels per plane along each axis.
+/// Surveys the classified voxels of `labels` (0 background, x fastest) on a sparse grid of at
+/// most [`SURVEY_VOXELS`]: unsure below the [`UNSURE_SHARE`] quantile of their margins, capped
+/// at [`SVM_BOUNDARY`] or [`FOREST_BOUNDARY`]; counts the unsure voxels per plane.
 pub fn survey(volume: &Volume, segmenter: &Segmenter, labels: &[u8]) -> Result<Survey, SegmentationError> {
     let dims = volume.dims;
     let classified = labels.iter().filter(|&&label| label != 0).count();
@@ -231,9 +212,8 @@ pub fn survey(volume: &Volume, segmenter: &Segmenter, labels: &[u8]) -> Result<S
     Ok(Survey { threshold, stride, evaluated: voxels.len(), unsure, unsure_per_plane })
 }
 
-/// Which voxels of slice `slice` along `axis` are unsure (margin below `threshold`), one flag
-/// per pixel of the slice image (row-major, [`SliceGeometry`]'s width x height); background
-/// voxels (label 0) never are. `None` when the slice is outside the volume.
+/// Unsure flags (margin below `threshold`, never background) per pixel of slice `slice` along
+/// `axis`, row-major as [`SliceGeometry`]; `None` when the slice is outside the volume.
 pub fn slice_unsure(
     volume: &Volume,
     segmenter: &Segmenter,

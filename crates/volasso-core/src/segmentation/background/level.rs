@@ -1,9 +1,5 @@
-//! The second split below the volume's dark level: Otsu's threshold of the values under it, and
-//! how well that split separates two populations (Otsu's separability, the between-class
-//! share of the variance). The background rule uses it when the whole-volume split cuts through
-//! a lassoed tissue: on a scan that is nearly all air with one small, very bright structure,
-//! Otsu splits the bright structure off instead of the air, and the tissues fall on the air's
-//! side.
+//! Otsu's split of the values below the volume's dark level, and its separability, for where the
+//! whole-volume split cuts through a lassoed tissue (`docs/decisions/0008-background.md`).
 //!
 //! Never: decides which level the background uses (that is `super`'s rule), or reads files.
 
@@ -17,15 +13,13 @@ const BINS: usize = 256;
 pub struct Split {
     /// The level: values below it are the darker population.
     pub level: f64,
-    /// Otsu's separability: the between-class variance over the total variance (0..=1). One
-    /// normal population split at its mean gives 2/pi (0.64), a uniform one 0.75; two
-    /// populations apart by several of their spreads approach 1.
+    /// Otsu's separability (0..=1): 2/pi for one normal population, near 1 for two far apart
+    /// populations.
     pub separability: f64,
 }
 
-/// Otsu's split of the finite values below `ceiling` (every second to fourth z plane, at least
-/// 16 planes, as the volume's own threshold samples them); `None` when fewer than two distinct
-/// values lie below it.
+/// Otsu's split of the finite values below `ceiling` on sampled z planes; `None` without two
+/// distinct ones.
 pub fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
     let low = volume.value_range().min;
     // Also refuses a NaN ceiling.
@@ -50,9 +44,8 @@ pub fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
     Some(Split { level: low + (bin + 1.0) * width, separability })
 }
 
-/// Otsu's split of a histogram: the bin after which it splits (the middle of a plateau of
-/// equal between-class variance) and the separability; `None` with fewer than two non-empty
-/// bins.
+/// Otsu's split of a histogram: the bin after which it splits (a best plateau's middle) and the
+/// separability; `None` with fewer than two non-empty bins.
 fn otsu_bins(histogram: &[u64]) -> Option<(f64, f64)> {
     let total: f64 = histogram.iter().map(|&c| c as f64).sum();
     let sum: f64 = histogram.iter().enumerate().map(|(i, &c)| i as f64 * c as f64).sum();

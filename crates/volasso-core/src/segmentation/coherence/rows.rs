@@ -1,13 +1,9 @@
-//! The majority filter's scans of whole rows: which rows hold a classified voxel, which voxels
-//! disagree with a face neighbour, which of those their own label's votes already keep. Byte
-//! loops without branches, which vectorise; the filter (`super`) visits voxel by voxel only
-//! what these leave.
+//! The majority filter's whole-row scans, in branch-free byte loops that vectorise: a row's
+//! classified span, its voxels that disagree with a face neighbour, and those their votes keep.
 //!
 //! Never: decides a voxel's label; it only narrows the voxels the filter looks at.
 
 /// The first and the last position of a non-zero label in `row`; `None` when it has none.
-/// Rows are mostly background: an OR over the row (which vectorises) finds the empty ones,
-/// and the span's ends are searched eight labels at a time.
 pub(super) fn classified_span(row: &[u8]) -> Option<(usize, usize)> {
     if row.iter().fold(0u8, |any, &label| any | label) == 0 {
         return None;
@@ -30,10 +26,8 @@ pub(super) fn classified_span(row: &[u8]) -> Option<(usize, usize)> {
     Some((first, last))
 }
 
-/// Into `flags` (one per voxel of `row`): 1 where the voxel is classified and a face
-/// neighbour (beside it in the row, or in one of the `neighbours` rows) holds another class
-/// (background neither agrees nor disagrees), 0 elsewhere. Whole-row loops of byte operations
-/// without branches, which vectorise; the caller visits only the flagged voxels.
+/// Sets `flags` to 1 where a voxel of `row` is classified and a face neighbour (in the row or
+/// the `neighbours` rows) holds another class, 0 elsewhere; background never disagrees.
 pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], flags: &mut [u8]) {
     let disagrees = |own: u8, other: u8| u8::from(own != 0) & u8::from(other != 0) & u8::from(other != own);
     flags.fill(0);
@@ -51,18 +45,13 @@ pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], fla
     }
 }
 
-/// A row's flagged voxels are first cleared of unbeatable ones ([`unflag_unbeatable`]) when
-/// at least one in this many of its span is flagged: the row-wise count costs about as much
-/// as counting a few voxels label by label; of 1 in 4, 8, 16 and 32, 1 in 8 is the fastest on
-/// the Visible Male head and the lobster (`docs/decisions/0009-majority-filter.md`).
+/// A row's flags are cleared of unbeatable voxels ([`unflag_unbeatable`]) when at least 1 in
+/// this many of its span is flagged; on sparser rows the row-wise count costs more than it
+/// saves (`docs/decisions/0009-majority-filter.md`).
 pub(super) const ROW_COUNT_SHARE: usize = 8;
 
-/// Clears the flag of every voxel of `row` (flags and `votes` from position `first` on) whose
-/// own label holds `unbeatable` votes of its neighbourhood in `rows_around` (the nine rows
-/// at y - 1, y, y + 1 in the planes below, here and above; `None` past the volume or outside
-/// the neighbourhood): the majority cannot change it, so it need not be counted label by
-/// label. Counted row-wise, in byte loops that vectorise; most flagged voxels lie on smooth
-/// borders and are cleared here.
+/// Clears the flag of each voxel of `row` (from `first` on) whose own label holds `unbeatable`
+/// votes in `rows_around` (nine rows; `None` outside): the majority cannot change it.
 pub(super) fn unflag_unbeatable(
     row: &[u8],
     first: usize,
@@ -92,9 +81,8 @@ pub(super) fn unflag_unbeatable(
     }
 }
 
-/// Whether `row` and each neighbouring row (the rows beside it in y and in z, where they
-/// exist, over the same columns) hold only `label` or background: then no voxel of `row`
-/// disagrees with a face neighbour. Folds without early exit, which vectorise.
+/// Whether `row` and its `neighbours` rows hold only `label` or background: then no voxel of
+/// `row` disagrees with a face neighbour.
 pub(super) fn unopposed(row: &[u8], label: u8, neighbours: [Option<&[u8]>; 4]) -> bool {
     let agrees = |agrees: bool, &other: &u8| agrees & ((other == label) | (other == 0));
     row.iter().fold(true, agrees)

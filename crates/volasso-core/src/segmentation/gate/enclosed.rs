@@ -1,27 +1,13 @@
-//! The voxels a cleanly drawn loop encloses that are another class's: a loop around a cell
-//! takes in its nucleus, a loop around an organ the vessels inside it (paper §3.2's lassos are
-//! drawn around a structure, not along its inner boundaries).
-//!
-//! Such voxels are more than the band's trim ([`super::BAND_TRIM`]): they widen the class's band
-//! over the other class's intensities, where the gate then gives the other class's voxels to
-//! this class alone, and the classifier trains on them as this class. A voxel of the loop's
-//! core ([`super::CORE_DEPTH`] inside its edge) is set aside as enclosed when its intensity is
-//! at least as near another class's median intensity as its own class's, and its 3 x 3 x 3
-//! mean lies within that class's core band and past [`ENCLOSED_REACH`] of the way from its own
-//! class's median mean to that class's: the mean speaks for a structure several voxels across
-//! rather than for noise, the intensity keeps in its class a voxel whose neighbours only mix
-//! (a grey-matter voxel beside white matter). A cell's clean loop takes in a fifth of a
-//! nucleus; set aside, those voxels no longer teach the cell
+//! The voxels a clean loop encloses of another class (a cell's loop its nucleus, an organ's
+//! its vessels): they would widen the class's band over the other class's intensities and
+//! teach the class the other's voxels. A core voxel is set aside when its intensity is at least
+//! as near another class's median as its own class's and its 3 x 3 x 3 mean lies in that
+//! class's core band, past [`ENCLOSED_REACH`] of the way there (a grey-matter voxel beside
+//! white matter stays). Set-aside voxels still keep the class where they were lassoed
 //! (`docs/decisions/0007-enclosed-voxels.md`).
 //!
-//! The voxels set aside still keep the class where they were lassoed (the user said what they
-//! are; [`super::DrawnLassos::decided_voxels`]): a loop around a skull that takes in the brain
-//! keeps its voxels, as the cranium's replay checks.
-//!
-//! Never: looks at a class whose rim leaked (its core alone stands for it then), one without a
-//! core, or one whose median mean lies in the middle half of another class's core band (its
-//! loop lies mostly over that class, as a finger's loop around a granule lies over the medium,
-//! and which of its voxels are its own is not known).
+//! Never: looks at a class whose rim leaked, one without a core, or one whose median mean lies
+//! in the middle half of another class's core band (a loop mostly over that class).
 
 use super::{BAND_TRIM, Band, DrawnClass, band_of, finite_values};
 use crate::segmentation::background::median_in_place;
@@ -29,10 +15,8 @@ use crate::strokes::TrainingSet;
 use crate::volume::Volume;
 
 /// How far from its own class's median mean towards another class's a core voxel's 3 x 3 x 3
-/// mean must lie to be set aside as enclosed (with its intensity nearer the other class).
-/// Two thirds (a mean twice as near the other class's median as its own) sets aside too few of
-/// a cell's nucleus; the intensity's test, not a farther reach, keeps grey matter beside white
-/// matter in its class (`docs/decisions/0007-enclosed-voxels.md`).
+/// mean must lie to be set aside; two thirds sets aside too little of a cell's nucleus
+/// (`docs/decisions/0007-enclosed-voxels.md`).
 pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 
 /// Sets aside, for each class that qualifies (module doc), the voxels its loops enclose of

@@ -1,53 +1,18 @@
-//! Which classes a voxel's intensity allows: each class's band of intensities, taken from the
-//! voxels its lassos drew (paper §3.2's lassos, §3.3's first feature), and the classes whose
-//! band holds the voxel's intensity.
+//! The loops' cleaning and the intensity gate (paper §3.2's lassos, §3.3's first feature):
+//! each class's band of drawn intensities, the voxels it trains on, and which classes a
+//! voxel's intensity allows.
 //!
-//! The one-vs-one vote (§3.4) lets every pair of classes vote on every voxel, also pairs of
-//! which neither class is anything like the voxel; their decision values far from the training
-//! data are little more than each pair's bias, and they can outvote the pair that matters. On
-//! the foot phantom, air next to the skin (about -900 HU, a steep gradient) loses to the thin
-//! joint space (a class of steep gradients) in three pairs and comes out soft tissue; on the
-//! shells phantom the small seed takes half the rind. An intensity the user drew for one class
-//! only is that class; a voxel that several bands hold is left to the vote among those classes;
-//! one between bands to the vote between the band below and the band above; one beyond every
-//! band to the vote among the classes whose bands end near the outermost band's end
-//! ([`BEYOND_REACH`]), taken as if it lay at that end (its intensities moved there, its
-//! gradient kept), since far from every drawn voxel the vote is little more than each pair's
-//! bias. What chose the bands, their ends and their reaches:
-//! `docs/decisions/0005-intensity-gate.md`.
+//! The one-vs-one vote (§3.4) lets pairs of classes unlike a voxel outvote the pair that
+//! matters (far from the training data a pair's value is little more than its bias). So an
+//! intensity one band holds is that class; several bands leave it to their pairs; between bands
+//! the band below and the band above vote; beyond every band the classes whose bands end near
+//! the outermost end ([`BEYOND_REACH`]), as if it lay at that end
+//! (`docs/decisions/0005-intensity-gate.md`).
 //!
-//! A band is the class's drawn intensities from the [`BAND_TRIM`] to the 1 - [`BAND_TRIM`]
-//! quantile (a few stray voxels at a lasso's edge do not widen it), widened on each side by
-//! [`BAND_MARGIN`] of the class's robust spread. The voxels come from the strokes as drawn,
-//! before the background rule gives a class's face-air voxels to the air, so a class keeps the
-//! intensities the user drew it over (a lasso in lungs that the volume's faces cut).
-//!
-//! A finger's loop reaches a voxel or two past the structure it circles, and that rim can be
-//! more than the trim: a loop around a thin bone draws as much muscle and fat as bone, and the
-//! bone's band then holds the fat, which the gate gives to the bone. So a class whose lasso
-//! rim (the voxels within [`CORE_DEPTH`] of its edge) leaked, more than [`LEAKED_RIM_SHARE`] of
-//! it outside its own core's band and inside another class's, takes its band from the core
-//! alone. A rim that differs from the core but is nobody else's (a bone's bright cortex around
-//! its marrow, drawn cleanly) stays in the band, and a lasso too small to have a core of
-//! [`MIN_CORE_VOXELS`] keeps every voxel (`docs/decisions/0006-leaked-rim.md`). A rim voxel counts
-//! as another class's only when its value is also nearer that class's core median than its
-//! own core's: a thin layer's clean loop has a rim the scan blurred toward its neighbours, and
-//! a class drawn over a wide range (a thin bone with its partial-volume edge) has a band that
-//! holds it, but a finger's leak has the neighbour's own values. Without that test a head
-//! MRI's CSF, drawn cleanly in a ventricle, loses its band's lower half to a thin skull whose
-//! loop is mostly partial volume. Where the class's own core median lies between
-//! the other class's core quartiles, its core is over that class (a joint's loop whose middle
-//! holds the bone's marrow) and cannot speak for it: there the band test alone decides.
-//!
-//! The same test tells which classes train on their core alone
-//! ([`DrawnLassos::training_voxels`]): a leaked rim's voxels are as much the neighbours' as
-//! the class's, so where the core holds at least [`CORE_TRAINING_SHARE`] of the drawn voxels
-//! the class is trained on the core (and only the core's voxels keep the class whatever the
-//! classifier says).
-//!
-//! A clean loop can enclose another class's structure (a cell's loop its nucleus): those
-//! voxels of its core are set aside (`enclosed`); the class neither trains on them nor takes
-//! its band from them.
+//! A finger's loop holds a rim of its neighbours: a class whose rim ([`CORE_DEPTH`]) holds
+//! another class's intensities ([`LEAKED_RIM_SHARE`]) takes its band, and trains, on its core
+//! (`docs/decisions/0006-leaked-rim.md`); a clean loop's enclosed voxels of another class are
+//! set aside (`enclosed`).
 //!
 //! Never: trains, or looks at a voxel's other features; with more than [`MAX_CLASSES`] classes
 //! every class is allowed everywhere.
@@ -63,41 +28,29 @@ use regions::Regions;
 /// Share of a class's drawn voxels left out at each end of its band.
 pub const BAND_TRIM: f64 = 0.02;
 
-/// How far a band reaches past its trimmed ends, in robust deviations of the class (the 5 to
-/// 95 % quantile distance over 3.29, which is one deviation for a normal class). Chosen on the
-/// tuning cases among 0, 1/4, 1 and 2: the narrower the band, the better with clean lassos;
-/// 1/4 has the best worst case with leaky ones (`docs/decisions/0005-intensity-gate.md`).
+/// How far a band reaches past its trimmed ends, in robust deviations of the class: narrower
+/// loses leaky lassos' worst case (`docs/decisions/0005-intensity-gate.md`).
 pub const BAND_MARGIN: f64 = 0.25;
 
 /// How deep a lasso's rim is, in voxels: a finger's loop reaches about two voxels past the
-/// structure it circles on a 256-voxel slice (as the accuracy harness's leaky hand draws).
+/// structure it circles.
 pub const CORE_DEPTH: usize = 2;
 
-/// Fewest voxels a lasso's core needs for its band to stand for the class (else the class keeps
-/// its whole band). Below 32 a small class's cleanly drawn lasso (the shells' seed) loses its
-/// rim (`docs/decisions/0006-leaked-rim.md`).
+/// Fewest voxels a lasso's core needs to stand for the class; with fewer a small class's clean
+/// loop loses its rim (`docs/decisions/0006-leaked-rim.md`).
 pub const MIN_CORE_VOXELS: usize = 32;
 
 /// Beyond every band, the classes whose band ends within this share of the outermost band's
-/// width of that band's outer end are left to the vote. There intensity no longer tells apart
-/// classes whose bands end near each other: a thin class's few partial-volume voxels can carry
-/// its band past a larger class's (the foot's joint space past a bone drawn over its marrow,
-/// which then loses its cortex to the joint). At 1 (any band overlapping the outermost) a
-/// leaky soft-tissue band votes on a bone's cortex; 0.25 to 0.75 score alike on the tuning
-/// cases (`docs/decisions/0005-intensity-gate.md`).
+/// width of its end vote: a joint's partial-volume band past a bone's would take the cortex
+/// alone (`docs/decisions/0005-intensity-gate.md`).
 pub const BEYOND_REACH: f32 = 0.5;
 
-/// Least share of a class's drawn voxels its lassos' core must hold for the class to train on
-/// the core alone when its rim leaked ([`DrawnLassos::training_voxels`]): a loop one
-/// finger-width past a structure several widths across. A thinner structure's core (a vessel,
-/// a joint gap) stands for too little of it: a thin vessel whose clean rim is taken for a leak
-/// would be trained on a core that misses its edge (`docs/decisions/0006-leaked-rim.md`).
+/// Least share of a class's drawn voxels its core must hold for a leaked class to train on the
+/// core alone: a thin vessel's core misses its edge (`docs/decisions/0006-leaked-rim.md`).
 pub const CORE_TRAINING_SHARE: f64 = 0.34;
 
-/// Share of a lasso's rim that, outside its own core's band and inside another class's core
-/// band, makes the rim leaked. Chosen on the tuning cases among 0.1, 0.15, 0.2 and 0.3: the
-/// best mean and worst case with leaky lassos, the clean ones unchanged
-/// (`docs/decisions/0006-leaked-rim.md`).
+/// Share of a lasso's rim outside its core's band and inside another class's core band that
+/// makes the rim leaked (`docs/decisions/0006-leaked-rim.md`).
 pub const LEAKED_RIM_SHARE: f64 = 0.15;
 
 /// Classes a gate can tell apart (one bit each in a [`ClassSet`], in the model's class order).
@@ -302,11 +255,9 @@ impl DrawnLassos {
         })
     }
 
-    /// Per class, the lassoed voxels (sorted) that keep the class whatever the classifier
-    /// says: the core of a class that trains on its core
-    /// ([`training_voxels`](Self::training_voxels)); `None` for a class whose lassoed voxels all
-    /// keep it (also the voxels its loops enclose of another class: the user drew them as this
-    /// class).
+    /// Per class, the lassoed voxels (sorted) that keep the class whatever the classifier says:
+    /// the core of a class that trains on its core; `None` where all of them do (the enclosed
+    /// voxels too: the user drew them as this class).
     pub fn decided_voxels(&self) -> Vec<Option<&[usize]>> {
         self.per_class(|class, leaked| (leaked && class.core_stands_for_it()).then_some(class.core_voxels.as_slice()))
     }
@@ -324,10 +275,9 @@ impl DrawnLassos {
     }
 }
 
-/// One class's drawn intensities: the band of all its voxels, the band and quartiles of its
-/// lassos' core (the whole's when the core is too small), the rim's intensities (empty then),
-/// the core's voxels (empty then too), the number of voxels drawn, and its voxels less those
-/// its loops enclose of another class with their band (`None` when it encloses none).
+/// One class's drawn intensities: its whole band, its core's band and quartiles (the whole's
+/// when the core is too small; rim and core voxels empty then), and its voxels less those its
+/// loops enclose of another class, with their band.
 struct DrawnClass {
     whole: Band,
     core: Band,
