@@ -46,8 +46,8 @@ pub(super) fn disagreeing_voxels(row: &[u8], neighbours: [Option<&[u8]>; 4], fla
 }
 
 /// A row's flags are cleared of unbeatable voxels ([`unflag_unbeatable`]) when at least 1 in
-/// this many of its span is flagged; on sparser rows the row-wise count costs more than it
-/// saves (`docs/decisions/0009-majority-filter.md`).
+/// this many of its span is flagged; 1 in 4, 16 and 32 were no faster
+/// (`docs/decisions/0009-majority-filter.md`).
 pub(super) const ROW_COUNT_SHARE: usize = 8;
 
 /// Clears the flag of each voxel of `row` (from `first` on) whose own label holds `unbeatable`
