@@ -6,7 +6,8 @@ the same code base that chooses the defaults. This script makes everything again
 code: its own phantoms (numpy/scipy: an abdominal CT, a T1 head MRI with a bias field and Rician
 noise, a CT vessel tree, a knee CT with a thin joint gap, a noisy cell culture MRI, a CT
 angiogram of vessels 1-3 voxels across with small calcifications, a chest CT in a mediastinal
-window whose lungs are as black as the air and leave through the top face; and a real brain,
+window whose lungs are as black as the air and leave through the top face, a liver CT whose
+dark lesions and thin bright vessels lie inside the liver's loop; and a real brain,
 the ICBM 152 T1 template that nilearn ships, with its tissue maps as truth), its own
 finger (loops on the three slices `volasso info` ranks first, drawn inside each structure or
 leaking 2 voxels over its border, into air too; `--hands` adds a finger that lands off-centre and
@@ -310,6 +311,34 @@ def chest_ct8(rng):
     return image, truth, ["air", "fat", "soft tissue", "lung", "bone"], (0.8, 0.8, 2.0)
 
 
+def liver_lesions_ct16(rng):
+    """A portal-venous CT of the liver: dark lesions (cysts, round, 6 to 14 voxels across in the plane)
+    and a tree of bright vessels 1 to 3 voxels across inside an enhancing liver, with fat,
+    muscle and the spine around it. A loop around the liver takes in lesions and vessels, drawn
+    or not; a lesion's loop lies inside the liver's."""
+    shape = (44, 112, 128)
+    z, y, x = grid(shape)
+    wobble = 0.05 * smooth_field(shape, 10, rng)
+    truth = np.zeros(shape, np.uint8)
+    truth[((x - 64) / 60) ** 2 + ((y - 56) / 46) ** 2 < 1 + wobble] = 1  # fat
+    muscle = ((x - 64) / 54) ** 2 + ((y - 56) / 40) ** 2 < 1 + wobble
+    truth[muscle] = 2
+    liver = muscle & ((((x - 46) / 30) ** 2 + ((y - 50) / 26) ** 2 + ((z - 22) / 30) ** 2)
+                      < 1 + 0.12 * smooth_field(shape, 6, rng))
+    truth[liver] = 3
+    vessels = vessel_tree(shape, (2, 48, 44), 1.6, rng, min_radius=0.5, max_steps=50)
+    truth[vessels & liver] = 5
+    for _ in range(int(rng.integers(4, 7))):
+        inside = np.argwhere(liver & (z > 6) & (z < shape[0] - 6))
+        c = inside[rng.integers(len(inside))]
+        r = rng.uniform(3.0, 7.0)
+        truth[liver & ((((z - c[0]) * 2.5) ** 2 + (y - c[1]) ** 2 + (x - c[2]) ** 2) < r ** 2)] = 4
+    truth[((x - 64) / 10) ** 2 + ((y - 88) / 8) ** 2 < 1] = 6  # spine
+    hu = np.array([-1000, -100, 50, 115, 10, 190, 650], np.float64)
+    image = finish(hu[truth], 16, 0.8, rng, np.int16)
+    return image, truth, ["air", "fat", "muscle", "liver", "lesion", "vessels", "bone"], (0.8, 0.8, 2.0)
+
+
 MNI_FILES = "mni_icbm152_{}_tal_nlin_sym_09a_converted.nii.gz"
 
 
@@ -369,12 +398,12 @@ def mni_t1(rng):
 PHANTOMS = {"abdomen-ct16": abdomen_ct16, "head-t1-16": head_t1_16, "vessels-ct8": vessels_ct8,
             "knee-ct16": knee_ct16, "cells-mri8": cells_mri8, "mni-t1": mni_t1,
             "thin-vessels-ct16": thin_vessels_ct16, "chest-ct8": chest_ct8,
-            "head-ventricle-t1": head_ventricles_t1_16}
+            "head-ventricle-t1": head_ventricles_t1_16, "liver-lesions-ct16": liver_lesions_ct16}
 # Cases where only some classes are drawn (truth ids, in drawing order); the rest draw every class.
 DRAWN = {"head-ventricle-t1": [6, 5, 1]}
 # Phantoms whose class 0 is air around a body: the user may leave it unlassoed.
 WITH_AIR = {"abdomen-ct16", "head-t1-16", "vessels-ct8", "knee-ct16", "mni-t1", "thin-vessels-ct16", "chest-ct8",
-            "head-ventricle-t1"}
+            "head-ventricle-t1", "liver-lesions-ct16"}
 
 
 def thick_slices(image, truth, spacing, count):
