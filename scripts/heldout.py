@@ -151,28 +151,7 @@ def vessels_ct8(rng):
     organ = ((x - 34) / 18) ** 2 + ((y - 40) / 16) ** 2 + ((z - 30) / 20) ** 2 < 1
     truth[organ & body] = 2
     # A branching tree of tubes, radius 1.2 to 3 voxels.
-    tubes = np.zeros(shape, bool)
-    walkers = [(np.array([32.0, 48.0, 60.0]), np.array([1.0, 0.0, 0.0]), 3.0)]
-    steps = 0
-    while walkers and steps < 400:
-        steps += 1
-        pos, direction, radius = walkers.pop(0)
-        for _ in range(int(rng.integers(12, 28))):
-            direction = direction + 0.25 * rng.standard_normal(3)
-            direction /= np.linalg.norm(direction)
-            pos = pos + direction
-            if not all(2 <= pos[i] < shape[i] - 2 for i in range(3)):
-                break
-            lo = np.maximum(np.floor(pos - radius - 1).astype(int), 0)
-            hi = np.minimum(np.ceil(pos + radius + 2).astype(int), shape)
-            sub = tuple(slice(lo[i], hi[i]) for i in range(3))
-            zz, yy, xx = np.meshgrid(*[np.arange(lo[i], hi[i]) for i in range(3)], indexing="ij")
-            tubes[sub] |= (zz - pos[0]) ** 2 + (yy - pos[1]) ** 2 + (xx - pos[2]) ** 2 <= radius ** 2
-        else:
-            if radius > 1.3:
-                for turn in (-1, 1):
-                    side = direction + 0.8 * turn * np.cross(direction, rng.standard_normal(3))
-                    walkers.append((pos.copy(), side / np.linalg.norm(side), max(1.2, radius * 0.75)))
+    tubes = vessel_tree(shape, (32.0, 48.0, 60.0), 3.0, rng, min_radius=1.2, shrink=0.75)
     truth[tubes & body] = 3
     bone = (((x - 66) / 7) ** 2 + ((y - 70) / 7) ** 2 < 1) & body
     truth[bone] = 4
@@ -222,9 +201,10 @@ def cells_mri8(rng):
     return image, truth, ["medium", "cell", "nucleus", "granules"], (0.5, 0.5, 1.0)
 
 
-def vessel_tree(shape, start, radius, rng, min_radius=0.5, max_steps=400):
+def vessel_tree(shape, start, radius, rng, min_radius=0.5, max_steps=400, shrink=0.72):
     """A branching tree of tubes from `start` (z, y, x) along +z, radius `radius` voxels down to
-    `min_radius`, each branch a random walk that forks in two, thinner, where it ends."""
+    `min_radius`, each branch a random walk that forks in two, `shrink` times thinner, where it
+    ends."""
     tubes = np.zeros(shape, bool)
     walkers = [(np.asarray(start, float), np.array([1.0, 0.0, 0.0]), radius)]
     steps = 0
@@ -246,7 +226,7 @@ def vessel_tree(shape, start, radius, rng, min_radius=0.5, max_steps=400):
             if radius > min_radius + 0.1:
                 for turn in (-1, 1):
                     side = direction + 0.8 * turn * np.cross(direction, rng.standard_normal(3))
-                    walkers.append((pos.copy(), side / np.linalg.norm(side), max(min_radius, radius * 0.72)))
+                    walkers.append((pos.copy(), side / np.linalg.norm(side), max(min_radius, radius * shrink)))
     return tubes
 
 
