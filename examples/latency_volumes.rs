@@ -8,8 +8,9 @@
 //! `volasso classify DIR/head-mri.nrrd --strokes DIR/head-mri.strokes.json --out L.nrrd --repeat 5`.
 //! `cargo run --release --example latency_volumes -- DIR --time 5` also classifies each five
 //! times through the kiosk's call (`pipeline::classify_strokes` with a first-look receiver, the
-//! body outline found beforehand as the kiosk finds it when the scan opens) and prints the
-//! median time to the coarse first look and to the exact labels.
+//! body outline found beforehand as the kiosk finds it when the scan opens; the MRI's shading
+//! divided out, as for an MR series) and prints the median time to the coarse first look and to
+//! the exact labels.
 
 use std::path::PathBuf;
 use std::sync::Mutex;
@@ -25,6 +26,7 @@ fn write(
     classes: &[u8],
     folder: &std::path::Path,
     name: &str,
+    mr: bool,
     repeats: usize,
 ) -> Result<(), Box<dyn std::error::Error>> {
     nrrd::write_volume(&folder.join(format!("{name}.nrrd")), &phantom.volume, name)?;
@@ -35,7 +37,8 @@ fn write(
     }
     let volume = &phantom.volume;
     let _ = volume.body();
-    let options = SegmentationOptions::default();
+    // An MR series has its shading divided out, as the kiosk does.
+    let options = SegmentationOptions { correct_shading: mr, ..SegmentationOptions::default() };
     let (mut first_looks, mut exact) = (Vec::new(), Vec::new());
     for _ in 0..repeats {
         let started = Instant::now();
@@ -75,8 +78,8 @@ fn main() -> Result<(), Box<dyn std::error::Error>> {
     std::fs::create_dir_all(&folder)?;
     // Skull, CSF and white matter of the head (its folded grey matter leaves no room for an
     // octagon inside it); soft tissue, lung and bone of the chest.
-    write(&phantom::procedural::brain_mri([181, 217, 181], 1)?, &[2, 3, 5], &folder, "head-mri", repeats)?;
-    write(&phantom::bodies::chest_ct_windowed([256, 256, 133], 1)?, &[2, 3, 4], &folder, "chest-ct", repeats)?;
+    write(&phantom::procedural::brain_mri([181, 217, 181], 1)?, &[2, 3, 5], &folder, "head-mri", true, repeats)?;
+    write(&phantom::bodies::chest_ct_windowed([256, 256, 133], 1)?, &[2, 3, 4], &folder, "chest-ct", false, repeats)?;
     println!("{}", folder.display());
     Ok(())
 }

@@ -610,7 +610,8 @@ def ventricle_purity(truth, labels, class_truth):
 
 
 def modality_args(name):
-    """`--modality` for a case: its kind from its name (ct, mri or t1)."""
+    """`--modality` for a case, as a DICOM series would say it: its kind from its name (ct, mri
+    or t1)."""
     if "-ct" in name:
         return ["--modality", "ct"]
     if "mri" in name or "t1" in name:
@@ -709,9 +710,10 @@ def main():
                     json.dump(strokes, f)
                 out = os.path.join(folder, f"{name}-{seed}-{hand}.labels.nrrd")
                 preset = os.path.join(folder, f"{name}-{seed}.volasso-preset")
-                keep_preset = ["--save-preset", preset] + modality_args(name) if hand == "clean" and args.presets else []
+                keep_preset = ["--save-preset", preset] if hand == "clean" and args.presets else []
                 subprocess.run([args.volasso, "classify", volume, "--strokes", stroke_path, "--out", out]
-                               + keep_preset + args.classify_args.split(), check=True, capture_output=True, text=True)
+                               + modality_args(name) + keep_preset + args.classify_args.split(),
+                               check=True, capture_output=True, text=True)
                 masks = lassoed_voxels(strokes, truth.shape)
                 our_labels = read_nrrd_labels(out, truth.shape)
                 forest = cached_forest_labels(args.forest_cache, image, strokes, masks, lasso_air)

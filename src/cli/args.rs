@@ -179,6 +179,10 @@ pub struct ClassifyArgs {
     /// trained on one modality refuses the other, and CT in Hounsfield units is kept as it is.
     #[arg(long, value_enum)]
     pub modality: Option<ModalityChoice>,
+    /// MR: keep the scan's shading (the coils' bias field) instead of dividing it out and
+    /// classifying again (the default for MR scans; CT and unknown scans are never corrected).
+    #[arg(long)]
+    pub keep_shading: bool,
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,

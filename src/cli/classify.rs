@@ -118,6 +118,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         options = SegmentationOptions { feature_set: features, ..forest };
         fallback = Some(reason);
     }
+    options.correct_shading = modality == Modality::Mr && !args.keep_shading;
     if let (Some(training), None) = (&training, &preset) {
         pipeline::check_training(&volume, training, &options)
             .map_err(|error| super::pipeline_error(error, &strokes_path))?;
@@ -126,17 +127,21 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     let mut result = None;
     for _ in 0..args.repeat {
         let started = Instant::now();
-        let samples = match (&preset, &training) {
+        let (segmenter, labels) = match (&preset, &training) {
             (Some(preset), training) => {
                 let (samples, names) = pipeline::preset_samples(&volume, preset, modality, training.as_ref(), &options)
                     .map_err(|error| super::pipeline_error(error, &strokes_path))?;
                 class_names = names;
-                samples
+                let again = |scan: &Volume| {
+                    pipeline::preset_samples(scan, preset, modality, training.as_ref(), &options)
+                        .map(|(samples, _)| samples)
+                };
+                pipeline::classify_shaded(&volume, samples, again, &options, RunControl::batch())
+                    .map_err(|error| super::pipeline_error(error, &strokes_path))?
             }
-            (None, Some(training)) => segmentation::samples(&volume, training, &options)?,
+            (None, Some(training)) => pipeline::classify_training(&volume, training, &options, RunControl::batch())?,
             (None, None) => unreachable!("checked above"),
         };
-        let (segmenter, labels) = pipeline::classify_samples(&volume, samples, &options, RunControl::batch())?;
         // Labelling is what the run took beyond computing the training features and training.
         let predict_seconds =
             (started.elapsed().as_secs_f64() - segmenter.summary.features_seconds - segmenter.summary.train_seconds)
@@ -217,6 +222,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "evaluated_voxels": labels.evaluated_voxels,
         "classes": class_names,
         "modality": modality.name(),
+        "shading_divided_out": segmenter.corrected_scan.is_some(),
         "preset": preset.as_ref().map(|preset| json!({
             "name": preset.name,
             "path": args.preset.as_ref().map(|path| path.display().to_string()),
@@ -257,7 +263,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         "repeats": args.repeat,
     });
     if let (Some(folder), Some(training)) = (&args.export_features, &training) {
-        export_features(folder, &volume, &segmenter, training, &options, &labels, &line)?;
+        export_features(folder, segmenter.scan(&volume), &segmenter, training, &options, &labels, &line)?;
     }
     println!("{line}");
     Ok(())

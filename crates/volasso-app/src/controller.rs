@@ -347,7 +347,7 @@ impl Controller {
         let mut failure = Failure::Unchanged;
         match training {
             Some(strokes) if work.requested.as_ref() != Some(&strokes) => {
-                self.jobs.start(work.loaded.volume.clone(), strokes.clone(), applied, template);
+                self.jobs.start(work.loaded.volume.clone(), work.loaded.modality, strokes.clone(), applied, template);
                 work.requested = Some(strokes);
             }
             Some(_) => {}

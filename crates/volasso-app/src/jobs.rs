@@ -117,17 +117,18 @@ impl ClassificationJobs {
         ClassificationJobs { worker, running: None, finished: None, options: SegmentationOptions::default() }
     }
 
-    /// Classifies `volume` with the classes of `strokes` (added to `preset`'s, when given),
-    /// cancelling any job still running.
+    /// Classifies `volume` (of `modality`: an MR scan's shading is divided out) with the
+    /// classes of `strokes` (added to `preset`'s, when given), cancelling any job still running.
     pub fn start(
         &mut self,
         volume: Arc<Volume>,
+        modality: Modality,
         strokes: StrokesFile,
         preset: Option<AppliedPreset>,
         template: HueTemplate,
     ) {
         self.cancel();
-        let options = self.options.clone();
+        let options = SegmentationOptions { correct_shading: modality == Modality::Mr, ..self.options.clone() };
         self.running = Some(self.worker.send(ClassifyJob { volume, strokes, preset, template, options }));
     }
 
@@ -305,8 +306,8 @@ mod tests {
         let strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
         let volume = Arc::new(phantom.volume);
         let mut jobs = ClassificationJobs::default();
-        jobs.start(volume.clone(), strokes.clone(), None, HueTemplate::default_for(2));
-        jobs.start(volume.clone(), strokes, None, HueTemplate::default_for(2));
+        jobs.start(volume.clone(), Modality::Ct, strokes.clone(), None, HueTemplate::default_for(2));
+        jobs.start(volume.clone(), Modality::Ct, strokes, None, HueTemplate::default_for(2));
         assert!(jobs.busy());
         let mut outcomes = wait_for_end(&mut jobs);
         let classified = match outcomes.pop() {
@@ -345,7 +346,7 @@ mod tests {
         let mut strokes = lassos_inside(&phantom, &[1, 2], 4, 2.5);
         strokes.classes[1].strokes.clear();
         let mut jobs = ClassificationJobs::default();
-        jobs.start(Arc::new(phantom.volume), strokes, None, HueTemplate::default_for(2));
+        jobs.start(Arc::new(phantom.volume), Modality::Ct, strokes, None, HueTemplate::default_for(2));
         let JobOutcome::Failed(message) = wait(&mut jobs) else { panic!("an empty class must fail") };
         assert!(message.contains("Class") || message.contains("class"), "{message}");
     }

@@ -4,7 +4,8 @@
 //! change to the method reaches every one of them.
 //!
 //! [`classify_training`] takes a training set (from a strokes file, or drawn by the accuracy
-//! harness' simulated user) and gives the trained model and the label volume;
+//! harness' simulated user) and gives the trained model and the label volume (an MR scan's
+//! shading divided out after the first look, `crate::volume::shading`);
 //! [`classify_strokes`] starts from a strokes file and adds the class table;
 //! [`classify_array`] is the same for a program that holds its scan and its scribbles as
 //! `ndarray` arrays.
@@ -12,7 +13,8 @@
 //! Never: reads or writes files, or knows who called it (UI, CLI or harness).
 
 use std::path::Path;
-use std::sync::atomic::AtomicBool;
+use std::sync::Mutex;
+use std::sync::atomic::{AtomicBool, Ordering};
 
 use ndarray::{Array3, ArrayView3};
 
@@ -23,6 +25,7 @@ use crate::segmentation::{
 };
 use crate::strokes::{ClassSamples, StrokesError, StrokesFile, TrainingSet};
 use crate::transfer::{ClassTable, HueTemplate, TransferError};
+use crate::volume::shading::Shading;
 use crate::volume::{Volume, VolumeError};
 
 /// Why the pipeline stopped; each variant keeps the stage's own error.
@@ -212,15 +215,103 @@ impl RunControl<'static> {
 
 /// Trains on `training` and labels every voxel of `volume`: the trained model (its summary
 /// says what was trained on and how long it took) and the label volume (0 background, k class
-/// k).
+/// k). An MR scan's shading is divided out as [`classify_shaded`] says.
 pub fn classify_training(
     volume: &Volume,
     training: &TrainingSet,
     options: &SegmentationOptions,
     control: RunControl<'_>,
 ) -> Result<(Segmenter, LabelVolume), SegmentationError> {
-    classify_samples(volume, segmentation::samples(volume, training, options)?, options, control)
+    let samples = segmentation::samples(volume, training, options)?;
+    classify_shaded(volume, samples, |scan| segmentation::samples(scan, training, options), options, control)
 }
+
+/// Fits the classifier to `samples` (read off `volume`) and labels `volume`, as
+/// [`classify_samples`] does. With [`SegmentationOptions::correct_shading`] (MR scans), the
+/// first look (the coarse labels) gives the scan's shading ([`Shading::estimate`]); where there
+/// is one, the first labelling stops there, the samples `samples_of` reads off the scan divided
+/// by the shading are trained on and that scan labelled, and the segmenter keeps it
+/// ([`Segmenter::corrected_scan`]). Progress runs to one half on the first labelling.
+pub fn classify_shaded<E>(
+    volume: &Volume,
+    samples: TrainingSamples,
+    samples_of: impl FnOnce(&Volume) -> Result<TrainingSamples, E>,
+    options: &SegmentationOptions,
+    control: RunControl<'_>,
+) -> Result<(Segmenter, LabelVolume), E>
+where
+    E: From<SegmentationError>,
+{
+    if !options.correct_shading {
+        return Ok(classify_samples(volume, samples, options, control)?);
+    }
+    if volume.voxel_count() > MAX_CORRECTED_VOXELS {
+        log::info!(
+            "the scan's shading is not looked for: {} voxels are more than a corrected copy may hold ({MAX_CORRECTED_VOXELS})",
+            volume.voxel_count()
+        );
+        return Ok(classify_samples(volume, samples, options, control)?);
+    }
+    let segmenter = segmentation::fit(samples, options)?;
+    let found: Mutex<Option<Shading>> = Mutex::new(None);
+    let (stop, looked) = (AtomicBool::new(false), AtomicBool::new(false));
+    let first_half = |fraction: f32| {
+        if control.cancel.load(Ordering::Relaxed) {
+            stop.store(true, Ordering::Relaxed);
+        }
+        (control.progress)(0.5 * fraction);
+    };
+    let first_look = |coarse: &LabelVolume| {
+        if let Some(preview) = control.preview {
+            preview(coarse);
+        }
+        looked.store(true, Ordering::Relaxed);
+        if let Some(shading) = Shading::estimate(volume, &coarse.labels) {
+            if let Ok(mut found) = found.lock() {
+                *found = Some(shading);
+            }
+            stop.store(true, Ordering::Relaxed);
+        }
+    };
+    let first = segmentation::label_volume_with_preview(
+        volume,
+        &segmenter,
+        options.refinement,
+        &first_half,
+        &stop,
+        &first_look,
+    );
+    let cancelled = control.cancel.load(Ordering::Relaxed);
+    let shading = found.into_inner().ok().flatten();
+    let shading = match (first, shading) {
+        (Err(error), _) if cancelled => return Err(error.into()),
+        (_, Some(shading)) => shading,
+        (Err(error), None) => return Err(error.into()),
+        // No first look (exact labelling, multi-scale features): the exact labels tell.
+        (Ok(labels), None) if !looked.load(Ordering::Relaxed) => match Shading::estimate(volume, &labels.labels) {
+            Some(shading) => shading,
+            None => return Ok((segmenter, labels)),
+        },
+        (Ok(labels), None) => return Ok((segmenter, labels)),
+    };
+    let started = std::time::Instant::now();
+    let corrected = std::sync::Arc::new(shading.corrected(volume).map_err(SegmentationError::from)?);
+    log::info!(
+        "the scan's shading (up to {:.0} %) divided out in {:.0} ms; classifying again",
+        100.0 * shading.largest_departure(),
+        started.elapsed().as_secs_f64() * 1000.0
+    );
+    let second_half = |fraction: f32| (control.progress)(0.5 + 0.5 * fraction);
+    let second_pass = RunControl { progress: &second_half, cancel: control.cancel, preview: None };
+    let samples = samples_of(&corrected)?;
+    let (mut segmenter, labels) = classify_samples(&corrected, samples, options, second_pass)?;
+    segmenter.corrected_scan = Some(corrected);
+    Ok((segmenter, labels))
+}
+
+/// The most voxels whose shading is divided out: the corrected copy holds 4 bytes a voxel
+/// (512 MiB here), beside the scan itself.
+pub const MAX_CORRECTED_VOXELS: usize = 1 << 27;
 
 /// Fits the classifier to `samples` (read off lassos, a preset's, or both: [`preset_samples`])
 /// and labels every voxel of `volume`, as [`classify_training`] does.
@@ -330,10 +421,14 @@ pub fn classify_strokes_with_preset(
     let training = if drawn.classes.is_empty() { None } else { Some(TrainingSet::from_strokes(&drawn, volume.dims)?) };
     let (samples, names) = preset_samples(volume, preset, modality, training.as_ref(), options)?;
     let options = match forest_fallback(options, names.len()) {
-        Some(forest) => SegmentationOptions { feature_set: samples.feature_set, ..forest },
+        Some(forest) => {
+            SegmentationOptions { feature_set: samples.feature_set, correct_shading: options.correct_shading, ..forest }
+        }
         None => options.clone(),
     };
-    let (segmenter, labels) = classify_samples(volume, samples, &options, control)?;
+    let samples_of = |scan: &Volume| preset_samples(scan, preset, modality, training.as_ref(), &options);
+    let (segmenter, labels) =
+        classify_shaded(volume, samples, |scan| samples_of(scan).map(|(samples, _)| samples), &options, control)?;
     let mut table = ClassTable::compute(volume, &labels.labels, names.len(), template.unwrap_or(preset.template))?;
     preset.restyle(&mut table);
     Ok(Classified { segmenter, labels, table })
@@ -447,6 +542,46 @@ mod tests {
         assert_eq!(result.labels[[8, 10, 19]], 2, "inside the bright blob, away from its scribble");
         assert_eq!(result.labels[[0, 0, 0]], 0, "the dark box is background");
         assert_eq!(result.table.styles.len(), 2);
+    }
+
+    /// Two tissues (100 and 150) in blocks of 8 voxels across y and z, so both run the whole
+    /// x axis, under a coil's shading from 0.75 to 1.25 along x: the bright tissue's dim end
+    /// (112) is nearer the dim tissue's middle than its own. One scribble in each, in the middle
+    /// of x; the truth: class 1 or 2 by block.
+    fn shaded_blocks() -> (Array3<f32>, Array3<u8>, Array3<u8>) {
+        let truth = Array3::from_shape_fn((16, 16, 64), |(z, y, _)| if (y / 8 + z / 8) % 2 == 0 { 1u8 } else { 2 });
+        let values = Array3::from_shape_fn(truth.dim(), |(z, y, x)| {
+            let tissue = if truth[[z, y, x]] == 1 { 100.0 } else { 150.0 };
+            tissue * (0.75 + 0.5 * x as f32 / 63.0)
+        });
+        let mut scribbles = Array3::<u8>::zeros(truth.dim());
+        scribbles.slice_mut(s![2..6, 2..6, 28..36]).fill(1);
+        scribbles.slice_mut(s![2..6, 10..14, 28..36]).fill(2);
+        (values, scribbles, truth)
+    }
+
+    #[test]
+    fn an_mr_scan_s_shading_is_divided_out_before_it_is_classified_again() {
+        let (values, scribbles, truth) = shaded_blocks();
+        let options = SegmentationOptions { background: segmentation::Background::None, ..Default::default() };
+        let wrong = |labels: &Array3<u8>| labels.iter().zip(truth.iter()).filter(|(a, b)| a != b).count();
+        let as_read = classify_array(values.view(), [1.0; 3], scribbles.view(), &options).unwrap();
+        let corrected = SegmentationOptions { correct_shading: true, ..options };
+        let divided = classify_array(values.view(), [1.0; 3], scribbles.view(), &corrected).unwrap();
+        let (before, after) = (wrong(&as_read.labels), wrong(&divided.labels));
+        assert!(as_read.segmenter.corrected_scan.is_none());
+        assert!(divided.segmenter.corrected_scan.is_some(), "a 25 % field is divided out");
+        assert!(before > values.len() / 20, "the shading mislabels the ends of the scan: {before} voxels");
+        assert!(after * 2 < before, "{after} voxels wrong after the correction, {before} before");
+    }
+
+    #[test]
+    fn a_flat_scan_is_classified_once() {
+        let (values, scribbles) = two_blobs();
+        let options = SegmentationOptions { correct_shading: true, ..Default::default() };
+        let result = classify_array(values.view(), [1.0; 3], scribbles.view(), &options).unwrap();
+        assert!(result.segmenter.corrected_scan.is_none(), "no shading: the scan is kept as read");
+        assert_eq!(result.labels[[8, 10, 5]], 1);
     }
 
     #[test]

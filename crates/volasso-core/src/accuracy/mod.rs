@@ -74,6 +74,12 @@ impl PhantomKind {
         }
     }
 
+    /// Whether the phantom is an MRI scan (its shading is divided out, as the kiosk does for an
+    /// MR series: `crate::volume::shading`).
+    pub fn is_mr(self) -> bool {
+        matches!(self, PhantomKind::Brain | PhantomKind::Shells | PhantomKind::Head)
+    }
+
     /// The phantom of a [`name`](Self::name), if any.
     pub fn from_name(name: &str) -> Option<PhantomKind> {
         PhantomKind::ALL.into_iter().find(|kind| kind.name() == name)
@@ -391,7 +397,7 @@ fn run_method(
         seed: case.seed,
         source,
     };
-    let options = method.options();
+    let options = SegmentationOptions { correct_shading: case.kind.is_mr(), ..method.options() };
     let started = Instant::now();
     let (_, labels) =
         pipeline::classify_training(&phantom.volume, training, &options, RunControl::batch()).map_err(error)?;

@@ -94,6 +94,9 @@ pub struct SegmentationOptions {
     pub prune_relative: f64,
     /// Seeds the training cap's random choice.
     pub seed: u64,
+    /// Divide an MRI scan's shading out and classify it again (`crate::volume::shading`); for MR scans
+    /// only (`crate::pipeline::classify_training`).
+    pub correct_shading: bool,
 }
 
 impl SegmentationOptions {
@@ -134,6 +137,7 @@ impl Default for SegmentationOptions {
             refinement: Refinement::CoarseToFine,
             prune_relative: DEFAULT_PRUNE_RELATIVE,
             seed: 0x5eed,
+            correct_shading: false,
         }
     }
 }
@@ -279,9 +283,21 @@ pub struct Segmenter {
     pub summary: TrainingSummary,
     /// What it was fitted on (a preset keeps them: `crate::preset`).
     pub samples: TrainingSamples,
+    /// The scan divided by its shading (`crate::volume::shading`) that it was trained on and labels, where
+    /// the pipeline corrected it; `None`: the scan as read.
+    pub corrected_scan: Option<std::sync::Arc<Volume>>,
 }
 
 impl Segmenter {
+    /// The scan this segmenter classifies for `volume`: the one divided by its shading where
+    /// it was trained on that ([`Segmenter::corrected_scan`]), else `volume` itself.
+    pub fn scan<'a>(&'a self, volume: &'a Volume) -> &'a Volume {
+        match &self.corrected_scan {
+            Some(corrected) if corrected.dims == volume.dims => corrected,
+            _ => volume,
+        }
+    }
+
     /// Class ids of a block of raw feature vectors (row-major, `out.len() x dim`), into `out`;
     /// `features` is scratch (standardised in place where the classifier needs it).
     pub fn classify_block(&self, features: &mut [f32], out: &mut [u8]) -> Result<(), SegmentationError> {
@@ -523,6 +539,7 @@ pub fn fit(samples: TrainingSamples, options: &SegmentationOptions) -> Result<Se
         classifier: trained,
         summary,
         samples,
+        corrected_scan: None,
     })
 }
 

@@ -170,6 +170,7 @@ pub fn voxel_margins(volume: &Volume, segmenter: &Segmenter, voxels: &[usize]) -
 /// most [`SURVEY_VOXELS`]: unsure below the [`UNSURE_SHARE`] quantile of their margins, capped
 /// at [`SVM_BOUNDARY`] or [`FOREST_BOUNDARY`]; counts the unsure voxels per plane.
 pub fn survey(volume: &Volume, segmenter: &Segmenter, labels: &[u8]) -> Result<Survey, SegmentationError> {
+    let volume = segmenter.scan(volume);
     let dims = volume.dims;
     let classified = labels.iter().filter(|&&label| label != 0).count();
     let stride = (1..).find(|&s: &usize| classified / (s * s * s) <= SURVEY_VOXELS).unwrap_or(1);
@@ -222,6 +223,7 @@ pub fn slice_unsure(
     axis: Axis,
     slice: usize,
 ) -> Result<Option<Vec<bool>>, SegmentationError> {
+    let volume = segmenter.scan(volume);
     let Some(geometry) = SliceGeometry::new(volume.dims, axis, slice) else { return Ok(None) };
     let pixels: Vec<(usize, usize)> = (0..geometry.height)
         .flat_map(|j| (0..geometry.width).map(move |i| (j * geometry.width + i, geometry.voxel_index(i, j))))

@@ -28,6 +28,7 @@ pub mod nrrd;
 pub mod open;
 pub mod orientation;
 pub mod raw;
+pub mod shading;
 pub mod storage;
 
 pub use array::StoredVoxel;
