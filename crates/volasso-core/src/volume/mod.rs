@@ -281,6 +281,17 @@ impl Volume {
         self.body.get_or_init(|| std::sync::Arc::new(body::Body::find(self, self.otsu_threshold()))).clone()
     }
 
+    /// This volume with `other`'s Otsu threshold and body outline, where `other` has the same
+    /// dimensions: a copy of a scan whose values were rescaled a little (its shading divided
+    /// out, `shading`) rings the same body, and finding it again would cost a labelling's time.
+    pub fn sharing_body_of(self, other: &Volume) -> Volume {
+        if self.dims == other.dims {
+            let _ = self.otsu.set(other.otsu_threshold());
+            let _ = self.body.set(other.body());
+        }
+        self
+    }
+
     /// The scanned body above `level` ([`body::Body::find`]): [`body`](Self::body) when `level`
     /// is Otsu's threshold, else found anew.
     pub fn body_at(&self, level: f64) -> std::sync::Arc<body::Body> {

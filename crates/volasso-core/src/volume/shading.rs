@@ -176,7 +176,7 @@ impl Shading {
     }
 
     /// `volume` divided by the field: a new scan of `f32` values with the same dimensions and
-    /// spacing (4 bytes a voxel, held in memory).
+    /// spacing (4 bytes a voxel, held in memory), and `volume`'s body outline.
     pub fn corrected(&self, volume: &Volume) -> Result<Volume, VolumeError> {
         let dims = volume.dims;
         let plane = dims[0] * dims[1];
@@ -198,7 +198,7 @@ impl Shading {
             }
         });
         debug_assert_eq!(self.dims, dims);
-        Volume::from_f32(dims, volume.spacing_mm, &values, &volume.source)
+        Ok(Volume::from_f32(dims, volume.spacing_mm, &values, &volume.source)?.sharing_body_of(volume))
     }
 }
 
@@ -315,6 +315,9 @@ mod tests {
         let shading = Shading::estimate(&volume, &labels).expect("a 20 % field is found");
         assert!(shading.largest_departure() > 0.1);
         let corrected = shading.corrected(&volume).unwrap();
+        // The copy rings the scan's body: found once, when the scan opened.
+        assert!(std::sync::Arc::ptr_eq(&corrected.body(), &volume.body()));
+        assert_eq!(corrected.otsu_threshold(), volume.otsu_threshold());
         // Each tissue's spread across the scan shrinks from 40 % to a few per cent (the
         // smoothing flattens the field's ends a little).
         for (tissue, rows) in [(100.0, 0..dims[1] / 2), (200.0, dims[1] / 2..dims[1])] {
