@@ -426,9 +426,9 @@ pub fn classify_strokes_with_preset(
         }
         None => options.clone(),
     };
-    let samples_of = |scan: &Volume| preset_samples(scan, preset, modality, training.as_ref(), &options);
-    let (segmenter, labels) =
-        classify_shaded(volume, samples, |scan| samples_of(scan).map(|(samples, _)| samples), &options, control)?;
+    let samples_of =
+        |scan: &Volume| preset_samples(scan, preset, modality, training.as_ref(), &options).map(|(samples, _)| samples);
+    let (segmenter, labels) = classify_shaded(volume, samples, samples_of, &options, control)?;
     let mut table = ClassTable::compute(volume, &labels.labels, names.len(), template.unwrap_or(preset.template))?;
     preset.restyle(&mut table);
     Ok(Classified { segmenter, labels, table })

@@ -129,11 +129,8 @@ impl Shading {
             )
             .map(|factor| factor as f32)
             .collect();
-        let largest = field.iter().map(|&factor| (f64::from(factor) - 1.0).abs()).fold(0.0, f64::max);
-        if largest < MIN_SHADING {
-            return None;
-        }
-        Some(Shading { dims, cell, grid, field })
+        let shading = Shading { dims, cell, grid, field };
+        (shading.largest_departure() >= MIN_SHADING).then_some(shading)
     }
 
     /// The largest departure of the field from 1 (0.1: ten per cent brighter or darker).
@@ -143,8 +140,9 @@ impl Shading {
 
     /// The field at voxel (x, y, z), interpolated between the cell centres.
     pub fn at(&self, x: usize, y: usize, z: usize) -> f32 {
-        let [(x0, fx), (y0, fy), (z0, fz)] = [0, 1, 2].map(|axis| self.weights(axis, [x, y, z][axis]));
-        self.lerp_row(y0, fy, z0, fz, x0, fx)
+        let [(x0, fx), along_y, along_z] = [0, 1, 2].map(|axis| self.weights(axis, [x, y, z][axis]));
+        let right = (x0 + 1).min(self.grid[0] - 1);
+        lerp(self.column(x0, along_y, along_z), self.column(right, along_y, along_z), fx)
     }
 
     /// Along `axis`, the first of the two cells whose centres `position` lies between, and its
@@ -163,16 +161,9 @@ impl Shading {
     fn column(&self, cx: usize, (y0, fy): (usize, f32), (z0, fz): (usize, f32)) -> f32 {
         let [gx, gy, gz] = self.grid;
         let cell = |cy: usize, cz: usize| self.field[cx + gx * (cy.min(gy - 1) + gy * cz.min(gz - 1))];
-        let near = cell(y0, z0) * (1.0 - fy) + cell(y0 + 1, z0) * fy;
-        let far = cell(y0, z0 + 1) * (1.0 - fy) + cell(y0 + 1, z0 + 1) * fy;
-        near * (1.0 - fz) + far * fz
-    }
-
-    fn lerp_row(&self, y0: usize, fy: f32, z0: usize, fz: f32, x0: usize, fx: f32) -> f32 {
-        let gx = self.grid[0];
-        let left = self.column(x0, (y0, fy), (z0, fz));
-        let right = self.column((x0 + 1).min(gx - 1), (y0, fy), (z0, fz));
-        left * (1.0 - fx) + right * fx
+        let near = lerp(cell(y0, z0), cell(y0 + 1, z0), fy);
+        let far = lerp(cell(y0, z0 + 1), cell(y0 + 1, z0 + 1), fy);
+        lerp(near, far, fz)
     }
 
     /// `volume` divided by the field: a new scan of `f32` values with the same dimensions and
@@ -192,14 +183,18 @@ impl Shading {
                     *column = self.column(cx, along_y, along_z);
                 }
                 for (value, &(x0, fx)) in row.iter_mut().zip(&along_x) {
-                    let right = columns[(x0 + 1).min(columns.len() - 1)];
-                    *value /= columns[x0] * (1.0 - fx) + right * fx;
+                    *value /= lerp(columns[x0], columns[(x0 + 1).min(columns.len() - 1)], fx);
                 }
             }
         });
         debug_assert_eq!(self.dims, dims);
         Ok(Volume::from_f32(dims, volume.spacing_mm, &values, &volume.source)?.sharing_body_of(volume))
     }
+}
+
+/// `a` moved `f` of the way to `b`.
+fn lerp(a: f32, b: f32, f: f32) -> f32 {
+    a * (1.0 - f) + b * f
 }
 
 /// Whether voxel `p` and its six face neighbours (those inside the volume) have one label: a
