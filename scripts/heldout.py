@@ -292,8 +292,8 @@ def chest_ct8(rng):
 
 
 def liver_lesions_ct16(rng):
-    """A portal-venous CT of the liver: dark lesions (cysts, round, 6 to 14 voxels across in the plane)
-    and a tree of bright vessels 1 to 3 voxels across inside an enhancing liver, with fat,
+    """A portal-venous CT of the liver: dark lesions (cysts, round, 6 to 14 voxels across in the
+    plane) and a tree of bright vessels 1 to 3 voxels across inside an enhancing liver, with fat,
     muscle and the spine around it. A loop around the liver takes in lesions and vessels, drawn
     or not; a lesion's loop lies inside the liver's."""
     shape = (44, 112, 128)
@@ -308,8 +308,8 @@ def liver_lesions_ct16(rng):
     truth[liver] = 3
     vessels = vessel_tree(shape, (2, 48, 44), 1.6, rng, min_radius=0.5, max_steps=50)
     truth[vessels & liver] = 5
+    inside = np.argwhere(liver & (z > 6) & (z < shape[0] - 6))  # where a lesion's centre may lie
     for _ in range(int(rng.integers(4, 7))):
-        inside = np.argwhere(liver & (z > 6) & (z < shape[0] - 6))
         c = inside[rng.integers(len(inside))]
         r = rng.uniform(3.0, 7.0)
         truth[liver & ((((z - c[0]) * 2.5) ** 2 + (y - c[1]) ** 2 + (x - c[2]) ** 2) < r ** 2)] = 4
