@@ -1,7 +1,7 @@
 //! The `volasso` binary's contracts (`interfaces.md`): output, exit codes, atomic writes (and
 //! outputs written as one unit under SIGKILL), clear errors.
 
-use crate::support::{data, volasso};
+use crate::support::{self, data, volasso};
 
 #[test]
 fn info_json_reports_geometry_and_a_small_anonymous_footprint() {
@@ -63,6 +63,39 @@ fn render_classifies_and_writes_a_png_of_the_requested_size() {
     // The foot fills part of the frame: some pixels are lit, the corners are background.
     let lit = image.pixels().filter(|p| p.0[0] as u32 + p.0[1] as u32 + p.0[2] as u32 > 120).count();
     assert!(lit > 160 * 120 / 20 && lit < 160 * 120 * 3 / 4, "{lit} lit pixels");
+}
+
+#[test]
+fn render_divides_an_mr_scan_s_shading_out_as_classify_does() {
+    // The brain phantom's 30 % bias field: `classify` divides it out of an MR scan, and
+    // `render`, which says it classifies as `classify` does, must too (a NRRD does not say its
+    // modality, so both take `--modality`).
+    let folder = tempfile::tempdir().unwrap();
+    let phantom = volasso::phantom::procedural::brain_mri([88, 104, 80], 3).unwrap();
+    let volume = folder.path().join("head.nrrd");
+    support::write_u16_nrrd(&volume, &phantom.volume);
+    let strokes = folder.path().join("head.strokes.json");
+    volasso::phantom::lassos_inside(&phantom, &[3, 5], 2, 1.5).write(&strokes).unwrap();
+    let (volume, strokes) = (volume.to_str().unwrap(), strokes.to_str().unwrap());
+    let out = folder.path().join("head.png");
+    let labels = folder.path().join("head-labels.nrrd");
+    for (flags, divided) in
+        [(&["--modality", "mr"][..], true), (&["--modality", "mr", "--keep-shading"], false), (&[], false)]
+    {
+        let mut args =
+            vec!["render", "-v", volume, "--strokes", strokes, "--out", out.to_str().unwrap(), "--size", "96x72"];
+        args.extend_from_slice(flags);
+        let output = volasso(&args, folder.path());
+        let log = String::from_utf8_lossy(&output.stderr);
+        assert!(output.status.success(), "{flags:?}: {log}");
+        assert_eq!(log.contains("shading (up to"), divided, "render {flags:?}: {log}");
+        let mut args = vec!["classify", volume, "--strokes", strokes, "--out", labels.to_str().unwrap()];
+        args.extend_from_slice(flags);
+        let output = volasso(&args, folder.path());
+        assert!(output.status.success(), "{}", String::from_utf8_lossy(&output.stderr));
+        let report: serde_json::Value = serde_json::from_slice(&output.stdout).unwrap();
+        assert_eq!(report["shading_divided_out"], divided, "classify {flags:?}");
+    }
 }
 
 #[test]

@@ -79,9 +79,22 @@ pub fn nifti_header(datatype: i16, bitpix: i16, dims: [i16; 3], vox_offset: f32)
 
 /// Writes `volume` (8-bit, little-endian as stored) as a raw NRRD with its spacing.
 pub fn write_u8_nrrd(path: &Path, volume: &volasso::volume::Volume) {
+    assert_eq!(volume.voxel_type, volasso::volume::VoxelType::U8);
+    write_nrrd(path, volume, "uint8");
+}
+
+/// Writes `volume` (16-bit unsigned, little-endian as stored) as a raw NRRD with its spacing.
+pub fn write_u16_nrrd(path: &Path, volume: &volasso::volume::Volume) {
+    assert_eq!(volume.voxel_type, volasso::volume::VoxelType::U16);
+    assert_eq!(volume.byte_order, volasso::volume::ByteOrder::Little);
+    write_nrrd(path, volume, "uint16");
+}
+
+fn write_nrrd(path: &Path, volume: &volasso::volume::Volume, type_name: &str) {
     let [x, y, z] = volume.dims;
     let [sx, sy, sz] = volume.spacing_mm;
-    let header =
-        format!("NRRD0004\ntype: uint8\ndimension: 3\nsizes: {x} {y} {z}\nspacings: {sx} {sy} {sz}\nencoding: raw\n\n");
+    let header = format!(
+        "NRRD0004\ntype: {type_name}\ndimension: 3\nsizes: {x} {y} {z}\nspacings: {sx} {sy} {sz}\nendian: little\nencoding: raw\n\n"
+    );
     std::fs::write(path, [header.as_bytes(), volume.raw_bytes()].concat()).unwrap();
 }

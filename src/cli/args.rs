@@ -84,6 +84,8 @@ pub struct RenderArgs {
     pub volume: PathBuf,
     #[command(flatten)]
     pub open: VolumeArgs,
+    #[command(flatten)]
+    pub scan: ScanArgs,
     /// The lassos: a volasso-strokes/1 JSON file.
     #[arg(long)]
     pub strokes: PathBuf,
@@ -117,7 +119,38 @@ pub enum ClassifierChoice {
     Forest,
 }
 
-/// A scan's modality (`classify --modality`).
+/// What kind of scan a volume is, where the file does not say, and whether its shading is divided
+/// out: `classify` and `render` classify alike.
+#[derive(Debug, Args, Clone, Default)]
+pub struct ScanArgs {
+    /// The scan's modality, for files that do not say (a DICOM series says it itself): a preset
+    /// trained on one modality refuses the other, and CT in Hounsfield units is kept as it is.
+    #[arg(long, value_enum)]
+    pub modality: Option<ModalityChoice>,
+    /// MR: keep the scan's shading (the coils' bias field) instead of dividing it out and
+    /// classifying again (the default for MR scans; CT and unknown scans are never corrected).
+    #[arg(long)]
+    pub keep_shading: bool,
+}
+
+impl ScanArgs {
+    /// The modality of the scan at `path`: `--modality` where given, else what the file says.
+    pub fn modality(&self, path: &std::path::Path, open: &VolumeArgs) -> crate::preset::Modality {
+        match self.modality {
+            Some(ModalityChoice::Ct) => crate::preset::Modality::Ct,
+            Some(ModalityChoice::Mr) => crate::preset::Modality::Mr,
+            None => crate::preset::modality_of(path, &open.open_options()),
+        }
+    }
+
+    /// Whether a scan of `modality` has its shading divided out: MR scans, unless
+    /// `--keep-shading`.
+    pub fn corrects_shading(&self, modality: crate::preset::Modality) -> bool {
+        modality == crate::preset::Modality::Mr && !self.keep_shading
+    }
+}
+
+/// A scan's modality (`--modality`).
 #[derive(Debug, Clone, Copy, PartialEq, Eq, clap::ValueEnum)]
 pub enum ModalityChoice {
     /// Computed tomography.
@@ -175,14 +208,8 @@ pub struct ClassifyArgs {
     /// Save this classification as a learned preset (written atomically).
     #[arg(long, value_name = "P")]
     pub save_preset: Option<PathBuf>,
-    /// The scan's modality, for files that do not say (a DICOM series says it itself): a preset
-    /// trained on one modality refuses the other, and CT in Hounsfield units is kept as it is.
-    #[arg(long, value_enum)]
-    pub modality: Option<ModalityChoice>,
-    /// MR: keep the scan's shading (the coils' bias field) instead of dividing it out and
-    /// classifying again (the default for MR scans; CT and unknown scans are never corrected).
-    #[arg(long)]
-    pub keep_shading: bool,
+    #[command(flatten)]
+    pub scan: ScanArgs,
     /// The label volume to write (NRRD, uint8; 0 = background, k = the k-th class).
     #[arg(long)]
     pub out: PathBuf,

@@ -18,14 +18,14 @@
 //! file is not timed). With `--repeat N` each is the median over N runs: the classification
 //! benchmark (`benches/RESULTS.md`).
 
-use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice, ModalityChoice};
+use super::args::{ClassifierChoice, ClassifyArgs, CoherenceChoice};
 use super::{CliError, outputs};
 use crate::atomic_file::{commit_in_order, remove_stale_temporaries, stage};
 use crate::classify::ForestParams;
 use crate::classify::{Kernel, SnSvmParams};
 use crate::features::{FeatureSet, FeatureSlabReader, Standardiser};
 use crate::pipeline::{self, MAX_PAIRWISE_CLASSES, RunControl};
-use crate::preset::{Modality, Preset};
+use crate::preset::Preset;
 use crate::segmentation::{
     self, ClassifierKind, Coherence, KernelWidth, LabelVolume, Refinement, SegmentationOptions, Segmenter,
 };
@@ -62,11 +62,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
     remove_stale_outputs(args);
     let volume = super::open_volume(&args.volume, &args.open)?;
     outputs::check_mapped("volume's voxel data", &outputs)?;
-    let modality = match args.modality {
-        Some(ModalityChoice::Ct) => Modality::Ct,
-        Some(ModalityChoice::Mr) => Modality::Mr,
-        None => crate::preset::modality_of(&args.volume, &args.open.open_options()),
-    };
+    let modality = args.scan.modality(&args.volume, &args.open);
     if let Some(preset) = &preset {
         preset.check_scan(&volume, modality)?;
     }
@@ -118,7 +114,7 @@ pub fn run(args: &ClassifyArgs) -> Result<(), CliError> {
         options = SegmentationOptions { feature_set: features, ..forest };
         fallback = Some(reason);
     }
-    options.correct_shading = modality == Modality::Mr && !args.keep_shading;
+    options.correct_shading = args.scan.corrects_shading(modality);
     if let (Some(training), None) = (&training, &preset) {
         pipeline::check_training(&volume, training, &options)
             .map_err(|error| super::pipeline_error(error, &strokes_path))?;

@@ -1,5 +1,5 @@
 //! `volasso render VOLUME --strokes S.json --out IMAGE.png`: classify with the defaults of
-//! `classify`, colour with the default hue template, and ray-cast one frame headless (wgpu;
+//! `classify` (an MR scan's shading divided out as there: `--modality`, `--keep-shading`), colour with the default hue template, and ray-cast one frame headless (wgpu;
 //! Mesa's lavapipe where there is no GPU). The PNG is written whole or not at all, and the
 //! temporary files killed runs left beside it are removed first.
 
@@ -20,9 +20,10 @@ pub fn run(args: &RenderArgs) -> Result<(), CliError> {
     let volume = super::open_volume(&args.volume, &args.open)?;
     super::outputs::check_mapped("volume's voxel data", &output)?;
     let strokes = StrokesFile::read_for_volume(&args.strokes, volume.dims)?;
-    let classified =
-        pipeline::classify_strokes(&volume, &strokes, &SegmentationOptions::default(), None, RunControl::batch())
-            .map_err(|error| super::pipeline_error(error, &args.strokes))?;
+    let modality = args.scan.modality(&args.volume, &args.open);
+    let options = SegmentationOptions { correct_shading: args.scan.corrects_shading(modality), ..Default::default() };
+    let classified = pipeline::classify_strokes(&volume, &strokes, &options, None, RunControl::batch())
+        .map_err(|error| super::pipeline_error(error, &args.strokes))?;
     let (labels, table) = (classified.labels, classified.table);
     let class_count = strokes.classes.len();
 
