@@ -22,7 +22,9 @@
 //!
 //! After labelling, the spatial step: the majority filter ([`coherence`]), then the Potts
 //! sweeps ([`potts`]), where a border voxel takes the label whose nearby intensities it is
-//! nearest, weighed against the border's length.
+//! nearest, weighed against the border's length, then the partial-volume layers
+//! ([`partial_volume`]): a class's one-voxel layer between two classes that bracket its
+//! intensity, apart from its loops, is their blurred border.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
@@ -32,6 +34,7 @@ pub mod coherence;
 pub mod face_air;
 pub mod gate;
 pub mod pairwise;
+pub mod partial_volume;
 pub mod potts;
 mod refine;
 pub mod uncertainty;

@@ -213,6 +213,11 @@ fn label_volume_in(
             *label = class;
         }
     }
+    if segmenter.coherence == super::Coherence::Potts {
+        let started = std::time::Instant::now();
+        let changed = super::partial_volume::settle_layers(volume, &mut labels, &segmenter.lassoed);
+        log::debug!("coherence: {changed} voxels of partial-volume layers moved ({:?})", started.elapsed());
+    }
     Ok(LabelVolume {
         dims: volume.dims,
         labels,
