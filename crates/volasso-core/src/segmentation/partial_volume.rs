@@ -13,6 +13,7 @@
 //! on a thin structure ([`THICK_SHARE`]: a vessel or a joint space is thin everywhere); reads
 //! the classifier.
 
+use super::background::median_in_place;
 use crate::volume::Volume;
 
 /// A piece is a layer when the share of its voxels whose six faces are all its class is at most
@@ -175,36 +176,24 @@ fn pieces(labels: &[u8], dims: [usize; 3], counts: &[bool]) -> (Vec<u32>, Vec<Pi
     // In voxel order a root comes before the rest of its piece: its entry becomes the piece's
     // number, which the rest read through it.
     let mut pieces: Vec<Piece> = Vec::new();
-    for z in 0..size_z {
-        for y in 0..size_y {
-            let start = size_x * (y + size_y * z);
-            for x in 0..size_x {
-                let voxel = start + x;
-                let label = labels[voxel];
-                if !counts[label as usize] {
-                    parent[voxel] = u32::MAX;
-                    continue;
-                }
-                let top = parent[voxel] as usize;
-                let piece = if top == voxel {
-                    pieces.push(Piece { label, ..Piece::default() });
-                    (pieces.len() - 1) as u32
-                } else {
-                    parent[top]
-                };
-                parent[voxel] = piece;
-                let piece = &mut pieces[piece as usize];
-                piece.size += 1;
-                let same = |neighbour: usize| labels[neighbour] == label;
-                let inside = (x == 0 || same(voxel - 1))
-                    && (x + 1 == size_x || same(voxel + 1))
-                    && (y == 0 || same(voxel - size_x))
-                    && (y + 1 == size_y || same(voxel + size_x))
-                    && (z == 0 || same(voxel - plane))
-                    && (z + 1 == size_z || same(voxel + plane));
-                piece.interior += u32::from(inside);
-            }
+    for voxel in 0..labels.len() {
+        let label = labels[voxel];
+        if !counts[label as usize] {
+            parent[voxel] = u32::MAX;
+            continue;
         }
+        let top = parent[voxel] as usize;
+        let piece = if top == voxel {
+            pieces.push(Piece { label, ..Piece::default() });
+            (pieces.len() - 1) as u32
+        } else {
+            parent[top]
+        };
+        parent[voxel] = piece;
+        let piece = &mut pieces[piece as usize];
+        piece.size += 1;
+        let inside = faces_of(voxel, dims).iter().all(|face| face.is_none_or(|face| labels[face] == label));
+        piece.interior += u32::from(inside);
     }
     (parent, pieces)
 }
@@ -244,23 +233,14 @@ fn neighbour_labels(voxel: usize, dims: [usize; 3], labels: &[u8]) -> impl Itera
 /// Each label's median intensity (NaN for a label no voxel has), over every k-th voxel.
 fn class_medians(volume: &Volume, labels: &[u8]) -> Vec<f32> {
     let step = (labels.len() / MEDIAN_SAMPLES).max(1);
-    let mut values: Vec<Vec<f32>> = vec![Vec::new(); 256];
+    let mut values: Vec<Vec<f64>> = vec![Vec::new(); 256];
     for voxel in (0..labels.len()).step_by(step) {
-        let value = volume.value(voxel) as f32;
+        let value = volume.value(voxel);
         if value.is_finite() {
             values[labels[voxel] as usize].push(value);
         }
     }
-    values
-        .iter_mut()
-        .map(|values| {
-            if values.is_empty() {
-                return f32::NAN;
-            }
-            let middle = values.len() / 2;
-            *values.select_nth_unstable_by(middle, f32::total_cmp).1
-        })
-        .collect()
+    values.iter_mut().map(|values| if values.is_empty() { f32::NAN } else { median_in_place(values) as f32 }).collect()
 }
 
 /// Of the `thin` pieces, those lying between two classes: one voxel thick

@@ -7,33 +7,39 @@ use std::path::Path;
 
 const DIMS: [usize; 3] = [30, 20, 20];
 
-/// Medium (class 1, 40) everywhere; a thick cell (class 2, 105) at x < 10, lassoed at its middle;
-/// a bright granule (class 3, 250) round (22, 10, 10) of radius 2, with its one-voxel blurred
-/// shell at 145 that the classifier called cell.
-fn granule_scene(shell_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
+/// The volume and labels `voxel` gives at each (x, y, z): its value and its label.
+fn scene(voxel: impl Fn(usize, usize, usize) -> (f32, u8)) -> (Volume, Vec<u8>) {
     let [size_x, size_y, size_z] = DIMS;
-    let mut values = Vec::new();
-    let mut labels = Vec::new();
+    let (mut values, mut labels) = (Vec::new(), Vec::new());
     for z in 0..size_z {
         for y in 0..size_y {
             for x in 0..size_x {
-                let distance =
-                    ((x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2)).sqrt();
-                let (value, label) = if x < 10 {
-                    (105.0, 2)
-                } else if distance <= 2.0 {
-                    (250.0, 3)
-                } else if distance <= 3.0 {
-                    (145.0, shell_label)
-                } else {
-                    (40.0, 1)
-                };
+                let (value, label) = voxel(x, y, z);
                 values.push(value);
                 labels.push(label);
             }
         }
     }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("layers")).unwrap();
+    (Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("layers")).unwrap(), labels)
+}
+
+/// Medium (class 1, 40) everywhere; a thick cell (class 2, 105) at x < 10, lassoed at its middle;
+/// a bright granule (class 3, 250) round (22, 10, 10) of radius 2, with its one-voxel blurred
+/// shell at 145 that the classifier called cell.
+fn granule_scene(shell_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
+    let [size_x, size_y, _] = DIMS;
+    let (volume, labels) = scene(|x, y, z| {
+        let distance = ((x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2)).sqrt();
+        if x < 10 {
+            (105.0, 2)
+        } else if distance <= 2.0 {
+            (250.0, 3)
+        } else if distance <= 3.0 {
+            (145.0, shell_label)
+        } else {
+            (40.0, 1)
+        }
+    });
     let at = |x: usize, y: usize, z: usize| x + size_x * (y + size_y * z);
     let lassoed = vec![(at(5, 10, 10), 2), (at(15, 3, 3), 1), (at(22, 10, 10), 3)];
     (volume, labels, lassoed)
@@ -113,26 +119,16 @@ fn a_thin_piece_inside_one_tissue_stays() {
 /// `thickness` is 2) at -20, which the classifier called lesion (class 3, 10); the lesion is
 /// drawn as a thick ball elsewhere inside the muscle.
 fn sheet_scene(thickness: usize) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
-    let [size_x, size_y, size_z] = DIMS;
-    let mut values = Vec::new();
-    let mut labels = Vec::new();
-    for z in 0..size_z {
-        for y in 0..size_y {
-            for x in 0..size_x {
-                let in_lesion =
-                    (x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2) <= 9.0;
-                let (value, label) = match x {
-                    _ if in_lesion => (10.0, 3),
-                    _ if x < 12 => (-100.0, 1),
-                    _ if x < 12 + thickness => (-20.0, 3),
-                    _ => (50.0, 2),
-                };
-                values.push(value);
-                labels.push(label);
-            }
+    let [size_x, size_y, _] = DIMS;
+    let (volume, labels) = scene(|x, y, z| {
+        let in_lesion = (x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2) <= 9.0;
+        match x {
+            _ if in_lesion => (10.0, 3),
+            _ if x < 12 => (-100.0, 1),
+            _ if x < 12 + thickness => (-20.0, 3),
+            _ => (50.0, 2),
         }
-    }
-    let volume = Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("sheet")).unwrap();
+    });
     let lassoed = vec![(22 + size_x * (10 + size_y * 10), 3), (3, 1), (size_x - 1, 2)];
     (volume, labels, lassoed)
 }
