@@ -55,7 +55,7 @@
 pub use volasso_appliance as appliance;
 pub use volasso_core::{
     Volume, VolumeError, VoxelType, accuracy, atomic_file, calendar, classify, cpu, features, input_file, phantom,
-    pipeline, preset, render, rng, segmentation, slices, strokes, transfer, volume,
+    pipeline, preset, render, rng, segmentation, slices, strokes, transfer, uncertainty, volume,
 };
 pub use volasso_dicom::{dicom_out, pacs, receive};
 

@@ -1,6 +1,6 @@
 //! Where to draw next: the "Show unsure" toggle stripes, on the slices, the voxels the classifier
 //! is least sure of, and "Draw here next" moves a panel to the slice that holds most of them
-//! (`segmentation::uncertainty`; in the paper's user survey, §4.1, users could miss regions
+//! (`volasso_core::uncertainty`; in the paper's user survey, §4.1, users could miss regions
 //! the slices do not show). Both act on the classification shown; before there is one they
 //! say so.
 //!

@@ -14,10 +14,10 @@ use std::sync::Arc;
 use std::time::Instant;
 use volasso_core::pipeline::{self, RunControl};
 use volasso_core::preset::{Modality, Preset};
-use volasso_core::segmentation::uncertainty::{self, Survey};
 use volasso_core::segmentation::{LabelVolume, SegmentationOptions, Segmenter};
 use volasso_core::strokes::StrokesFile;
 use volasso_core::transfer::{ClassTable, HueTemplate};
+use volasso_core::uncertainty::{self, Survey};
 use volasso_core::volume::Volume;
 
 /// A finished classification as the kiosk holds it (the labels shared with the 3-D view and

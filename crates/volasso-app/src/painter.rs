@@ -12,10 +12,11 @@
 use super::pictures::{Highlight, PictureError, slice_picture};
 use super::worker::{Report, Serial, Supersedes, Task, Ticket, Worker};
 use std::sync::Arc;
-use volasso_core::segmentation::{Segmenter, uncertainty};
+use volasso_core::segmentation::Segmenter;
 use volasso_core::slices::{DisplayWindow, SliceLayout};
 use volasso_core::strokes::Lasso;
 use volasso_core::transfer::{ClassStyle, RgbImage};
+use volasso_core::uncertainty;
 use volasso_core::volume::Volume;
 
 /// Everything one panel's picture is drawn from, owned so it can cross to the painter.
@@ -33,7 +34,7 @@ pub struct PictureRequest {
     /// The 3-D view's clip plane: what it cuts away is dimmed (clip.rs).
     pub clip: Option<volasso_core::render::ClipPlane>,
     /// Where the classifier is unsure is striped: the trained classifier and the margin below
-    /// which a voxel is unsure (`segmentation::uncertainty`).
+    /// which a voxel is unsure (`uncertainty`).
     pub unsure: Option<(Arc<Segmenter>, f32)>,
 }
 

@@ -9,7 +9,8 @@
 //!
 //! [`pipeline`] runs it in one call, the one the command line, the kiosk and the accuracy
 //! harness share; `phantom` draws scans with known truth and `accuracy` scores the pipeline on
-//! them. The `volasso` crate re-exports every module and documents the tour.
+//! them; `uncertainty` finds where a trained segmenter is unsure, for the next loop. The `volasso`
+//! crate re-exports every module and documents the tour.
 //!
 //! Never: knows about a UI, touch input, a display or the network. This crate has none of
 //! those among its dependencies, so cargo refuses an import of them here.
@@ -32,6 +33,7 @@ pub mod segmentation;
 pub mod slices;
 pub mod strokes;
 pub mod transfer;
+pub mod uncertainty;
 pub mod volume;
 
 pub use volume::{Volume, VolumeError, VoxelType};

@@ -37,7 +37,6 @@ pub mod pairwise;
 pub mod partial_volume;
 pub mod potts;
 mod refine;
-pub mod uncertainty;
 
 pub use background::{Background, BackgroundPlan};
 

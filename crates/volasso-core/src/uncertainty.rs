@@ -7,10 +7,10 @@
 //!
 //! Never: changes labels, or decides what is shown.
 
-use super::gate::ClassSet;
-use super::{SegmentationError, Segmenter, TrainedClassifier};
 use crate::classify;
+use crate::classify::ClassSet;
 use crate::features::features_of_voxels;
+use crate::segmentation::{SegmentationError, Segmenter, TrainedClassifier};
 use crate::slices::{Axis, SliceGeometry};
 use crate::volume::Volume;
 
@@ -105,7 +105,7 @@ pub fn margins_block(
 }
 
 /// One-vs-one margins: |f| of the pair of the vote's winner and runner-up. With `allowed` (a
-/// class set per voxel, [`super::gate`]) only allowed classes take part; a voxel allowed one
+/// class set per voxel, [`crate::segmentation::gate`]) only allowed classes take part; a voxel allowed one
 /// class is sure (infinite), one allowed none is not classified (NaN).
 fn pair_margins(
     class_ids: &[u8],
