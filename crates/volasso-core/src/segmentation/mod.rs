@@ -24,7 +24,9 @@
 //! sweeps ([`potts`]), where a border voxel takes the label whose nearby intensities it is
 //! nearest, weighed against the border's length, then the partial-volume layers
 //! ([`partial_volume`]): a class's one-voxel layer between two classes that bracket its
-//! intensity, apart from its loops, is their blurred border.
+//! intensity, apart from its loops, is their blurred border; last the undrawn tissues
+//! ([`undrawn`]): a piece of a class apart from its loops, many times their size, whose
+//! intensity is another class's drawn pieces' more than its own, is a tissue nobody drew.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 
@@ -37,6 +39,7 @@ pub mod pairwise;
 pub mod partial_volume;
 pub mod potts;
 mod refine;
+pub mod undrawn;
 
 pub use background::{Background, BackgroundPlan};
 

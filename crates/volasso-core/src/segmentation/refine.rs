@@ -217,6 +217,9 @@ fn label_volume_in(
         let started = std::time::Instant::now();
         let changed = super::partial_volume::settle_layers(volume, &mut labels, &segmenter.lassoed);
         log::debug!("coherence: {changed} voxels of partial-volume layers moved ({:?})", started.elapsed());
+        let started = std::time::Instant::now();
+        let changed = super::undrawn::settle_undrawn(volume, &mut labels, &segmenter.lassoed);
+        log::debug!("coherence: {changed} voxels of undrawn tissues moved ({:?})", started.elapsed());
     }
     Ok(LabelVolume {
         dims: volume.dims,

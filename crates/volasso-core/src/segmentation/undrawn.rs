@@ -1,0 +1,166 @@
+//! Undrawn tissues, the last of the spatial step. A class is what its loops drew. A finger's loop
+//! round a small structure takes its partial volume with its neighbours, and a tissue nobody
+//! drew can have those intensities: the grey matter has the values of a ventricle's blurred
+//! border with the white matter, so the pair votes give it to the ventricle's class, a piece of
+//! the class far from the ventricle and many times its size. Such a piece (6-connected voxels of
+//! one class) touches none of its class's loops, holds more than [`SIZE_RATIO`] times the voxels
+//! of all the pieces its loops touch together, and its median lies nearer the median of another
+//! class's drawn pieces than its own class's: it goes to that class
+//! (`docs/decisions/0021-undrawn-tissues.md`).
+//!
+//! Never: changes a piece a loop touches, background (label 0), a piece as small as its class's
+//! drawn ones (cells, lesions, calcifications: many pieces of one class, one of them drawn), one
+//! whose intensity is its own class's (a second lung), or anything without loops (a learned
+//! preset draws none); nor reads the classifier.
+
+use super::background::median_in_place;
+use crate::volume::Volume;
+use std::collections::VecDeque;
+
+/// A piece no loop touches is a candidate when it holds more than this many times the voxels of
+/// all its class's drawn pieces: a cell, a lesion or a second lung is about as large as the
+/// drawn one; the grey matter is ten to fifteen times a ventricle's drawn pieces.
+pub const SIZE_RATIO: usize = 2;
+
+/// Intensities kept per class for its drawn median, at most (every k-th voxel reached).
+const MEDIAN_SAMPLES: usize = 100_000;
+
+/// Gives every undrawn tissue's piece (see the module doc) the class whose drawn pieces' median
+/// is nearest its own; `lassoed`: the voxels the user drew with their class ids. Returns the
+/// voxels changed.
+///
+/// The drawn pieces are found from the loops outwards and, for a class, only until they hold a
+/// share of it that leaves no room for a candidate (a third, with [`SIZE_RATIO`] 2; the median
+/// of such a class is that of the part reached): on most scans every class stops there and the
+/// step costs a fraction of one pass over the volume.
+pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)]) -> usize {
+    let [size_x, size_y, size_z] = volume.dims;
+    if lassoed.is_empty() || labels.len() != size_x * size_y * size_z {
+        return 0;
+    }
+    let mut totals = [0usize; 256];
+    for &label in labels.iter() {
+        totals[label as usize] += 1;
+    }
+    let mut seeds: Vec<Vec<usize>> = vec![Vec::new(); 256];
+    for &(voxel, class) in lassoed {
+        if class != 0 && labels.get(voxel) == Some(&class) {
+            seeds[class as usize].push(voxel);
+        }
+    }
+    let mut reached = vec![false; labels.len()];
+    let mut drawn = [0usize; 256];
+    let mut drawn_values: Vec<Vec<f64>> = vec![Vec::new(); 256];
+    // Per class with room for a candidate, the size of its drawn pieces.
+    let mut open: Vec<(u8, usize)> = Vec::new();
+    for class in 1..=u8::MAX {
+        let seeds = &seeds[class as usize];
+        if seeds.is_empty() {
+            continue;
+        }
+        let enough = totals[class as usize].div_ceil(SIZE_RATIO + 1);
+        let step = (totals[class as usize] / MEDIAN_SAMPLES).max(1);
+        let mut sample = |voxel: usize, count: usize| {
+            if count % step == 0 {
+                let value = volume.value(voxel);
+                if value.is_finite() {
+                    drawn_values[class as usize].push(value);
+                }
+            }
+        };
+        let size = flood(labels, volume.dims, &mut reached, seeds, Some(enough), &mut sample);
+        drawn[class as usize] = size;
+        if size < enough {
+            open.push((class, size));
+        }
+    }
+    if open.is_empty() {
+        return 0;
+    }
+    let medians: Vec<f64> = drawn_values
+        .iter_mut()
+        .map(|values| if values.is_empty() { f64::NAN } else { median_in_place(values) })
+        .collect();
+    let mut changed = 0;
+    for (class, drawn_size) in open {
+        for start in 0..labels.len() {
+            if labels[start] != class || reached[start] {
+                continue;
+            }
+            let mut piece = Vec::new();
+            flood(labels, volume.dims, &mut reached, &[start], None, &mut |voxel, _| piece.push(voxel));
+            if piece.len() <= SIZE_RATIO * drawn_size {
+                continue;
+            }
+            let piece_step = (piece.len() / MEDIAN_SAMPLES).max(1);
+            let mut values: Vec<f64> =
+                piece.iter().step_by(piece_step).map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect();
+            if values.is_empty() {
+                continue;
+            }
+            let median = median_in_place(&mut values);
+            let distance = |label: usize| (median - medians[label]).abs();
+            let nearest = (1..256usize)
+                .filter(|&label| label != class as usize && drawn[label] > 0 && medians[label].is_finite())
+                .min_by(|&a, &b| distance(a).total_cmp(&distance(b)));
+            if let Some(label) = nearest.filter(|&label| distance(label) < distance(class as usize)) {
+                for &voxel in &piece {
+                    labels[voxel] = label as u8;
+                }
+                changed += piece.len();
+            }
+        }
+    }
+    changed
+}
+
+/// Reaches the 6-connected voxels of the label of `seeds` from them (`reached` marks them),
+/// calling `visit` with each and how many came before it; stops at `limit` voxels. Returns the
+/// voxels reached.
+fn flood(
+    labels: &[u8],
+    dims: [usize; 3],
+    reached: &mut [bool],
+    seeds: &[usize],
+    limit: Option<usize>,
+    visit: &mut dyn FnMut(usize, usize),
+) -> usize {
+    let [size_x, size_y, size_z] = dims;
+    let plane = size_x * size_y;
+    let Some(&first) = seeds.first() else { return 0 };
+    let label = labels[first];
+    let mut queue: VecDeque<usize> = VecDeque::new();
+    let mut count = 0;
+    for &seed in seeds {
+        if !reached[seed] && labels[seed] == label {
+            reached[seed] = true;
+            queue.push_back(seed);
+        }
+    }
+    while let Some(voxel) = queue.pop_front() {
+        visit(voxel, count);
+        count += 1;
+        if limit.is_some_and(|limit| count >= limit) {
+            break;
+        }
+        let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
+        let faces = [
+            (x > 0).then(|| voxel - 1),
+            (x + 1 < size_x).then(|| voxel + 1),
+            (y > 0).then(|| voxel - size_x),
+            (y + 1 < size_y).then(|| voxel + size_x),
+            (z > 0).then(|| voxel - plane),
+            (z + 1 < size_z).then(|| voxel + plane),
+        ];
+        for face in faces.into_iter().flatten() {
+            if !reached[face] && labels[face] == label {
+                reached[face] = true;
+                queue.push_back(face);
+            }
+        }
+    }
+    count
+}
+
+#[cfg(test)]
+mod tests;
