@@ -41,6 +41,9 @@ pub mod potts;
 mod refine;
 pub mod undrawn;
 
+#[cfg(test)]
+mod tests;
+
 pub use background::{Background, BackgroundPlan};
 
 use crate::classify::{

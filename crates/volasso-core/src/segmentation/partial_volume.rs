@@ -200,7 +200,7 @@ fn pieces(labels: &[u8], dims: [usize; 3], counts: &[bool]) -> (Vec<u32>, Vec<Pi
 
 /// The six face neighbours of `voxel` in pairs along x, y and z, `None` for a face outside the
 /// volume.
-fn faces_of(voxel: usize, dims: [usize; 3]) -> [Option<usize>; 6] {
+pub(super) fn faces_of(voxel: usize, dims: [usize; 3]) -> [Option<usize>; 6] {
     let [size_x, size_y, size_z] = dims;
     let plane = size_x * size_y;
     let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);

@@ -14,6 +14,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
+use super::partial_volume::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
 
@@ -125,8 +126,6 @@ fn flood(
     limit: Option<usize>,
     visit: &mut dyn FnMut(usize, usize),
 ) -> usize {
-    let [size_x, size_y, size_z] = dims;
-    let plane = size_x * size_y;
     let Some(&first) = seeds.first() else { return 0 };
     let label = labels[first];
     let mut queue: VecDeque<usize> = VecDeque::new();
@@ -143,16 +142,7 @@ fn flood(
         if limit.is_some_and(|limit| count >= limit) {
             break;
         }
-        let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
-        let faces = [
-            (x > 0).then(|| voxel - 1),
-            (x + 1 < size_x).then(|| voxel + 1),
-            (y > 0).then(|| voxel - size_x),
-            (y + 1 < size_y).then(|| voxel + size_x),
-            (z > 0).then(|| voxel - plane),
-            (z + 1 < size_z).then(|| voxel + plane),
-        ];
-        for face in faces.into_iter().flatten() {
+        for face in faces_of(voxel, dims).into_iter().flatten() {
             if !reached[face] && labels[face] == label {
                 reached[face] = true;
                 queue.push_back(face);

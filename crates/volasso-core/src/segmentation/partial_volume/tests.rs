@@ -3,32 +3,16 @@
 //! thin class's thin pieces, a thin piece inside one tissue and a tissue two voxels thick stay.
 
 use super::*;
-use std::path::Path;
+use crate::segmentation::tests::scene;
 
 const DIMS: [usize; 3] = [30, 20, 20];
-
-/// The volume and labels `voxel` gives at each (x, y, z): its value and its label.
-fn scene(voxel: impl Fn(usize, usize, usize) -> (f32, u8)) -> (Volume, Vec<u8>) {
-    let [size_x, size_y, size_z] = DIMS;
-    let (mut values, mut labels) = (Vec::new(), Vec::new());
-    for z in 0..size_z {
-        for y in 0..size_y {
-            for x in 0..size_x {
-                let (value, label) = voxel(x, y, z);
-                values.push(value);
-                labels.push(label);
-            }
-        }
-    }
-    (Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("layers")).unwrap(), labels)
-}
 
 /// Medium (class 1, 40) everywhere; a thick cell (class 2, 105) at x < 10, lassoed at its middle;
 /// a bright granule (class 3, 250) round (22, 10, 10) of radius 2, with its one-voxel blurred
 /// shell at 145 that the classifier called cell.
 fn granule_scene(shell_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
     let [size_x, size_y, _] = DIMS;
-    let (volume, labels) = scene(|x, y, z| {
+    let (volume, labels) = scene(DIMS, |x, y, z| {
         let distance = ((x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2)).sqrt();
         if x < 10 {
             (105.0, 2)
@@ -120,7 +104,7 @@ fn a_thin_piece_inside_one_tissue_stays() {
 /// drawn as a thick ball elsewhere inside the muscle.
 fn sheet_scene(thickness: usize) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
     let [size_x, size_y, _] = DIMS;
-    let (volume, labels) = scene(|x, y, z| {
+    let (volume, labels) = scene(DIMS, |x, y, z| {
         let in_lesion = (x as f32 - 22.0).powi(2) + (y as f32 - 10.0).powi(2) + (z as f32 - 10.0).powi(2) <= 9.0;
         match x {
             _ if in_lesion => (10.0, 3),

@@ -3,7 +3,7 @@
 //! from the drawn one, and anything without loops stay.
 
 use super::*;
-use std::path::Path;
+use crate::segmentation::tests::scene;
 
 const DIMS: [usize; 3] = [40, 20, 20];
 
@@ -11,27 +11,11 @@ fn at(x: usize, y: usize, z: usize) -> usize {
     x + DIMS[0] * (y + DIMS[1] * z)
 }
 
-/// The volume and labels `voxel` gives at each (x, y, z): its value and its label.
-fn scene(voxel: impl Fn(usize, usize, usize) -> (f32, u8)) -> (Volume, Vec<u8>) {
-    let [size_x, size_y, size_z] = DIMS;
-    let (mut values, mut labels) = (Vec::new(), Vec::new());
-    for z in 0..size_z {
-        for y in 0..size_y {
-            for x in 0..size_x {
-                let (value, label) = voxel(x, y, z);
-                values.push(value);
-                labels.push(label);
-            }
-        }
-    }
-    (Volume::from_f32(DIMS, [1.0; 3], &values, Path::new("undrawn")).unwrap(), labels)
-}
-
 /// White matter (class 2, 760) everywhere, drawn at (35, 10, 10); a ventricle (class 1, 300) of
 /// 4x4x4 at x 4-7 drawn at its middle; a slab of grey matter (575) at x 12-27 that the classifier
 /// called `grey_label`; a scalp class (3, 650) at x 38-39, drawn.
 fn brain(grey_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
-    let (volume, labels) = scene(|x, y, z| {
+    let (volume, labels) = scene(DIMS, |x, y, z| {
         if (4..8).contains(&x) && (8..12).contains(&y) && (8..12).contains(&z) {
             (300.0, 1)
         } else if (12..28).contains(&x) {
@@ -71,7 +55,7 @@ fn without_loops_nothing_changes() {
 fn a_large_piece_whose_intensity_is_its_own_class_s_stays() {
     // A second lung: the drawn lung at x 2-9, the other at x 12-35 (three times its size, with
     // the same intensity), soft tissue between and round them.
-    let (volume, mut labels) = scene(|x, _, _| match x {
+    let (volume, mut labels) = scene(DIMS, |x, _, _| match x {
         2..10 => (-850.0, 1),
         12..36 => (-820.0, 1),
         _ => (40.0, 2),
@@ -86,7 +70,7 @@ fn a_large_piece_whose_intensity_is_its_own_class_s_stays() {
 fn cells_of_one_class_apart_from_the_drawn_one_stay() {
     // Medium (class 1, 40); cells (class 2) of 4x4x4 every 8 voxels along x, one drawn. A cell
     // at 70 lies nearer the medium's 40 than the drawn cell's 105, but is no larger than it.
-    let (volume, mut labels) = scene(|x, y, z| {
+    let (volume, mut labels) = scene(DIMS, |x, y, z| {
         let cell = x % 8 >= 2 && x % 8 < 6 && (8..12).contains(&y) && (8..12).contains(&z);
         if cell { (if x < 8 { 105.0 } else { 70.0 }, 2) } else { (40.0, 1) }
     });
