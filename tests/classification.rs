@@ -6,6 +6,7 @@ use std::sync::atomic::AtomicBool;
 use volasso::phantom::{self, dice};
 use volasso::segmentation::{self, Refinement, SegmentationError, SegmentationOptions};
 use volasso::strokes::TrainingSet;
+use volasso::volume::{ByteOrder, ValueScale, Volume, VoxelBytes, VoxelType};
 
 fn demo_labels(refinement: Refinement) -> (phantom::Phantom, Vec<u8>) {
     let phantom = phantom::demo_foot();
@@ -171,10 +172,11 @@ fn a_dim_rim_below_otsu_s_level_does_not_split_the_air_s_noise() {
     assert!(threshold >= 18.0, "the background level {threshold} lies in the air's noise: {line}");
 }
 
-/// A T1 head as a 3 T MPRAGE shows it, grey matter nearer the white matter than the CSF (scalp 820, skull 120, CSF 260, grey matter 580, white matter 760, a 12 % shading,
-/// a blur of about 0.7 voxels, Rician noise of 28) and its truth (`VENTRICLE` for the lateral
+/// A T1 head as a 3 T MPRAGE shows it, grey matter nearer the white matter than the CSF (scalp
+/// 820, skull 120, CSF 260, grey matter 580, white matter 760, a 12 % shading, a blur of about
+/// 0.7 voxels, Rician noise of 28), 16-bit, and its truth (`VENTRICLE` for the lateral
 /// ventricles' CSF), on 72 x 88 x 76 voxels of 1 x 1 x 1.2 mm.
-fn ventricle_head() -> ([usize; 3], Vec<u16>, Vec<u8>) {
+fn ventricle_head() -> (Volume, Vec<u8>) {
     const DIMS: [usize; 3] = [72, 88, 76];
     let [size_x, size_y, size_z] = DIMS;
     let values = [0.0f32, 820.0, 120.0, 260.0, 580.0, 760.0, 260.0];
@@ -215,7 +217,7 @@ fn ventricle_head() -> ([usize; 3], Vec<u16>, Vec<u8>) {
             }
         }
     }
-    let noisy = image
+    let noisy: Vec<u8> = image
         .iter()
         .enumerate()
         .map(|(voxel, &value)| {
@@ -226,8 +228,19 @@ fn ventricle_head() -> ([usize; 3], Vec<u16>, Vec<u8>) {
                 |key: u64| 28.0 * volasso::rng::gaussian_from_bits(volasso::rng::hash64(7, 2 * voxel as u64 + key));
             (value * shading + noise(0)).hypot(noise(1)).round().clamp(0.0, 65535.0) as u16
         })
+        .flat_map(u16::to_le_bytes)
         .collect();
-    (DIMS, noisy, truth)
+    let bytes = VoxelBytes::Owned(noisy);
+    let head = Volume::new(
+        DIMS,
+        [1.0, 1.0, 1.2],
+        VoxelType::U16,
+        ByteOrder::Little,
+        ValueScale::IDENTITY,
+        bytes,
+        std::path::Path::new("head"),
+    );
+    (head.unwrap(), truth)
 }
 
 /// The truth of the ventricles in [`ventricle_head`].
@@ -252,15 +265,10 @@ fn a_finger_s_loop_round_a_ventricle_gives_its_class_the_csf_not_the_grey_matter
     // nobody, has the intensities of the ventricle's blurred border with the white matter: the
     // ventricle's class took 0.91 of it before the undrawn tissues went back
     // (`segmentation::undrawn`).
-    let (dims, image, truth) = ventricle_head();
+    let (head, truth) = ventricle_head();
     let folder = tempfile::tempdir().unwrap();
     let volume = folder.path().join("head.nrrd");
-    let header = format!(
-        "NRRD0004\ntype: uint16\ndimension: 3\nsizes: {} {} {}\nspacings: 1 1 1.2\nendian: little\nencoding: raw\n\n",
-        dims[0], dims[1], dims[2]
-    );
-    let bytes: Vec<u8> = image.iter().flat_map(|value| value.to_le_bytes()).collect();
-    std::fs::write(&volume, [header.as_bytes(), &bytes].concat()).unwrap();
+    crate::support::write_u16_nrrd(&volume, &head);
     let scalp: Vec<[f64; 2]> = (0..=8)
         .map(|k| (k as f64 - 4.0) * 0.08)
         .map(|angle: f64| [38.0 + 36.5 * angle.sin(), 44.0 - 42.5 * angle.cos()])

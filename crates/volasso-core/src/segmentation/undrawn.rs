@@ -50,10 +50,9 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         }
     }
     let mut reached = vec![false; labels.len()];
-    let mut drawn = [0usize; 256];
     let mut drawn_values: Vec<Vec<f64>> = vec![Vec::new(); 256];
     // Per class with room for a candidate, the size of its drawn pieces.
-    let mut open: Vec<(u8, usize)> = Vec::new();
+    let mut open: [Option<usize>; 256] = [None; 256];
     for class in 1..=u8::MAX {
         let seeds = &seeds[class as usize];
         if seeds.is_empty() {
@@ -70,46 +69,43 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
             }
         };
         let size = flood(labels, volume.dims, &mut reached, seeds, Some(enough), &mut sample);
-        drawn[class as usize] = size;
         if size < enough {
-            open.push((class, size));
+            open[class as usize] = Some(size);
         }
     }
-    if open.is_empty() {
+    if open.iter().all(Option::is_none) {
         return 0;
     }
     let medians: Vec<f64> = drawn_values
         .iter_mut()
         .map(|values| if values.is_empty() { f64::NAN } else { median_in_place(values) })
         .collect();
+    // One pass finds every undrawn piece of an open class (the drawn ones are reached already).
     let mut changed = 0;
-    for (class, drawn_size) in open {
-        for start in 0..labels.len() {
-            if labels[start] != class || reached[start] {
-                continue;
+    for start in 0..labels.len() {
+        let class = labels[start];
+        let Some(drawn_size) = open[class as usize].filter(|_| !reached[start]) else { continue };
+        let mut piece = Vec::new();
+        flood(labels, volume.dims, &mut reached, &[start], None, &mut |voxel, _| piece.push(voxel));
+        if piece.len() <= SIZE_RATIO * drawn_size {
+            continue;
+        }
+        let piece_step = (piece.len() / MEDIAN_SAMPLES).max(1);
+        let mut values: Vec<f64> =
+            piece.iter().step_by(piece_step).map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect();
+        if values.is_empty() {
+            continue;
+        }
+        let median = median_in_place(&mut values);
+        let distance = |label: usize| (median - medians[label]).abs();
+        let nearest = (1..256usize)
+            .filter(|&label| label != class as usize && medians[label].is_finite())
+            .min_by(|&a, &b| distance(a).total_cmp(&distance(b)));
+        if let Some(label) = nearest.filter(|&label| distance(label) < distance(class as usize)) {
+            for &voxel in &piece {
+                labels[voxel] = label as u8;
             }
-            let mut piece = Vec::new();
-            flood(labels, volume.dims, &mut reached, &[start], None, &mut |voxel, _| piece.push(voxel));
-            if piece.len() <= SIZE_RATIO * drawn_size {
-                continue;
-            }
-            let piece_step = (piece.len() / MEDIAN_SAMPLES).max(1);
-            let mut values: Vec<f64> =
-                piece.iter().step_by(piece_step).map(|&voxel| volume.value(voxel)).filter(|v| v.is_finite()).collect();
-            if values.is_empty() {
-                continue;
-            }
-            let median = median_in_place(&mut values);
-            let distance = |label: usize| (median - medians[label]).abs();
-            let nearest = (1..256usize)
-                .filter(|&label| label != class as usize && drawn[label] > 0 && medians[label].is_finite())
-                .min_by(|&a, &b| distance(a).total_cmp(&distance(b)));
-            if let Some(label) = nearest.filter(|&label| distance(label) < distance(class as usize)) {
-                for &voxel in &piece {
-                    labels[voxel] = label as u8;
-                }
-                changed += piece.len();
-            }
+            changed += piece.len();
         }
     }
     changed
