@@ -1,7 +1,5 @@
-//! The background: which voxels are air (label 0, never evaluated), and which lassoed voxels
-//! are air a finger took in (paper §3.2's lassos as drawn: a loop around a structure at the
-//! body's edge holds air too). Every rule is relative to the volume and to each class's own
-//! intensities (`docs/decisions/0008-background.md`).
+//! The background: which voxels are air (label 0, never evaluated). Every rule is relative to
+//! the volume and to the classes' own intensities (`docs/decisions/0008-background.md`).
 //!
 //! Automatic rule ([`plan`]): the dark level is the volume's Otsu threshold
 //! ([`Volume::otsu_threshold`]), or a second split below it where Otsu's cuts through a lassoed
@@ -9,12 +7,12 @@
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air is the air: the
 //!    air around the body is that class, the other classes lose their face-air voxels, and
 //!    inside the body voxels darker than every other class's are background.
-//! 2. Otherwise a dark voxel more than [`OUTLIER_DEVIATIONS`] robust deviations below the median
-//!    of its class's voxels outside the face air is dropped. The threshold is lowered to the
-//!    darkest kept voxel inside the body, the face air's level to the darkest kept one in it
-//!    (never below [`air_top`], opening at most [`FACE_AIR_OPENED_SHARE`] of the dark voxels).
+//! 2. Otherwise every lassoed voxel trains its class. The threshold is lowered to the darkest
+//!    lassoed voxel inside the body, the face air's level to the darkest one in it (never below
+//!    [`air_top`], opening at most [`FACE_AIR_OPENED_SHARE`] of the dark voxels).
 //!
-//! Never: trains, or labels voxels (it hands the threshold and the region to the labelling).
+//! Never: trains, labels voxels (it hands the threshold and the region to the labelling), or
+//! drops a lassoed voxel of a class unless another class was drawn in the air.
 
 use super::face_air::{FaceRegion, reaches_face};
 use crate::strokes::TrainingSet;
@@ -27,9 +25,9 @@ mod level;
 /// around a structure at the body's edge holds less (`docs/decisions/0008-background.md`).
 pub const AIR_CLASS_SHARE: f64 = 0.9;
 
-/// Robust deviations below its class's median past which a dark training voxel is air a finger
-/// took in (a stray dark voxel at a lasso's edge pulling the air into a class).
-pub const OUTLIER_DEVIATIONS: f64 = 3.0;
+/// Robust deviations above the median of the dark face voxels where the air on the faces ends
+/// ([`upper_reach`]).
+pub const AIR_REACH_DEVIATIONS: f64 = 3.0;
 
 /// The least Otsu separability for the split below the volume's level to be the dark level;
 /// below it the split cuts the air's own noise (`docs/decisions/0008-background.md`).
@@ -62,7 +60,7 @@ pub struct BackgroundPlan {
     /// Voxels of this region are background too (the face air, when the threshold lies below its
     /// level).
     pub face_air: Option<Arc<FaceRegion>>,
-    /// Training voxels dropped per class as air or dark outliers.
+    /// Training voxels dropped per class as the air class's (in the face air).
     pub dropped_per_class: Vec<usize>,
     /// A class was drawn in the air around the body.
     pub air_is_a_class: bool,
@@ -124,16 +122,8 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     let mut lowest_kept_in_face_air = level;
     for ((class, values), flags) in training.classes.iter().zip(&values).zip(&face_flags) {
         let is_air_class = flags.iter().filter(|&&f| f).count() as f64 >= AIR_CLASS_SHARE * flags.len() as f64;
-        let keep: Vec<bool> = if is_air_class {
-            vec![true; values.len()]
-        } else if air_is_a_class {
-            // Another class is the air: this class's face air belongs to it.
-            flags.iter().map(|&f| !f).collect()
-        } else {
-            let reference: Vec<f64> = values.iter().zip(flags).filter(|(_, f)| !**f).map(|(&v, _)| v).collect();
-            let cutoff = low_outlier_cutoff(reference);
-            values.iter().map(|&v| v >= level || v >= cutoff).collect()
-        };
+        // Another class is the air: this class's face air belongs to it.
+        let keep: Vec<bool> = flags.iter().map(|&f| is_air_class || !air_is_a_class || !f).collect();
         // Kept dark voxels lower the threshold inside the body, the face air's level in it.
         for ((&value, &kept), &in_face_air) in values.iter().zip(&keep).zip(flags) {
             if kept && !in_face_air {
@@ -272,7 +262,7 @@ fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], leve
 }
 
 /// The top of the air on the faces: the median of `face_dark` (the dark face voxels) plus
-/// [`OUTLIER_DEVIATIONS`] robust deviations; `None` when empty. A class above it was drawn in a
+/// [`AIR_REACH_DEVIATIONS`] robust deviations; `None` when empty. A class above it was drawn in a
 /// dark tissue joined to the air (foam, lungs the faces cut), not in the air.
 fn upper_reach(mut face_dark: Vec<f64>) -> Option<f64> {
     if face_dark.is_empty() {
@@ -280,7 +270,7 @@ fn upper_reach(mut face_dark: Vec<f64>) -> Option<f64> {
     }
     let median = median_in_place(&mut face_dark);
     let mut deviations: Vec<f64> = face_dark.iter().map(|&v| (v - median).abs()).collect();
-    Some(median + OUTLIER_DEVIATIONS * (1.4826 * median_in_place(&mut deviations)))
+    Some(median + AIR_REACH_DEVIATIONS * (1.4826 * median_in_place(&mut deviations)))
 }
 
 /// The face air's level lowered to `lowest_kept` (the darkest kept voxel in it), never below
@@ -345,18 +335,6 @@ fn face_values(volume: &Volume) -> Vec<f64> {
         }
     }
     values
-}
-
-/// The value below which a voxel is a low outlier for `reference`: its median minus
-/// [`OUTLIER_DEVIATIONS`] robust deviations of its lower half; minus infinity when empty.
-fn low_outlier_cutoff(mut reference: Vec<f64>) -> f64 {
-    if reference.is_empty() {
-        return f64::NEG_INFINITY;
-    }
-    let median = median_in_place(&mut reference);
-    let mut below: Vec<f64> = reference.iter().filter(|&&v| v <= median).map(|&v| median - v).collect();
-    let deviation = 1.4826 * median_in_place(&mut below);
-    median - OUTLIER_DEVIATIONS * deviation
 }
 
 /// The median (upper median for an even count) of a non-empty slice, reordering it.

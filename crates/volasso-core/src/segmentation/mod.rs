@@ -13,8 +13,7 @@
 //!   joined to the volume's faces that the body does not ring in its axial slices), and what is
 //!   darker than every loop inside the body, is background: label 0, never evaluated. Lungs,
 //!   sinuses and bowel gas are inside the body however dark. A class drawn mostly in the face
-//!   air is the air: the air around the body is that class. A dark voxel far below its class's
-//!   own spread is air a finger took in.
+//!   air is the air: the air around the body is that class.
 //! * **A loop's voxels are noisy labels** ([`gate`]). A class's band is its drawn intensities,
 //!   trimmed; a voxel one band holds is that class, else only the nearest bands' classes vote.
 //!   A loop whose rim holds another class's intensities leaked: its core alone gives the band
@@ -250,7 +249,8 @@ pub struct TrainingSummary {
     pub background_region: Option<std::sync::Arc<face_air::FaceRegion>>,
     /// The label of `background_region`: 0 (background), or the class drawn in the air.
     pub region_label: u8,
-    /// Training voxels the background rule dropped per class (air a lasso took in).
+    /// Training voxels the background rule dropped per class (in the air around the body, when
+    /// another class was drawn in it).
     pub dropped_as_air_per_class: Vec<usize>,
     /// A class was drawn in the air around the body, so the air is classified.
     pub air_is_a_class: bool,
