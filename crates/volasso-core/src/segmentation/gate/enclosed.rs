@@ -7,7 +7,9 @@
 //! (`docs/decisions/0007-enclosed-voxels.md`).
 //!
 //! Never: looks at a class whose rim leaked, one without a core, or one whose median mean lies
-//! in the middle half of another class's core band (a loop mostly over that class).
+//! in the middle half of another class's core band (a loop mostly over that class). For a class
+//! drawn on a structure too small for a core (a granule) that is the middle half of its values,
+//! not of its band: the blur spreads its band over its neighbours' values.
 
 use super::{BAND_TRIM, Band, DrawnClass, band_of, finite_values};
 use crate::segmentation::background::median_in_place;
@@ -25,6 +27,8 @@ pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 /// order of `training`.
 pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [DrawnClass], leaked: &[bool]) {
     let cores: Vec<Band> = classes.iter().map(|class| class.core).collect();
+    let classes_seen: Vec<(Band, [f64; 3], bool)> =
+        classes.iter().map(|class| (class.core, class.core_quartiles, class.core_voxels.is_empty())).collect();
     let medians: Vec<f64> =
         training.classes.iter().map(|class| finite_median(finite_values(volume, &class.voxels))).collect();
     let median_means: Vec<f64> = training
@@ -34,8 +38,14 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
         .collect();
     for (position, (class, drawn)) in classes.iter_mut().zip(&training.classes).enumerate() {
         let (own, own_mean) = (medians[position], median_means[position]);
-        let over_another =
-            cores.iter().enumerate().any(|(other, band)| other != position && in_middle_half(band, own_mean as f32));
+        let over_another = (0..classes_seen.len()).filter(|&other| other != position).any(|other| {
+            let (band, quartiles, coreless) = &classes_seen[other];
+            if *coreless {
+                (quartiles[0]..=quartiles[2]).contains(&own_mean)
+            } else {
+                in_middle_half(band, own_mean as f32)
+            }
+        });
         if leaked.get(position).copied().unwrap_or(true) || class.core_voxels.is_empty() || over_another {
             continue;
         }

@@ -251,6 +251,26 @@ fn a_clean_loop_sets_aside_the_voxels_it_encloses_of_another_drawn_class() {
 }
 
 #[test]
+fn a_class_drawn_on_a_structure_too_small_for_a_core_does_not_stop_a_loop_setting_aside_what_it_encloses() {
+    // The cells' failure: a granule's loop of 15 voxels, bright (240) with an edge blurred down
+    // to the medium's values (40, 90, 140), has no core; its band's middle half holds the
+    // cell's values, which must not read as the cell's loop lying over the granules.
+    let granule = |x: usize, y: usize| {
+        let edge = y == 2 && x < 33;
+        ((30..35).contains(&x) && (2..5).contains(&y)).then(|| if edge { 40.0 + 50.0 * (x - 30) as f32 } else { 240.0 })
+    };
+    let volume = muscle_with(|x, y| {
+        let within = |range: std::ops::Range<usize>| range.contains(&x) && range.contains(&y);
+        granule(x, y).or(if within(10..20) || within(29..39) { Some(200.0) } else { within(5..25).then_some(100.0) })
+    });
+    let classes = vec![square(0..4, 0..40), square(5..25, 5..25), square(29..39, 29..39), square(30..35, 2..5)];
+    let drawn = DrawnLassos::read(&volume, &TrainingSet { classes, contested_voxels: 0 });
+    let training = drawn.training_voxels();
+    let Some(cell_voxels) = training[1] else { panic!("the cell's loop encloses the nucleus: {training:?}") };
+    assert!(cell_voxels.binary_search(&(15 + DIMS[0] * (15 + DIMS[1]))).is_err(), "the nucleus's centre is set aside");
+}
+
+#[test]
 fn a_loop_that_lies_mostly_over_another_class_keeps_its_voxels() {
     // A loop around the nucleus that reaches far over the cell (as a finger's loop around a
     // small structure does): its median is the cell's, so which voxels are its own is unknown.
