@@ -3,9 +3,9 @@
 //! stored as integers with a rescale intercept; each with clean and leaky lassos, and labelled
 //! end to end where the plan alone does not show the picture.
 
+use super::tests::{classed, labelled};
 use super::*;
 use crate::rng::{gaussian_from_bits, hash64};
-use crate::segmentation::{Refinement, SegmentationOptions, label_volume, train};
 use crate::strokes::ClassSamples;
 use crate::volume::{ByteOrder, ValueScale, VoxelBytes, VoxelType};
 use std::path::Path;
@@ -80,13 +80,11 @@ fn a_small_very_bright_structure_does_not_make_the_tissues_air() {
         assert!(threshold < 35.0, "below the ball: {threshold}");
         assert_eq!((cleaned, plan.dropped_per_class), (set.clone(), vec![0, 0]), "{leaked} air voxels trained");
 
-        let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
-        let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
-        let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| volume.value(i) <= 5.0).collect();
-        let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
-        assert!(air_labelled * 100 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
-        assert_eq!(labels.labels[index(16, 24, 12)], 1, "the ball's centre");
-        assert_eq!(labels.labels[index(36, 24, 12)], 2, "the rod's centre");
+        let labels = labelled(&volume, &set);
+        let (air_labelled, air) = classed(&labels, |i| volume.value(i) <= 5.0);
+        assert!(air_labelled * 100 < air, "{air_labelled} of {air} air voxels have a class");
+        assert_eq!(labels[index(16, 24, 12)], 1, "the ball's centre");
+        assert_eq!(labels[index(36, 24, 12)], 2, "the rod's centre");
     }
 }
 
@@ -132,14 +130,12 @@ fn an_mri_with_noisy_biased_air_keeps_the_air_background() {
     let set = training(vec![class(2..12, 20..28), class(22..27, 22..27)]);
     let (_, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(!plan.air_is_a_class);
-    let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
-    let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
+    let labels = labelled(&volume, &set);
     let outside = |x: usize, y: usize| ((x as f64 - 24.0) / 18.0).powi(2) + ((y as f64 - 24.0) / 20.0).powi(2) > 1.2;
-    let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| outside(index_x(i), i / DIMS[0] % DIMS[1])).collect();
-    let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
-    assert!(air_labelled * 100 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
-    assert_eq!(labels.labels[index(10, 24, 12)], 1, "the outer tissue");
-    assert_eq!(labels.labels[index(24, 24, 12)], 2, "the core");
+    let (air_labelled, air) = classed(&labels, |i| outside(index_x(i), i / DIMS[0] % DIMS[1]));
+    assert!(air_labelled * 100 < air, "{air_labelled} of {air} air voxels have a class");
+    assert_eq!(labels[index(10, 24, 12)], 1, "the outer tissue");
+    assert_eq!(labels[index(24, 24, 12)], 2, "the core");
 }
 
 #[test]
@@ -204,13 +200,11 @@ fn a_dark_layer_joined_to_the_air_drawn_off_centre_is_a_class_and_the_air_stays_
     let threshold = plan.threshold.expect("a level");
     assert!(threshold > -1000.0 && threshold < -550.0, "{threshold}");
 
-    let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
-    let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
-    let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| index_x(i) < 3).collect();
-    let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
-    assert!(air_labelled * 20 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
-    assert_eq!(labels.labels[index(6, 24, 12)], 1, "the foam");
-    assert_eq!(labels.labels[index(22, 24, 12)], 2, "the body");
+    let labels = labelled(&volume, &set);
+    let (air_labelled, air) = classed(&labels, |i| index_x(i) < 3);
+    assert!(air_labelled * 20 < air, "{air_labelled} of {air} air voxels have a class");
+    assert_eq!(labels[index(6, 24, 12)], 1, "the foam");
+    assert_eq!(labels[index(22, 24, 12)], 2, "the body");
 }
 
 fn index_x(voxel: usize) -> usize {
@@ -256,12 +250,10 @@ fn a_dark_skull_drawn_with_a_finger_s_leak_is_a_class_and_the_air_stays_backgrou
     let threshold = plan.threshold.expect("a level");
     assert!((40.0..110.0).contains(&threshold), "between the air and the skull: {threshold}");
 
-    let segmenter = train(&volume, &set, &SegmentationOptions::default()).unwrap();
-    let labels = label_volume(&volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap();
-    let air: Vec<usize> = (0..volume.voxel_count()).filter(|&i| index_x(i) < 10).collect();
-    let air_labelled = air.iter().filter(|&&i| labels.labels[i] != 0).count();
-    assert!(air_labelled * 20 < air.len(), "{air_labelled} of {} air voxels have a class", air.len());
+    let labels = labelled(&volume, &set);
+    let (air_labelled, air) = classed(&labels, |i| index_x(i) < 10);
+    assert!(air_labelled * 20 < air, "{air_labelled} of {air} air voxels have a class");
     let skull: Vec<usize> = (0..DIMS[2]).flat_map(|z| (0..DIMS[1]).map(move |y| index(16, y, z))).collect();
-    let labelled_skull = skull.iter().filter(|&&i| labels.labels[i] == 1).count();
+    let labelled_skull = skull.iter().filter(|&&i| labels[i] == 1).count();
     assert!(labelled_skull * 10 >= skull.len() * 9, "{labelled_skull} of {} skull voxels", skull.len());
 }

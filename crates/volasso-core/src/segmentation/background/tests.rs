@@ -48,14 +48,14 @@ fn training(classes: Vec<ClassSamples>) -> TrainingSet {
 }
 
 /// The labels `set`'s segmenter gives `volume`, labelled coarse to fine.
-fn labelled(volume: &Volume, set: &TrainingSet) -> Vec<u8> {
+pub(super) fn labelled(volume: &Volume, set: &TrainingSet) -> Vec<u8> {
     use crate::segmentation::{Refinement, SegmentationOptions, label_volume, train};
     let segmenter = train(volume, set, &SegmentationOptions::default()).unwrap();
     label_volume(volume, &segmenter, Refinement::CoarseToFine, &|_| {}, &Default::default()).unwrap().labels
 }
 
 /// How many of the voxels `where_` picks have a class in `labels`, and how many it picks.
-fn classed(labels: &[u8], where_: impl Fn(usize) -> bool) -> (usize, usize) {
+pub(super) fn classed(labels: &[u8], where_: impl Fn(usize) -> bool) -> (usize, usize) {
     let picked: Vec<usize> = (0..labels.len()).filter(|&i| where_(i)).collect();
     (picked.iter().filter(|&&i| labels[i] != 0).count(), picked.len())
 }

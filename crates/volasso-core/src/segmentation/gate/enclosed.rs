@@ -27,8 +27,9 @@ pub const ENCLOSED_REACH: f64 = 1.0 / 3.0;
 /// order of `training`.
 pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [DrawnClass], leaked: &[bool]) {
     let cores: Vec<Band> = classes.iter().map(|class| class.core).collect();
-    let classes_seen: Vec<(Band, [f64; 3], bool)> =
-        classes.iter().map(|class| (class.core, class.core_quartiles, class.core_voxels.is_empty())).collect();
+    // The quartiles of a class without a core (its core band is its whole, blurred band).
+    let coreless_quartiles: Vec<Option<[f64; 3]>> =
+        classes.iter().map(|class| class.core_voxels.is_empty().then_some(class.core_quartiles)).collect();
     let medians: Vec<f64> =
         training.classes.iter().map(|class| finite_median(finite_values(volume, &class.voxels))).collect();
     let median_means: Vec<f64> = training
@@ -38,13 +39,12 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
         .collect();
     for (position, (class, drawn)) in classes.iter_mut().zip(&training.classes).enumerate() {
         let (own, own_mean) = (medians[position], median_means[position]);
-        let over_another = (0..classes_seen.len()).filter(|&other| other != position).any(|other| {
-            let (band, quartiles, coreless) = &classes_seen[other];
-            if *coreless {
-                (quartiles[0]..=quartiles[2]).contains(&own_mean)
-            } else {
-                in_middle_half(band, own_mean as f32)
-            }
+        let over_another = cores.iter().zip(&coreless_quartiles).enumerate().any(|(other, (band, quartiles))| {
+            other != position
+                && match quartiles {
+                    Some([low, _, high]) => (*low..=*high).contains(&own_mean),
+                    None => in_middle_half(band, own_mean as f32),
+                }
         });
         if leaked.get(position).copied().unwrap_or(true) || class.core_voxels.is_empty() || over_another {
             continue;
