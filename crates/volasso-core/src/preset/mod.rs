@@ -22,14 +22,12 @@
 //! scan's header, or trains (it hands [`TrainingSamples`] to `segmentation::fit`).
 
 use crate::features::FeatureSet;
-use crate::segmentation::face_air::FaceRegion;
 use crate::segmentation::gate::Band;
 use crate::segmentation::{BackgroundPlan, Segmenter, TrainingSamples};
 use crate::transfer::{ClassStyle, ClassTable, HueTemplate, OpacityRule};
 use crate::volume::Volume;
 use serde::{Deserialize, Serialize};
 use std::path::{Path, PathBuf};
-use std::sync::Arc;
 
 #[cfg(test)]
 mod tests;
@@ -216,9 +214,7 @@ impl PresetBackground {
     fn plan(&self, volume: &Volume, map: &ValueMap, air_class: Option<usize>, classes: usize) -> BackgroundPlan {
         BackgroundPlan {
             threshold: self.threshold.map(|level| map.value_from_standard(level) as f64),
-            face_air: self
-                .face_level
-                .map(|level| Arc::new(FaceRegion::find(volume, map.value_from_standard(level) as f64))),
+            body: self.face_level.map(|level| volume.body_at(map.value_from_standard(level) as f64)),
             dropped_per_class: vec![0; classes],
             air_is_a_class: air_class.is_some(),
             air_class,
@@ -388,11 +384,7 @@ impl Preset {
             air_class: samples.background.air_class,
             background: PresetBackground {
                 threshold: samples.background.threshold.map(|level| map.value_to_standard(level as f32)),
-                face_level: samples
-                    .background
-                    .face_air
-                    .as_ref()
-                    .map(|region| map.value_to_standard(region.level as f32)),
+                face_level: samples.background.body.as_ref().map(|body| map.value_to_standard(body.level as f32)),
             },
             bands: samples.bands.as_ref().map(|bands| {
                 bands.iter().map(|band| [map.value_to_standard(band.low), map.value_to_standard(band.high)]).collect()
@@ -645,14 +637,14 @@ pub fn join_samples(
         (Some(drawn), Some(preset)) => Some(drawn.min(preset)),
         _ => None,
     };
-    let face_air = match drawn_air {
-        Some(_) => drawn.background.face_air.clone(),
-        None if air_class.is_some() => preset.background.face_air.clone(),
-        None => drawn.background.face_air.clone().or_else(|| preset.background.face_air.clone()),
+    let body = match drawn_air {
+        Some(_) => drawn.background.body.clone(),
+        None if air_class.is_some() => preset.background.body.clone(),
+        None => drawn.background.body.clone().or_else(|| preset.background.body.clone()),
     };
     let background = BackgroundPlan {
         threshold,
-        face_air,
+        body,
         dropped_per_class: vec![0; class_count],
         air_is_a_class: air_class.is_some(),
         air_class,

@@ -3,7 +3,8 @@
 //!
 //! Automatic rule ([`plan`]): the dark level is the volume's Otsu threshold
 //! ([`Volume::otsu_threshold`]), or a second split below it where Otsu's cuts through a lassoed
-//! tissue (`dark_level`); the face air is the dark region outside the body ([`super::face_air`]).
+//! tissue (`dark_level`); the face air is what lies outside the body ([`Volume::body_at`]) at a
+//! level: the air around it, joined to the volume's faces (the body rings its lungs and sinuses).
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air is the air: the
 //!    air around the body is that class, the other classes lose their face-air voxels, and
 //!    inside the body voxels darker than every other class's are background.
@@ -14,9 +15,9 @@
 //! Never: trains, labels voxels (it hands the threshold and the region to the labelling), or
 //! drops a lassoed voxel of a class unless another class was drawn in the air.
 
-use super::face_air::{FaceRegion, reaches_face};
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
+use crate::volume::body::Body;
 use std::sync::Arc;
 
 mod level;
@@ -57,9 +58,9 @@ pub enum Background {
 pub struct BackgroundPlan {
     /// Voxels below this value are background; `None` when every voxel is classified.
     pub threshold: Option<f64>,
-    /// Voxels of this region are background too (the face air, when the threshold lies below its
-    /// level).
-    pub face_air: Option<Arc<FaceRegion>>,
+    /// Voxels outside this body (the face air) are background too, or the air class where there
+    /// is one; `None` when the threshold alone decides.
+    pub body: Option<Arc<Body>>,
     /// Training voxels dropped per class as the air class's (in the face air).
     pub dropped_per_class: Vec<usize>,
     /// A class was drawn in the air around the body.
@@ -104,8 +105,8 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
         };
         return (training.clone(), plan);
     }
-    let mut in_face_air = reaches_face(volume, level, &dark);
-    let mut dark_in_face = dark.into_iter().zip(in_face_air.drain(..)).collect::<Vec<_>>();
+    let body = volume.body_at(level);
+    let mut dark_in_face = dark.into_iter().map(|voxel| (voxel, !body.contains(voxel))).collect::<Vec<_>>();
     dark_in_face.sort_unstable();
     let face_air = |voxel: usize| dark_in_face.binary_search(&(voxel, true)).is_ok();
     let face_flags: Vec<Vec<bool>> =
@@ -158,7 +159,7 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
             }
             _ => level,
         };
-        let face_air = Some(Arc::new(FaceRegion::find(volume, air_level)));
+        let body = Some(volume.body_at(air_level));
         // Inside the body, voxels darker than every other class's kept voxels are background.
         let lowest_other = cleaned
             .classes
@@ -169,15 +170,15 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
             .filter(|value| value.is_finite())
             .fold(f64::INFINITY, f64::min);
         let threshold = lowest_other.is_finite().then_some(lowest_other.min(air_level));
-        BackgroundPlan { threshold, face_air, dropped_per_class, air_is_a_class, air_class }
+        BackgroundPlan { threshold, body, dropped_per_class, air_is_a_class, air_class }
     } else {
         // Everything is classified down to the darkest kept voxel, except the face air (below
         // its own level, lowered to a class's dim edge in it).
         let face_level = lowered_face_level(volume, level, lowest_kept_in_face_air);
         let threshold = lowest_kept.min(face_level);
-        let face_air = (threshold < face_level).then(|| Arc::new(FaceRegion::find(volume, face_level)));
+        let body = (threshold < face_level).then(|| volume.body_at(face_level));
         log::debug!("background: dark level {level}, face air below {face_level}, threshold {threshold}");
-        BackgroundPlan { threshold: Some(threshold), face_air, dropped_per_class, air_is_a_class, air_class: None }
+        BackgroundPlan { threshold: Some(threshold), body, dropped_per_class, air_is_a_class, air_class: None }
     };
     (cleaned, plan)
 }
@@ -248,8 +249,8 @@ fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], leve
         .zip(values)
         .flat_map(|(class, values)| class.voxels.iter().zip(values).filter(|(_, v)| **v < level).map(|(&i, _)| i))
         .collect();
-    let mut in_face_air: Vec<usize> =
-        dark.iter().zip(reaches_face(volume, level, &dark)).filter(|(_, face)| *face).map(|(&i, _)| i).collect();
+    let body = volume.body_at(level);
+    let mut in_face_air: Vec<usize> = dark.into_iter().filter(|&voxel| !body.contains(voxel)).collect();
     in_face_air.sort_unstable();
     training
         .classes

@@ -9,8 +9,8 @@
 //! (`docs/decisions/0014-coarse-to-fine.md`). The kernel sums are the only hot part.
 //!
 //! Before training, what the loops mean:
-//! * **The body and the world** (`background`, [`face_air`]). The face air (the dark region
-//!   joined to the volume's faces that the body does not ring in its axial slices), and what is
+//! * **The body and the world** (`background`, `crate::volume::body`). The face air (the dark
+//!   region joined to the volume's faces that the body does not ring in its axial slices), and what is
 //!   darker than every loop inside the body, is background: label 0, never evaluated. Lungs,
 //!   sinuses and bowel gas are inside the body however dark. A class drawn mostly in the face
 //!   air is the air: the air around the body is that class.
@@ -32,7 +32,6 @@
 mod background;
 mod coarse_grid;
 pub mod coherence;
-pub mod face_air;
 pub mod gate;
 pub mod pairwise;
 pub mod partial_volume;
@@ -244,10 +243,10 @@ pub struct TrainingSummary {
     pub contested_voxels: usize,
     /// Voxels below this value are background; `None` when every voxel is classified.
     pub background_threshold: Option<f64>,
-    /// Voxels of this region (the air joined to the volume's faces) get `region_label`
-    /// without being classified.
-    pub background_region: Option<std::sync::Arc<face_air::FaceRegion>>,
-    /// The label of `background_region`: 0 (background), or the class drawn in the air.
+    /// Voxels outside this body (the world around it) get `region_label` without being
+    /// classified.
+    pub body: Option<std::sync::Arc<crate::volume::body::Body>>,
+    /// The label of the voxels outside `body`: 0 (background), or the class drawn in the air.
     pub region_label: u8,
     /// Training voxels the background rule dropped per class (in the air around the body, when
     /// another class was drawn in it).
@@ -532,7 +531,7 @@ pub fn fit(samples: TrainingSamples, options: &SegmentationOptions) -> Result<Se
         cap_per_class: options.max_training_per_class,
         contested_voxels: samples.contested_voxels,
         background_threshold: background.threshold,
-        background_region: background.face_air.clone(),
+        body: background.body.clone(),
         region_label: background.air_class.map_or(0, |position| position as u8 + 1),
         dropped_as_air_per_class: background.dropped_per_class.clone(),
         air_is_a_class: background.air_is_a_class,

@@ -246,13 +246,13 @@ fn coarse_preview(dims: [usize; 3], grid: &CoarseGrid, segmenter: &Segmenter) ->
     LabelVolume { dims, labels, classified_voxels: classified, evaluated_voxels: 0 }
 }
 
-/// Gives the air joined to the faces its label (0, or the class drawn in the air); returns the
-/// change in classified voxels.
+/// Gives the voxels outside the body their label (0, or the class drawn in the air); returns
+/// the change in classified voxels.
 fn paint_region(labels: &mut [u8], segmenter: &Segmenter) -> isize {
-    let Some(region) = &segmenter.summary.background_region else { return 0 };
+    let Some(body) = &segmenter.summary.body else { return 0 };
     let region_label = segmenter.summary.region_label;
     let mut change = 0;
-    for index in region.voxels.iter() {
+    for index in body.outside() {
         change += isize::from(region_label != 0) - isize::from(labels[index] != 0);
         labels[index] = region_label;
     }

@@ -94,16 +94,20 @@ impl Body {
         self.words[index / 64] >> (index % 64) & 1 == 1
     }
 
-    /// One bit per voxel (x fastest), set outside the body; the bits past the last voxel clear.
-    pub fn outside_words(&self) -> Vec<u64> {
+    /// The voxels outside the body, ascending (x fastest).
+    pub fn outside(&self) -> impl Iterator<Item = usize> + '_ {
         let voxels = self.dims[0] * self.dims[1] * self.dims[2];
-        let mut words: Vec<u64> = self.words.iter().map(|word| !word).collect();
-        if let Some(last) = words.last_mut()
-            && voxels % 64 != 0
-        {
-            *last &= (1u64 << (voxels % 64)) - 1;
-        }
-        words
+        let words = self.words.iter().enumerate().flat_map(|(index, &word)| {
+            let mut rest = !word;
+            std::iter::from_fn(move || {
+                (rest != 0).then(|| {
+                    let bit = rest.trailing_zeros() as usize;
+                    rest &= rest - 1;
+                    index * 64 + bit
+                })
+            })
+        });
+        words.take_while(move |&voxel| voxel < voxels)
     }
 
     /// Voxels inside the body.

@@ -89,10 +89,10 @@ fn a_loop_drawn_in_the_air_makes_the_air_a_class() {
     assert_eq!(plan.dropped_per_class, vec![0, 0]);
     assert_eq!(cleaned, set);
     assert_eq!(plan.air_class, Some(0));
-    let region = plan.face_air.expect("the air around the body is the class's");
-    assert!(region.contains(index(2, 2, 10)), "the air around the body");
-    assert!(!region.contains(index(15, 20, 10)), "the lung the body encloses is not the air");
-    assert!(!region.contains(index(20, 20, 10)), "the body is not the air");
+    let body = plan.body.expect("the air around the body is the class's");
+    assert!(!body.contains(index(2, 2, 10)), "the air around the body");
+    assert!(body.contains(index(15, 20, 10)), "the lung the body encloses is not the air");
+    assert!(body.contains(index(20, 20, 10)), "the body is not the air");
 }
 
 #[test]
@@ -147,9 +147,9 @@ fn a_lasso_in_an_enclosed_lung_classifies_the_lung_and_not_the_air_outside() {
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
     assert_eq!(cleaned, set, "the lung's voxels are its own");
     assert!(plan.threshold.unwrap() < -850.0);
-    let face_air = plan.face_air.expect("the air outside stays background");
-    assert!(face_air.contains(index(0, 0, 0)) && face_air.contains(index(39, 20, 19)));
-    assert!(!face_air.contains(index(15, 20, 10)), "the lung is not face air");
+    let body = plan.body.expect("the air outside stays background");
+    assert!(!body.contains(index(0, 0, 0)) && !body.contains(index(39, 20, 19)));
+    assert!(body.contains(index(15, 20, 10)), "the lung is not face air");
 }
 
 #[test]
@@ -163,9 +163,9 @@ fn a_lung_cut_by_a_face_is_a_class_and_the_air_stays_background() {
     assert_eq!(cleaned, set);
     assert!(!plan.air_is_a_class);
     assert!(plan.threshold.expect("a level") < -850.0, "the lung is classified: {plan:?}");
-    let face_air = plan.face_air.expect("the air outside stays background");
-    assert!(face_air.contains(index(0, 0, 0)));
-    assert!(!face_air.contains(index(15, 20, 0)), "the lung on the face is not face air");
+    let body = plan.body.expect("the air outside stays background");
+    assert!(!body.contains(index(0, 0, 0)));
+    assert!(body.contains(index(15, 20, 0)), "the lung on the face is not face air");
 }
 
 #[test]
@@ -193,9 +193,9 @@ fn a_lung_as_dark_as_the_air_leaving_through_the_top_face_is_a_class() {
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(!plan.air_is_a_class, "{plan:?}");
     assert_eq!(cleaned.classes[0], set.classes[0], "every lung voxel trains");
-    let face_air = plan.face_air.expect("the air outside stays background");
-    assert!(face_air.contains(index(0, 0, DIMS[2] - 1)));
-    assert!(!face_air.contains(index(15, 20, DIMS[2] - 1)), "the lung on the top face is not face air");
+    let body = plan.body.expect("the air outside stays background");
+    assert!(!body.contains(index(0, 0, DIMS[2] - 1)));
+    assert!(body.contains(index(15, 20, DIMS[2] - 1)), "the lung on the top face is not face air");
 }
 
 #[test]
@@ -218,8 +218,8 @@ fn in_a_scan_without_air_a_dark_tissue_at_the_faces_is_a_class_when_drawn() {
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
     assert!(plan.air_is_a_class && plan.air_class == Some(0));
     assert!(super::keeps_every_other_class(&volume, &cleaned, &plan));
-    let fat = plan.face_air.as_ref().expect("the fat joined to the faces is the fat class's");
-    assert!(fat.contains(index(1, 1, 10)) && !fat.contains(index(20, 20, 10)));
+    let body = plan.body.as_ref().expect("the fat joined to the faces is the fat class's");
+    assert!(!body.contains(index(1, 1, 10)) && body.contains(index(20, 20, 10)));
     assert_eq!(plan.dropped_per_class, vec![0, 3 * 6]);
     assert_eq!(cleaned.classes[0], set.classes[0]);
     // Without a fat class, the fat joined to the faces stays background, the muscle's loop
@@ -240,7 +240,7 @@ fn explicit_backgrounds_keep_the_lassos_as_drawn() {
     let (cleaned, below) = plan(&volume, &set, Background::Below(-500.0));
     assert_eq!((cleaned, below.threshold), (set.clone(), Some(-500.0)));
     let (cleaned, none) = plan(&volume, &set, Background::None);
-    assert_eq!((cleaned, none.threshold, none.face_air.is_none()), (set, None, true));
+    assert_eq!((cleaned, none.threshold, none.body.is_none()), (set, None, true));
 }
 
 #[test]
@@ -308,7 +308,7 @@ fn a_class_whose_dim_edge_joins_the_air_keeps_it_and_the_air_stays_background() 
     let threshold = plan.threshold.unwrap();
     assert!(threshold > 40.0 && threshold < 300.0, "{threshold}");
     let background =
-        |voxel: usize| volume.value(voxel) < threshold || plan.face_air.as_ref().is_some_and(|air| air.contains(voxel));
+        |voxel: usize| volume.value(voxel) < threshold || plan.body.as_ref().is_some_and(|body| !body.contains(voxel));
     assert!((0..DIMS[0]).all(|x| background(index(x, 2, 10))));
     assert!((12..28).all(|y| !background(index(8, y, 10))));
     let dark_level = volume.otsu_threshold();

@@ -110,3 +110,16 @@ fn a_bright_speck_in_the_air_is_not_a_body_and_a_box_s_cavity_is_inside() {
     assert_eq!(body.row_span(12, 12), Some((4, 19)));
     assert_eq!(body.row_span(1, 1), None);
 }
+
+#[test]
+fn the_voxels_outside_are_every_voxel_not_inside_and_none_past_the_volume() {
+    // 48 x 36 x 20 voxels is not a multiple of 64 in the last word: its spare bits are not voxels.
+    for dims in [[48, 36, 20], [7, 5, 3]] {
+        let volume = chest(dims);
+        let body = Body::find(&volume, volume.otsu_threshold());
+        let outside: Vec<usize> = body.outside().collect();
+        let expected: Vec<usize> = (0..volume.voxel_count()).filter(|&voxel| !body.contains(voxel)).collect();
+        assert_eq!(outside, expected, "{dims:?}");
+        assert_eq!(outside.len() + body.voxel_count(), volume.voxel_count());
+    }
+}
