@@ -20,8 +20,6 @@ use crate::volume::Volume;
 use crate::volume::body::Body;
 use std::sync::Arc;
 
-mod level;
-
 /// A class with at least this share of its voxels in the face air was drawn in the air; a loop
 /// around a structure at the body's edge holds less (`docs/decisions/0008-background.md`).
 pub const AIR_CLASS_SHARE: f64 = 0.9;
@@ -183,7 +181,7 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     (cleaned, plan)
 }
 
-/// The volume's dark level: its Otsu threshold, or the split below it ([`level::split_below`])
+/// The volume's dark level: its Otsu threshold, or the split below it ([`Volume::split_below`])
 /// where Otsu's cuts through a lassoed tissue (a scan of air with one small, very bright
 /// structure; an MRI's thin dark skull). The split is tried when a class has [`AIR_CLASS_SHARE`]
 /// of its voxels in the face air, else when a lasso core's median lies below Otsu's level, and
@@ -212,7 +210,7 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
     if in_face_air.is_empty() && cores_below.is_empty() {
         return otsu;
     }
-    let Some(split) = level::split_below(volume, otsu) else { return otsu };
+    let Some(split) = volume.split_below(otsu) else { return otsu };
     // A core must lie above the split: a loop mostly in the air has the air for its core.
     if in_face_air.is_empty() && !cores_below.iter().any(|&core| core > split.level) {
         return otsu;

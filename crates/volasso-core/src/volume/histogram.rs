@@ -1,6 +1,8 @@
 //! The volume's value histogram and Otsu's threshold over it: the split between air and
 //! everything else that the background rule of `segmentation` starts from. A property of the
 //! volume alone, so [`Volume::otsu_threshold`] computes it once, on first use, and keeps it.
+//! [`Volume::split_below`] splits the values below a level the same way, with how well the
+//! split separates them, for where the whole-volume split cuts through a tissue.
 //!
 //! 8- and 16-bit volumes count their stored values (no per-voxel conversion to float, the
 //! cost of the pass) and bin the distinct values; wider types convert plane by plane.
@@ -52,27 +54,75 @@ pub(super) fn otsu_threshold(volume: &Volume) -> f64 {
             .map(|(histogram, _)| histogram)
             .reduce(|| vec![0u64; BINS], |a, b| a.iter().zip(&b).map(|(x, y)| x + y).collect()),
     };
-    let total: u64 = histogram.iter().sum();
-    let total_sum: f64 = histogram.iter().enumerate().map(|(i, &c)| i as f64 * c as f64).sum();
+    // The lowest and the highest value fall in the first and the last bin: two non-empty bins.
+    let (bin, _) = otsu_split(&histogram).unwrap_or((0.0, 0.0));
+    range.min + (bin + 1.0) * width
+}
+
+/// Otsu's split of the finite values below `ceiling`.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Split {
+    /// The level: values below it are the darker population.
+    pub level: f64,
+    /// Otsu's separability (0..=1): 2/pi for one normal population, near 1 for two far apart
+    /// populations.
+    pub separability: f64,
+}
+
+/// Otsu's split of the finite values below `ceiling` (256 bins from the volume's lowest value,
+/// on the planes [`otsu_threshold`] samples); `None` without two distinct ones. Where the
+/// volume's threshold cuts through a tissue, the split below it can be the air's edge.
+pub(super) fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
+    const BINS: usize = 256;
+    let low = volume.value_range().min;
+    // Also refuses a NaN ceiling.
+    if ceiling.partial_cmp(&low) != Some(std::cmp::Ordering::Greater) {
+        return None;
+    }
+    let width = (ceiling - low) / BINS as f64;
+    let mut histogram = [0u64; BINS];
+    let mut buffer = vec![0f32; volume.dims[0] * volume.dims[1]];
+    for z in (0..volume.dims[2]).step_by((volume.dims[2] / 16).clamp(1, 4)) {
+        volume.read_z_slice_f32(z, &mut buffer);
+        for value in buffer.iter().map(|&value| f64::from(value)).filter(|&value| value.is_finite() && value < ceiling)
+        {
+            histogram[(((value - low) / width) as usize).min(BINS - 1)] += 1;
+        }
+    }
+    let (bin, separability) = otsu_split(&histogram)?;
+    Some(Split { level: low + (bin + 1.0) * width, separability })
+}
+
+/// Otsu's split of a histogram (the split that maximises the between-class variance): the bin
+/// after which it splits and the separability (that variance over the total); `None` with fewer
+/// than two non-empty bins. Empty bins between two populations give a plateau of equal variance:
+/// the split is its middle, not its start, so noise on either side matters least.
+fn otsu_split(histogram: &[u64]) -> Option<(f64, f64)> {
+    let total: f64 = histogram.iter().map(|&c| c as f64).sum();
+    let sum: f64 = histogram.iter().enumerate().map(|(i, &c)| i as f64 * c as f64).sum();
+    let mean = sum / total;
+    let total_variance =
+        histogram.iter().enumerate().map(|(i, &c)| c as f64 * (i as f64 - mean).powi(2)).sum::<f64>() / total;
+    if histogram.iter().filter(|&&c| c > 0).count() < 2 || total_variance <= 0.0 {
+        return None;
+    }
     let (mut below_count, mut below_sum) = (0f64, 0f64);
-    let mut variances = vec![-1f64; BINS - 1];
-    for (bin, &count) in histogram.iter().enumerate().take(BINS - 1) {
+    let mut variances = vec![-1f64; histogram.len() - 1];
+    for (bin, &count) in histogram.iter().enumerate().take(histogram.len() - 1) {
         below_count += count as f64;
         below_sum += bin as f64 * count as f64;
-        let above_count = total as f64 - below_count;
+        let above_count = total - below_count;
         if below_count == 0.0 || above_count == 0.0 {
             continue;
         }
         let mean_below = below_sum / below_count;
-        let mean_above = (total_sum - below_sum) / above_count;
-        variances[bin] = below_count * above_count * (mean_below - mean_above).powi(2);
+        let mean_above = (sum - below_sum) / above_count;
+        variances[bin] = below_count / total * above_count / total * (mean_below - mean_above).powi(2);
     }
-    // Empty bins between two populations give a plateau of equal variance; split in its middle,
-    // not at its start, so noise on either side matters least.
-    let best = variances.iter().cloned().fold(f64::NEG_INFINITY, f64::max);
-    let first = variances.iter().position(|&v| v >= best * (1.0 - 1e-12)).unwrap_or(0);
+    let best = variances.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+    let first = variances.iter().position(|&v| v >= best * (1.0 - 1e-12))?;
     let last = first + variances[first..].iter().take_while(|&&v| v >= best * (1.0 - 1e-12)).count() - 1;
-    range.min + ((first + last) as f64 / 2.0 + 1.0) * width
+    Some(((first + last) as f64 / 2.0, best / total_variance))
 }
 
 /// How often each stored value occurs in z planes `planes`, indexed by the value's bits as
@@ -133,8 +183,13 @@ fn stored_value(voxel_type: VoxelType, raw: usize) -> f64 {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use crate::rng::{gaussian_from_bits, hash64};
     use crate::volume::{ValueScale, VoxelBytes};
     use std::path::Path;
+
+    fn volume(values: &[f32]) -> Volume {
+        Volume::from_f32([values.len() / 16, 4, 4], [1.0; 3], values, Path::new("values")).unwrap()
+    }
 
     #[test]
     fn otsu_splits_two_populations_between_them() {
@@ -167,6 +222,37 @@ mod tests {
         assert!(stored_value_counts(&floats, &[0]).is_none());
         assert_eq!(stored_value_counts(&shorts, &[0, 1]).map(|c| c.iter().sum::<u64>()), Some(512));
         assert_eq!(otsu_threshold(&shorts), otsu_threshold(&floats));
+    }
+
+    #[test]
+    fn two_populations_split_between_them_and_are_well_separated() {
+        // Air 0..5 (most), a tissue at 100, and a bright structure at 400 above the ceiling.
+        let values: Vec<f32> = (0..16 * 64)
+            .map(|i| match i % 16 {
+                0..=11 => (i % 6) as f32,
+                12..=14 => 100.0 + (i % 5) as f32,
+                _ => 400.0,
+            })
+            .collect();
+        let split = split_below(&volume(&values), 250.0).unwrap();
+        assert!((5.0..100.0).contains(&split.level), "{split:?}");
+        assert!(split.separability > 0.9, "{split:?}");
+    }
+
+    #[test]
+    fn one_normal_population_is_split_near_its_mean_and_poorly_separated() {
+        let values: Vec<f32> =
+            (0..16 * 256).map(|i| -1000.0 + 10.0 * gaussian_from_bits(hash64(5, i as u64))).collect();
+        let split = split_below(&volume(&values), 0.0).unwrap();
+        assert!((-1010.0..-990.0).contains(&split.level), "{split:?}");
+        assert!((0.55..0.75).contains(&split.separability), "{split:?}");
+    }
+
+    #[test]
+    fn nothing_or_one_value_below_the_ceiling_has_no_split() {
+        let values = vec![3.0f32; 64];
+        assert_eq!(split_below(&volume(&values), 3.0), None);
+        assert_eq!(split_below(&volume(&values), 10.0), None);
     }
 
     #[test]

@@ -274,6 +274,12 @@ impl Volume {
         *self.otsu.get_or_init(|| histogram::otsu_threshold(self))
     }
 
+    /// Otsu's split of the finite values below `ceiling`, and its separability (see
+    /// [`histogram`]); `None` without two distinct values there.
+    pub fn split_below(&self, ceiling: f64) -> Option<histogram::Split> {
+        histogram::split_below(self, ceiling)
+    }
+
     /// The scanned body ([`body::Body::find`]): found on the first call (a few parallel passes
     /// over the volume), then kept. The kiosk asks when it opens a volume, so that no lasso
     /// waits for it.

@@ -188,7 +188,7 @@ fn air_foam_body() -> Volume {
 fn a_dark_layer_joined_to_the_air_drawn_off_centre_is_a_class_and_the_air_stays_background() {
     let volume = air_foam_body();
     let otsu = volume.otsu_threshold();
-    let split = level::split_below(&volume, otsu).expect("a split below Otsu's level");
+    let split = volume.split_below(otsu).expect("a split below Otsu's level");
     // The case: the foam lies in the face air at Otsu's level, and its few voxels leave the
     // split below it short of two clear populations by Otsu's measure.
     assert!(otsu > -500.0 && split.separability < SEPARATE_POPULATIONS, "{otsu} {split:?}");
