@@ -87,13 +87,7 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     let values: Vec<Vec<f64>> =
         training.classes.iter().map(|class| class.voxels.iter().map(|&v| volume.value(v)).collect()).collect();
     let level = dark_level(volume, training, &values);
-    let dark: Vec<usize> = training
-        .classes
-        .iter()
-        .zip(&values)
-        .flat_map(|(class, values)| class.voxels.iter().zip(values).filter(|(_, v)| **v < level).map(|(&i, _)| i))
-        .collect();
-    if dark.is_empty() {
+    if !values.iter().flatten().any(|&value| value < level) {
         // The common case: every lassoed voxel lies above the dark level.
         let lowest = values.iter().flatten().copied().fold(level, f64::min);
         let plan = BackgroundPlan {
@@ -103,16 +97,8 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
         };
         return (training.clone(), plan);
     }
-    let body = volume.body_at(level);
-    let mut dark_in_face = dark.into_iter().map(|voxel| (voxel, !body.contains(voxel))).collect::<Vec<_>>();
-    dark_in_face.sort_unstable();
-    let face_air = |voxel: usize| dark_in_face.binary_search(&(voxel, true)).is_ok();
-    let face_flags: Vec<Vec<bool>> =
-        training.classes.iter().map(|class| class.voxels.iter().map(|&v| face_air(v)).collect()).collect();
-    let air_class = face_flags.iter().position(|flags| {
-        let inside = flags.iter().filter(|&&f| f).count();
-        !flags.is_empty() && inside as f64 >= AIR_CLASS_SHARE * flags.len() as f64
-    });
+    let face_flags = face_air_flags(volume, training, &values, level);
+    let air_class = face_flags.iter().position(|flags| drawn_in_the_air(flags));
     let air_is_a_class = air_class.is_some();
 
     let mut classes = Vec::with_capacity(training.classes.len());
@@ -120,8 +106,8 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     let mut lowest_kept = level;
     let mut lowest_kept_in_face_air = level;
     for ((class, values), flags) in training.classes.iter().zip(&values).zip(&face_flags) {
-        let is_air_class = flags.iter().filter(|&&f| f).count() as f64 >= AIR_CLASS_SHARE * flags.len() as f64;
         // Another class is the air: this class's face air belongs to it.
+        let is_air_class = drawn_in_the_air(flags);
         let keep: Vec<bool> = flags.iter().map(|&f| is_air_class || !air_is_a_class || !f).collect();
         // Kept dark voxels lower the threshold inside the body, the face air's level in it.
         for ((&value, &kept), &in_face_air) in values.iter().zip(&keep).zip(flags) {
@@ -193,12 +179,11 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 /// * no class then has [`AIR_CLASS_SHARE`] of its voxels in the face air.
 fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f64 {
     let otsu = volume.otsu_threshold();
-    let shares = air_shares(volume, training, values, otsu);
     // The face-air classes' medians; else the lasso cores' medians below the level.
-    let in_face_air: Vec<f64> = shares
+    let in_face_air: Vec<f64> = face_air_flags(volume, training, values, otsu)
         .iter()
         .zip(values)
-        .filter(|(share, _)| **share >= AIR_CLASS_SHARE)
+        .filter(|(flags, _)| drawn_in_the_air(flags))
         .map(|(_, values)| median_in_place(&mut values.clone()))
         .collect();
     let cores_below: Vec<f64> = if in_face_air.is_empty() {
@@ -225,7 +210,7 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
     if 2 * face_below < face_dark.len() {
         return otsu;
     }
-    if air_shares(volume, training, values, split.level).into_iter().any(|share| share >= AIR_CLASS_SHARE) {
+    if face_air_flags(volume, training, values, split.level).iter().any(|flags| drawn_in_the_air(flags)) {
         return otsu;
     }
     split.level
@@ -239,25 +224,23 @@ fn core_median(volume: &Volume, voxels: &[usize]) -> Option<f64> {
     (values.len() >= super::gate::MIN_CORE_VOXELS).then(|| median_in_place(&mut values))
 }
 
-/// For each class, the share of its voxels (`values` are theirs) in the face air below `level`.
-fn air_shares(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], level: f64) -> Vec<f64> {
-    let dark: Vec<usize> = training
-        .classes
-        .iter()
-        .zip(values)
-        .flat_map(|(class, values)| class.voxels.iter().zip(values).filter(|(_, v)| **v < level).map(|(&i, _)| i))
-        .collect();
+/// For each class, whether each of its voxels (`values` are theirs) lies in the face air at
+/// `level`: below it and outside the body.
+fn face_air_flags(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>], level: f64) -> Vec<Vec<bool>> {
     let body = volume.body_at(level);
-    let mut in_face_air: Vec<usize> = dark.into_iter().filter(|&voxel| !body.contains(voxel)).collect();
-    in_face_air.sort_unstable();
+    let outside = |(&voxel, &value): (&usize, &f64)| value < level && !body.contains(voxel);
     training
         .classes
         .iter()
-        .map(|class| {
-            let inside = class.voxels.iter().filter(|v| in_face_air.binary_search(v).is_ok()).count();
-            if class.voxels.is_empty() { 0.0 } else { inside as f64 / class.voxels.len() as f64 }
-        })
+        .zip(values)
+        .map(|(class, values)| class.voxels.iter().zip(values).map(outside).collect())
         .collect()
+}
+
+/// Whether a class with these [`face_air_flags`] was drawn in the air: at least
+/// [`AIR_CLASS_SHARE`] of its voxels lie in the face air.
+fn drawn_in_the_air(flags: &[bool]) -> bool {
+    !flags.is_empty() && flags.iter().filter(|&&flag| flag).count() as f64 >= AIR_CLASS_SHARE * flags.len() as f64
 }
 
 /// The top of the air on the faces: the median of `face_dark` (the dark face voxels) plus
@@ -343,18 +326,6 @@ pub(super) fn median_in_place(values: &mut [f64]) -> f64 {
     }
     let middle = values.len() / 2;
     *values.select_nth_unstable_by(middle, f64::total_cmp).1
-}
-
-/// Whether every class but `plan`'s air class keeps its training voxels at or above the threshold.
-#[cfg(test)]
-fn keeps_every_other_class(volume: &Volume, cleaned: &TrainingSet, plan: &BackgroundPlan) -> bool {
-    let Some(threshold) = plan.threshold else { return true };
-    cleaned
-        .classes
-        .iter()
-        .enumerate()
-        .filter(|&(position, _)| Some(position) != plan.air_class)
-        .all(|(_, class)| class.voxels.iter().all(|&voxel| volume.value(voxel) >= threshold))
 }
 
 #[cfg(test)]

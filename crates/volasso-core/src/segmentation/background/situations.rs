@@ -93,7 +93,7 @@ fn a_loop_drawn_in_the_air_beside_a_bright_structure_is_still_the_air() {
     let volume = air_ball_rod();
     let set = training(vec![class(2..12, 2..8), class(13..19, 22..26)]);
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
-    assert!(plan.air_is_a_class && super::keeps_every_other_class(&volume, &cleaned, &plan));
+    assert!(plan.air_is_a_class && super::tests::keeps_every_other_class(&volume, &cleaned, &plan));
 }
 
 /// An MRI's air at voxel `i`: the magnitude of complex Gaussian noise (Rayleigh, about 20).
@@ -218,7 +218,11 @@ fn a_loop_drawn_in_an_mri_s_air_where_the_bias_field_brightens_it_is_still_the_a
     let volume = mri_head();
     let set = training(vec![class(40..46, 2..8), class(22..27, 22..27)]);
     let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
-    assert!(plan.air_is_a_class && super::keeps_every_other_class(&volume, &cleaned, &plan), "{:?}", plan.threshold);
+    assert!(
+        plan.air_is_a_class && super::tests::keeps_every_other_class(&volume, &cleaned, &plan),
+        "{:?}",
+        plan.threshold
+    );
 }
 
 /// 16-bit MRI of the side of a head, as a T1 scan whose faces cut the head: Rayleigh-like air
