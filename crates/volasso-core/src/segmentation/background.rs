@@ -124,15 +124,12 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
     let plan = if air_is_a_class {
         // The air class's region reaches midway to the darkest brighter class (a windowed CT's
         // fat under the skin is not air), at least to the top of the air as drawn.
-        let median = |values: &[f64]| {
-            let mut finite: Vec<f64> = values.iter().copied().filter(|v| v.is_finite()).collect();
-            (!finite.is_empty()).then(|| median_in_place(&mut finite))
-        };
-        let air_median = air_class.and_then(|position| median(&values[position]));
+        let median = |position: usize| finite_median(values[position].iter().copied());
+        let air_median = air_class.and_then(median);
         // Classes as dark as the air (a windowed CT's lungs) are inside the body, not its edge.
         let darkest_other = (0..values.len())
             .filter(|&position| Some(position) != air_class)
-            .filter_map(|position| median(&values[position]))
+            .filter_map(median)
             .filter(|&other| air_median.is_some_and(|air| other > air))
             .fold(f64::INFINITY, f64::min);
         let air_level = match air_median {
@@ -317,6 +314,12 @@ fn face_values(volume: &Volume) -> Vec<f64> {
         }
     }
     values
+}
+
+/// The median of the finite `values`; `None` without any.
+pub(super) fn finite_median(values: impl IntoIterator<Item = f64>) -> Option<f64> {
+    let mut finite: Vec<f64> = values.into_iter().filter(|value| value.is_finite()).collect();
+    (!finite.is_empty()).then(|| median_in_place(&mut finite))
 }
 
 /// The median (upper median for an even count) of a non-empty slice, reordering it.

@@ -33,6 +33,7 @@ mod background;
 mod coarse_grid;
 pub mod coherence;
 pub mod gate;
+mod neighbours;
 pub mod pairwise;
 pub mod partial_volume;
 pub mod potts;

@@ -14,6 +14,7 @@
 //! the classifier.
 
 use super::background::median_in_place;
+use super::neighbours::{cube_around, faces_of};
 use crate::volume::Volume;
 
 /// A piece is a layer when the share of its voxels whose six faces are all its class is at most
@@ -97,7 +98,8 @@ pub fn settle_layers(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)]
         }
         let own = labels[voxel];
         let value = volume.value(voxel) as f32;
-        let nearest = neighbour_labels(voxel, volume.dims, labels)
+        let nearest = cube_around(voxel, volume.dims)
+            .map(|neighbour| labels[neighbour])
             .filter(|&label| label != own && label != 0 && medians[label as usize].is_finite())
             .min_by(|&a, &b| (value - medians[a as usize]).abs().total_cmp(&(value - medians[b as usize]).abs()));
         if let Some(label) = nearest {
@@ -196,38 +198,6 @@ fn pieces(labels: &[u8], dims: [usize; 3], counts: &[bool]) -> (Vec<u32>, Vec<Pi
         piece.interior += u32::from(inside);
     }
     (parent, pieces)
-}
-
-/// The six face neighbours of `voxel` in pairs along x, y and z, `None` for a face outside the
-/// volume.
-pub(super) fn faces_of(voxel: usize, dims: [usize; 3]) -> [Option<usize>; 6] {
-    let [size_x, size_y, size_z] = dims;
-    let plane = size_x * size_y;
-    let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
-    [
-        (x > 0).then(|| voxel - 1),
-        (x + 1 < size_x).then(|| voxel + 1),
-        (y > 0).then(|| voxel - size_x),
-        (y + 1 < size_y).then(|| voxel + size_x),
-        (z > 0).then(|| voxel - plane),
-        (z + 1 < size_z).then(|| voxel + plane),
-    ]
-}
-
-/// The labels of the 26 neighbours of `voxel` inside the volume.
-fn neighbour_labels(voxel: usize, dims: [usize; 3], labels: &[u8]) -> impl Iterator<Item = u8> + '_ {
-    let [size_x, size_y, size_z] = dims;
-    let plane = size_x * size_y;
-    let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
-    let span = |at: usize, size: usize| at.saturating_sub(1)..(at + 2).min(size);
-    span(z, size_z).flat_map(move |nz| {
-        span(y, size_y).flat_map(move |ny| {
-            span(x, size_x).filter_map(move |nx| {
-                let neighbour = nx + size_x * ny + plane * nz;
-                (neighbour != voxel).then(|| labels[neighbour])
-            })
-        })
-    })
 }
 
 /// Each label's median intensity (NaN for a label no voxel has), over every k-th voxel.

@@ -14,7 +14,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
-use super::partial_volume::faces_of;
+use super::neighbours::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
 

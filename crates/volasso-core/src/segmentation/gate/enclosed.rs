@@ -12,7 +12,8 @@
 //! not of its band: the blur spreads its band over its neighbours' values.
 
 use super::{BAND_TRIM, Band, DrawnClass, band_of, finite_values};
-use crate::segmentation::background::median_in_place;
+use crate::segmentation::background::finite_median;
+use crate::segmentation::neighbours::cube_around;
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
 
@@ -30,12 +31,16 @@ pub(super) fn set_aside(volume: &Volume, training: &TrainingSet, classes: &mut [
     // The quartiles of a class without a core (its core band is its whole, blurred band).
     let coreless_quartiles: Vec<Option<[f64; 3]>> =
         classes.iter().map(|class| class.core_voxels.is_empty().then_some(class.core_quartiles)).collect();
-    let medians: Vec<f64> =
-        training.classes.iter().map(|class| finite_median(finite_values(volume, &class.voxels))).collect();
+    // NaN without a finite value (every voxel beside a missing one): nothing to compare with.
+    let medians: Vec<f64> = training
+        .classes
+        .iter()
+        .map(|class| finite_median(finite_values(volume, &class.voxels)).unwrap_or(f64::NAN))
+        .collect();
     let median_means: Vec<f64> = training
         .classes
         .iter()
-        .map(|class| finite_median(class.voxels.iter().map(|&voxel| local_mean(volume, voxel)).collect()))
+        .map(|class| finite_median(class.voxels.iter().map(|&voxel| local_mean(volume, voxel))).unwrap_or(f64::NAN))
         .collect();
     for (position, (class, drawn)) in classes.iter_mut().zip(&training.classes).enumerate() {
         let (own, own_mean) = (medians[position], median_means[position]);
@@ -89,26 +94,9 @@ fn in_middle_half(band: &Band, value: f32) -> bool {
     (value - (band.low + band.high) / 2.0).abs() <= (band.high - band.low) / 4.0
 }
 
-/// The median of the finite `values`; NaN without any (every voxel beside a missing value:
-/// nothing to compare with).
-fn finite_median(mut values: Vec<f64>) -> f64 {
-    values.retain(|value| value.is_finite());
-    if values.is_empty() { f64::NAN } else { median_in_place(&mut values) }
-}
-
 /// The mean of `voxel`'s 3 x 3 x 3 neighbourhood (the part inside the volume).
 fn local_mean(volume: &Volume, voxel: usize) -> f64 {
-    let [size_x, size_y, size_z] = volume.dims;
-    let plane = size_x * size_y;
-    let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
-    let (mut sum, mut count) = (0.0, 0.0);
-    for z in z.saturating_sub(1)..(z + 2).min(size_z) {
-        for y in y.saturating_sub(1)..(y + 2).min(size_y) {
-            for x in x.saturating_sub(1)..(x + 2).min(size_x) {
-                sum += volume.value(z * plane + y * size_x + x);
-                count += 1.0;
-            }
-        }
-    }
+    let (sum, count) =
+        cube_around(voxel, volume.dims).fold((0.0, 0.0), |(sum, count), at| (sum + volume.value(at), count + 1.0));
     sum / count
 }

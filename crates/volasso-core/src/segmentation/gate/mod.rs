@@ -20,6 +20,7 @@
 mod enclosed;
 mod regions;
 
+use super::neighbours::faces_of;
 pub use crate::classify::ClassSet;
 use crate::strokes::TrainingSet;
 use crate::volume::Volume;
@@ -366,27 +367,12 @@ impl DrawnClass {
 /// [`CORE_DEPTH`] times, the voxels with at least four of their six face neighbours in the set
 /// (the four in a lasso's own slice; where lassos on two axes cross, any four).
 pub(super) fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
-    let [size_x, size_y, size_z] = dims;
-    let plane = size_x * size_y;
     let mut core = voxels.to_vec();
     for _ in 0..CORE_DEPTH {
         let inside = |voxel: usize| core.binary_search(&voxel).is_ok();
-        core = core
-            .iter()
-            .copied()
-            .filter(|&voxel| {
-                let (x, y, z) = (voxel % size_x, voxel / size_x % size_y, voxel / plane);
-                let neighbours = [
-                    x > 0 && inside(voxel - 1),
-                    x + 1 < size_x && inside(voxel + 1),
-                    y > 0 && inside(voxel - size_x),
-                    y + 1 < size_y && inside(voxel + size_x),
-                    z > 0 && inside(voxel - plane),
-                    z + 1 < size_z && inside(voxel + plane),
-                ];
-                neighbours.iter().filter(|&&neighbour| neighbour).count() >= 4
-            })
-            .collect();
+        let kept =
+            |&voxel: &usize| faces_of(voxel, dims).into_iter().flatten().filter(|&face| inside(face)).count() >= 4;
+        core = core.iter().copied().filter(kept).collect();
     }
     core
 }
