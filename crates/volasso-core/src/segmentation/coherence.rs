@@ -146,11 +146,6 @@ impl Neighbourhood {
     }
 }
 
-/// One unbanded pass in the cube over `labels` (`dims`, x fastest); returns the voxels changed.
-pub fn majority_pass(labels: &mut [u8], dims: [usize; 3]) -> usize {
-    majority_passes(labels, dims, 1, None, Neighbourhood::Cube)
-}
-
 /// `passes` passes, each on the labels the one before left; returns the voxels changed in all.
 /// With `bands`, the band rules apply ([`LabelBands`]). A later pass visits only the planes a
 /// change can reach, and the passes stop once one changes nothing.

@@ -479,12 +479,11 @@ pub fn fit(samples: TrainingSamples, options: &SegmentationOptions) -> Result<Se
         ClassifierKind::SnSvm if options.standardisation == Standardisation::PerPair => {
             // A class drawn in the air is the air around the body by construction (the
             // region's label), never a voxel the classifier labels.
-            let drawn = match &samples.bands {
-                Some(bands) if samples.class_count <= gate::MAX_CLASSES => {
-                    gate::IntensityGate::from_bands(bands.clone())
-                }
-                _ => gate::IntensityGate::open(samples.class_count),
-            };
+            // More classes than a gate tells apart leave it open (`IntensityGate::from_bands`).
+            let drawn = samples
+                .bands
+                .clone()
+                .map_or_else(|| gate::IntensityGate::open(samples.class_count), gate::IntensityGate::from_bands);
             let gate = match background.air_class {
                 Some(position) => drawn.without(position),
                 None => drawn,

@@ -2,6 +2,11 @@
 
 use super::*;
 
+/// One unbanded pass in the cube over `labels` (`dims`, x fastest); returns the voxels changed.
+fn majority_pass(labels: &mut [u8], dims: [usize; 3]) -> usize {
+    majority_passes(labels, dims, 1, None, Neighbourhood::Cube)
+}
+
 #[test]
 fn an_isolated_voxel_joins_its_surroundings_and_background_stays() {
     let dims = [5, 5, 5];

@@ -192,7 +192,7 @@ fn classes_where(bands: &[Band], qualifies: impl Fn(&Band) -> bool) -> ClassSet 
 }
 
 /// The classes' lassos as drawn, read once for both what they give: the gate's bands
-/// ([`gate`](Self::gate)) and the voxels each class trains on
+/// ([`bands`](Self::bands)) and the voxels each class trains on
 /// ([`training_voxels`](Self::training_voxels)).
 pub struct DrawnLassos {
     /// Each class as drawn; `None` when a class has no finite value (the gate is open then).
@@ -218,17 +218,9 @@ impl DrawnLassos {
         DrawnLassos { classes, leaked, count: training.classes.len() }
     }
 
-    /// The gate of the drawn bands: a class whose rim leaked takes its band from its core, one
-    /// whose loops enclose another class's voxels from its other voxels. Open
-    /// when a class has no finite value or there are more than [`MAX_CLASSES`] classes.
-    pub fn gate(&self) -> IntensityGate {
-        match self.bands() {
-            Some(bands) => IntensityGate::from_bands(bands),
-            None => IntensityGate::open(self.count),
-        }
-    }
-
-    /// The bands [`gate`](Self::gate) is made of, in class order; `None` where it is open.
+    /// The gate's bands, in class order: a class whose rim leaked takes its band from its core,
+    /// one whose loops enclose another class's voxels from its other voxels; `None` where the
+    /// gate is open (a class without a finite value, more than [`MAX_CLASSES`] classes).
     pub fn bands(&self) -> Option<Vec<Band>> {
         let classes = self.classes.as_ref().filter(|_| self.count <= MAX_CLASSES)?;
         let bands: Vec<Band> = classes
