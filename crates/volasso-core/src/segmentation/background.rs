@@ -6,8 +6,9 @@
 //! tissue (`dark_level`); the face air is what lies outside the body ([`Volume::body_at`]) at a
 //! level: the air around it, joined to the volume's faces (the body rings its lungs and sinuses).
 //! 1. A class with at least [`AIR_CLASS_SHARE`] of its voxels in the face air is the air: the
-//!    air around the body is that class, the other classes lose their face-air voxels, and
-//!    inside the body voxels darker than every other class's are background.
+//!    air around the body is that class (the first, where two were drawn there; both train),
+//!    the other classes lose their face-air voxels, and inside the body voxels darker than
+//!    every other class's are background.
 //! 2. Otherwise every lassoed voxel trains its class. The threshold is lowered to the darkest
 //!    lassoed voxel inside the body, the face air's level to the darkest one in it (never below
 //!    [`air_top`], opening at most [`FACE_AIR_OPENED_SHARE`] of the dark voxels).

@@ -349,3 +349,29 @@ fn lowering_the_face_air_to_where_it_would_open_the_air_leaves_it_at_the_dark_le
     // Kept voxels at the dark level or above it leave it as it is.
     assert_eq!(lowered_face_level(&volume, level, level), level);
 }
+
+#[test]
+fn two_classes_drawn_in_the_air_both_keep_their_voxels_and_the_first_is_the_air_around_the_body() {
+    // The failure: a second loop in the air, under another name, losing its voxels to the first
+    // air class: a class without voxels stops the whole classification. Both train; the air
+    // around the body is the first, and the body keeps its own classes.
+    let volume = ct_body(false);
+    let set = training(vec![
+        class("air", 10..20, 1..7, 10),
+        class("more air", 33..39, 12..20, 4),
+        class("tissue", 10..20, 10..12, 10),
+        class("bone", 23..27, 16..24, 10),
+    ]);
+    let (cleaned, plan) = super::plan(&volume, &set, Background::Automatic);
+    assert_eq!((plan.air_class, plan.dropped_per_class.clone()), (Some(0), vec![0; 4]));
+    assert_eq!(cleaned, set);
+    let labels = labelled(&volume, &set);
+    let outside = |i: usize| !((8..32).contains(&(i % DIMS[0])) && (8..32).contains(&(i / DIMS[0] % DIMS[1])));
+    // Every voxel of the air is the first class's but the second's lassoed ones, which keep the
+    // class the user drew them as.
+    let second = &set.classes[1].voxels;
+    let air: Vec<(usize, u8)> = (0..labels.len()).filter(|&i| outside(i)).map(|i| (i, labels[i])).collect();
+    assert!(air.iter().all(|&(i, label)| label == if second.binary_search(&i).is_ok() { 2 } else { 1 }));
+    assert_eq!(labels[index(24, 20, 10)], 4, "the bone");
+    assert_eq!(labels[index(12, 20, 12)], 3, "the tissue");
+}
