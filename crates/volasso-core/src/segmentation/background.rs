@@ -87,7 +87,7 @@ pub fn plan(volume: &Volume, training: &TrainingSet, background: Background) -> 
 fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, BackgroundPlan) {
     let values: Vec<Vec<f64>> =
         training.classes.iter().map(|class| class.voxels.iter().map(|&v| volume.value(v)).collect()).collect();
-    let level = dark_level(volume, training, &values);
+    let (level, face_flags) = dark_level(volume, training, &values);
     if !values.iter().flatten().any(|&value| value < level) {
         // The common case: every lassoed voxel lies above the dark level.
         let lowest = values.iter().flatten().copied().fold(level, f64::min);
@@ -98,7 +98,6 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
         };
         return (training.clone(), plan);
     }
-    let face_flags = face_air_flags(volume, training, &values, level);
     let air_class = face_flags.iter().position(|flags| drawn_in_the_air(flags));
     let air_is_a_class = air_class.is_some();
 
@@ -175,10 +174,13 @@ fn automatic(volume: &Volume, training: &TrainingSet) -> (TrainingSet, Backgroun
 ///   [`upper_reach`];
 /// * at least half the dark face voxels lie below it;
 /// * no class then has [`AIR_CLASS_SHARE`] of its voxels in the face air.
-fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f64 {
+///
+/// Returns the level and each class's [`face_air_flags`] at it, read on the way.
+fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> (f64, Vec<Vec<bool>>) {
     let otsu = volume.otsu_threshold();
     // The face-air classes' medians; else the lasso cores' medians below the level.
-    let in_face_air: Vec<f64> = face_air_flags(volume, training, values, otsu)
+    let at_otsu = face_air_flags(volume, training, values, otsu);
+    let in_face_air: Vec<f64> = at_otsu
         .iter()
         .zip(values)
         .filter(|(flags, _)| drawn_in_the_air(flags))
@@ -191,27 +193,28 @@ fn dark_level(volume: &Volume, training: &TrainingSet, values: &[Vec<f64>]) -> f
         Vec::new()
     };
     if in_face_air.is_empty() && cores_below.is_empty() {
-        return otsu;
+        return (otsu, at_otsu);
     }
-    let Some(split) = volume.split_below(otsu) else { return otsu };
+    let Some(split) = volume.split_below(otsu) else { return (otsu, at_otsu) };
     // A core must lie above the split: a loop mostly in the air has the air for its core.
     if in_face_air.is_empty() && !cores_below.iter().any(|&core| core > split.level) {
-        return otsu;
+        return (otsu, at_otsu);
     }
     let face_dark: Vec<f64> = face_values(volume).into_iter().filter(|&v| v < otsu).collect();
     let face_air_top = upper_reach(face_dark.clone());
     let unlike_the_face_air = in_face_air.iter().any(|&median| face_air_top.is_some_and(|top| median > top));
     if split.separability < SEPARATE_POPULATIONS && !unlike_the_face_air {
-        return otsu;
+        return (otsu, at_otsu);
     }
     let face_below = face_dark.iter().filter(|&&v| v < split.level).count();
     if 2 * face_below < face_dark.len() {
-        return otsu;
+        return (otsu, at_otsu);
     }
-    if face_air_flags(volume, training, values, split.level).iter().any(|flags| drawn_in_the_air(flags)) {
-        return otsu;
+    let at_split = face_air_flags(volume, training, values, split.level);
+    if at_split.iter().any(|flags| drawn_in_the_air(flags)) {
+        return (otsu, at_otsu);
     }
-    split.level
+    (split.level, at_split)
 }
 
 /// The median of the finite values of a lasso's core (its voxels past a finger's leak,

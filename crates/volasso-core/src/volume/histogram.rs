@@ -10,22 +10,28 @@
 use super::{ByteOrder, Volume, VoxelType};
 use rayon::prelude::*;
 
+/// Bins of every histogram here.
+const BINS: usize = 256;
+
+/// The z planes both splits read: every second to fourth plane, at least 16 planes. The split
+/// between air and everything else is a property of the histogram's shape, which a sample of
+/// the planes shows as well.
+fn sampled_planes(volume: &Volume) -> Vec<usize> {
+    (0..volume.dims[2]).step_by((volume.dims[2] / 16).clamp(1, 4)).collect()
+}
+
 /// Otsu's threshold (the split that maximises the between-class variance) over a 256-bin
 /// histogram of the finite values (of every second to fourth z plane, keeping at least 16
 /// planes); the lower edge of the first bin above the split.
 pub(super) fn otsu_threshold(volume: &Volume) -> f64 {
-    const BINS: usize = 256;
     let range = volume.value_range();
     if range.max <= range.min {
         return range.min;
     }
     let width = (range.max - range.min) / BINS as f64;
     let plane = volume.dims[0] * volume.dims[1];
-    // Every second to fourth z plane, at least 16 planes: the split between air and everything
-    // else is a property of the histogram's shape, which a sample of the planes shows as well.
-    let stride = (volume.dims[2] / 16).clamp(1, 4);
     let bin_of = |value: f64| (((value - range.min) / width) as usize).min(BINS - 1);
-    let planes: Vec<usize> = (0..volume.dims[2]).step_by(stride).collect();
+    let planes = sampled_planes(volume);
     let histogram = match stored_value_counts(volume, &planes) {
         // 8- and 16-bit integers: count each stored value, then bin the distinct values.
         Some(counts) => {
@@ -73,7 +79,6 @@ pub struct Split {
 /// on the planes [`otsu_threshold`] samples); `None` without two distinct ones. Where the
 /// volume's threshold cuts through a tissue, the split below it can be the air's edge.
 pub(super) fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
-    const BINS: usize = 256;
     let low = volume.value_range().min;
     // Also refuses a NaN ceiling.
     if ceiling.partial_cmp(&low) != Some(std::cmp::Ordering::Greater) {
@@ -82,7 +87,7 @@ pub(super) fn split_below(volume: &Volume, ceiling: f64) -> Option<Split> {
     let width = (ceiling - low) / BINS as f64;
     let mut histogram = [0u64; BINS];
     let mut buffer = vec![0f32; volume.dims[0] * volume.dims[1]];
-    for z in (0..volume.dims[2]).step_by((volume.dims[2] / 16).clamp(1, 4)) {
+    for z in sampled_planes(volume) {
         volume.read_z_slice_f32(z, &mut buffer);
         for value in buffer.iter().map(|&value| f64::from(value)).filter(|&value| value.is_finite() && value < ceiling)
         {
