@@ -257,19 +257,10 @@ fn ellipse(x: f64, y: f64, rx: f64, ry: f64) -> serde_json::Value {
     serde_json::json!(points)
 }
 
-#[test]
-fn a_finger_s_loop_round_a_ventricle_gives_its_class_the_csf_not_the_grey_matter() {
-    // The loops a finger draws: round the right lateral ventricle on an axial and a coronal
-    // slice, two voxels past it into the white matter; in the white matter; across the scalp
-    // (3 voxels thick), from the air outside it to the skull under it. The grey matter, drawn by
-    // nobody, has the intensities of the ventricle's blurred border with the white matter: the
-    // ventricle's class took 0.91 of it before the undrawn tissues went back
-    // (`segmentation::undrawn`).
-    let (head, truth) = ventricle_head();
-    let folder = tempfile::tempdir().unwrap();
-    let volume = folder.path().join("head.nrrd");
-    crate::support::write_u16_nrrd(&volume, &head);
-    let scalp: Vec<[f64; 2]> = (0..=8)
+/// The loop across the scalp (3 voxels thick) a finger draws on [`ventricle_head`]'s axial slice
+/// 40, from the air outside it to the skull under it.
+fn scalp_loop() -> serde_json::Value {
+    let points: Vec<[f64; 2]> = (0..=8)
         .map(|k| (k as f64 - 4.0) * 0.08)
         .map(|angle: f64| [38.0 + 36.5 * angle.sin(), 44.0 - 42.5 * angle.cos()])
         .chain(
@@ -279,12 +270,21 @@ fn a_finger_s_loop_round_a_ventricle_gives_its_class_the_csf_not_the_grey_matter
                 .map(|angle: f64| [38.0 + 29.5 * angle.sin(), 44.0 - 34.0 * angle.cos()]),
         )
         .collect();
+    serde_json::json!(points)
+}
+
+/// Classifies [`ventricle_head`] with `ventricle` (the ventricle's strokes), a loop in the white
+/// matter and [`scalp_loop`]; asserts that the ventricle's class is mostly CSF inside the brain,
+/// takes under a tenth of the grey matter and finds at least `found` of the ventricles.
+fn assert_the_ventricle_class_is_csf(ventricle: serde_json::Value, found: f64) {
+    let (head, truth) = ventricle_head();
+    let folder = tempfile::tempdir().unwrap();
+    let volume = folder.path().join("head.nrrd");
+    crate::support::write_u16_nrrd(&volume, &head);
     let strokes = serde_json::json!({"format": "volasso-strokes/1", "classes": [
-        {"name": "ventricle", "strokes": [
-            {"axis": "z", "slice": 42, "points": ellipse(44.0, 46.0, 6.0, 14.0)},
-            {"axis": "y", "slice": 46, "points": ellipse(44.0, 42.0, 6.0, 10.0)}]},
+        {"name": "ventricle", "strokes": ventricle},
         {"name": "white matter", "strokes": [{"axis": "z", "slice": 42, "points": ellipse(21.0, 44.0, 3.0, 10.0)}]},
-        {"name": "scalp", "strokes": [{"axis": "z", "slice": 40, "points": scalp}]}]});
+        {"name": "scalp", "strokes": [{"axis": "z", "slice": 40, "points": scalp_loop()}]}]});
     let strokes_path = folder.path().join("head.strokes.json");
     std::fs::write(&strokes_path, strokes.to_string()).unwrap();
     let out = folder.path().join("labels.nrrd");
@@ -310,13 +310,42 @@ fn a_finger_s_loop_round_a_ventricle_gives_its_class_the_csf_not_the_grey_matter
     let grey = (0..truth.len()).filter(|&v| truth[v] == 4).count();
     let grey_taken = (0..truth.len()).filter(|&v| class[v] && truth[v] == 4).count();
     let ventricles = (0..truth.len()).filter(|&v| truth[v] == VENTRICLE).count();
-    let found = (0..truth.len()).filter(|&v| class[v] && truth[v] == VENTRICLE).count();
+    let found_now = (0..truth.len()).filter(|&v| class[v] && truth[v] == VENTRICLE).count();
     let (csf_share, grey_share, found_share) =
-        (csf as f64 / inside as f64, grey_taken as f64 / grey as f64, found as f64 / ventricles as f64);
+        (csf as f64 / inside as f64, grey_taken as f64 / grey as f64, found_now as f64 / ventricles as f64);
     println!(
         "ventricle class: CSF {csf_share:.3} of it in the brain, grey taken {grey_share:.3}, ventricles found {found_share:.3}"
     );
     assert!(csf_share > 0.5, "the ventricle's class is {csf_share:.3} CSF");
     assert!(grey_share < 0.1, "the ventricle's class took {grey_share:.3} of the grey matter");
-    assert!(found_share > 0.5, "the ventricle's class found {found_share:.3} of the ventricles");
+    assert!(found_share >= found, "the ventricle's class found {found_share:.3} of the ventricles");
+}
+
+#[test]
+fn a_finger_s_loop_round_a_ventricle_gives_its_class_the_csf_not_the_grey_matter() {
+    // Round the right lateral ventricle on an axial and a coronal slice, two voxels past it into
+    // the white matter. The grey matter, drawn by nobody, has the intensities of the
+    // ventricle's blurred border with the white matter: the ventricle's class took 0.91 of it
+    // before the undrawn tissues went back (`segmentation::undrawn`).
+    assert_the_ventricle_class_is_csf(
+        serde_json::json!([
+            {"axis": "z", "slice": 42, "points": ellipse(44.0, 46.0, 6.0, 14.0)},
+            {"axis": "y", "slice": 46, "points": ellipse(44.0, 42.0, 6.0, 10.0)}]),
+        0.5,
+    );
+}
+
+#[test]
+fn a_loop_mostly_over_white_matter_round_a_ventricle_s_thin_end_does_not_take_the_grey_matter() {
+    // The slices cut the ventricle near its front end, where it is 4 to 5 voxels across: the
+    // same two-voxel leak makes the loops mostly white matter, and the class's drawn median
+    // the partial volume's, which the grey matter lies nearer than any other class's (without
+    // the undrawn tissues' "no class" the class took 0.97 of the grey matter and was 0.06 CSF).
+    // The class finds a sixth of the ventricles: the rest go to other classes.
+    assert_the_ventricle_class_is_csf(
+        serde_json::json!([
+            {"axis": "z", "slice": 35, "points": ellipse(44.0, 46.0, 3.9, 7.8)},
+            {"axis": "y", "slice": 36, "points": ellipse(44.0, 42.0, 4.2, 6.4)}]),
+        0.1,
+    );
 }

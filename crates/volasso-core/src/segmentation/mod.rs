@@ -25,7 +25,8 @@
 //! ([`partial_volume`]): a class's one-voxel layer between two classes that bracket its
 //! intensity, apart from its loops, is their blurred border; last the undrawn tissues
 //! ([`undrawn`]): a piece of a class apart from its loops, many times their size, whose
-//! intensity is another class's drawn pieces' more than its own, is a tissue nobody drew.
+//! intensity is another class's drawn pieces' more than its own, or no drawn piece's, is a
+//! tissue nobody drew: it goes to that class, or to none.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 

@@ -218,8 +218,14 @@ fn label_volume_in(
         let changed = super::partial_volume::settle_layers(volume, &mut labels, &segmenter.lassoed);
         log::debug!("coherence: {changed} voxels of partial-volume layers moved ({:?})", started.elapsed());
         let started = std::time::Instant::now();
-        let changed = super::undrawn::settle_undrawn(volume, &mut labels, &segmenter.lassoed);
-        log::debug!("coherence: {changed} voxels of undrawn tissues moved ({:?})", started.elapsed());
+        let settled = super::undrawn::settle_undrawn(volume, &mut labels, &segmenter.lassoed);
+        classified = classified.saturating_sub(settled.unlabelled);
+        log::debug!(
+            "coherence: {} voxels of undrawn tissues to another class, {} to none ({:?})",
+            settled.relabelled,
+            settled.unlabelled,
+            started.elapsed()
+        );
     }
     Ok(LabelVolume {
         dims: volume.dims,

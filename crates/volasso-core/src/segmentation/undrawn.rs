@@ -3,9 +3,12 @@
 //! drew can have those intensities: the grey matter has the values of a ventricle's blurred
 //! border with the white matter, so the pair votes give it to the ventricle's class, a piece of
 //! the class far from the ventricle and many times its size. Such a piece (6-connected voxels of
-//! one class) touches none of its class's loops, holds more than [`SIZE_RATIO`] times the voxels
-//! of all the pieces its loops touch together, and its median lies nearer the median of another
-//! class's drawn pieces than its own class's: it goes to that class
+//! one class) touches none of its class's loops and holds more than [`SIZE_RATIO`] times the
+//! voxels of all the pieces its loops touch together. When its median lies nearer the median of
+//! another class's drawn pieces than its own class's, it goes to that class; when it holds more
+//! than [`NO_CLASS_RATIO`] times their voxels and its median lies outside the middle half of its
+//! own class's drawn values, no class drew it: it gets none (label 0), as the body's outside
+//! does, rather than a class whose loops hold other intensities
 //! (`docs/decisions/0021-undrawn-tissues.md`).
 //!
 //! Never: changes a piece a loop touches, background (label 0), a piece as small as its class's
@@ -14,6 +17,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
+use super::gate::MIN_CORE_VOXELS;
 use super::neighbours::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
@@ -23,21 +27,36 @@ use std::collections::VecDeque;
 /// drawn one; the grey matter is ten to fifteen times a ventricle's drawn pieces.
 pub const SIZE_RATIO: usize = 2;
 
+/// A piece no loop touches gets no class when it holds more than this many times the voxels of
+/// its class's drawn pieces and its median lies outside their middle half: a second lung is one
+/// to three times the drawn one, the tissues nobody drew that `heldout.py`'s ventricle loops
+/// took are 15 to 340 times their drawn pieces (5 gives the same tables).
+pub const NO_CLASS_RATIO: usize = 10;
+
 /// Intensities kept per class for its drawn median, at most (every k-th voxel reached).
 const MEDIAN_SAMPLES: usize = 100_000;
 
+/// What [`settle_undrawn`] changed, in voxels.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Settled {
+    /// Voxels that went to another class.
+    pub relabelled: usize,
+    /// Voxels that went to no class (label 0).
+    pub unlabelled: usize,
+}
+
 /// Gives every undrawn tissue's piece (see the module doc) the class whose drawn pieces' median
-/// is nearest its own; `lassoed`: the voxels the user drew with their class ids. Returns the
-/// voxels changed.
+/// is nearest its own, or no class; `lassoed`: the voxels the user drew with their class ids.
 ///
 /// The drawn pieces are found from the loops outwards and, for a class, only until they hold a
 /// share of it that leaves no room for a candidate (a third, with [`SIZE_RATIO`] 2; the median
-/// of such a class is that of the part reached): on most scans every class stops there and the
-/// step costs a fraction of one pass over the volume.
-pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)]) -> usize {
+/// and middle half of such a class are those of the part reached): on most scans every class
+/// stops there and the step costs a fraction of one pass over the volume.
+pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)]) -> Settled {
     let [size_x, size_y, size_z] = volume.dims;
+    let mut settled = Settled::default();
     if lassoed.is_empty() || labels.len() != size_x * size_y * size_z {
-        return 0;
+        return settled;
     }
     let mut totals = [0usize; 256];
     for &label in labels.iter() {
@@ -74,14 +93,25 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         }
     }
     if open.iter().all(Option::is_none) {
-        return 0;
+        return settled;
     }
     let medians: Vec<f64> = drawn_values
         .iter_mut()
         .map(|values| if values.is_empty() { f64::NAN } else { median_in_place(values) })
         .collect();
+    // The drawn values' middle half, where enough of them stand for it.
+    let middle_halves: Vec<Option<(f64, f64)>> = drawn_values
+        .iter_mut()
+        .map(|values| {
+            if values.len() < MIN_CORE_VOXELS {
+                return None;
+            }
+            values.sort_unstable_by(f64::total_cmp);
+            let at = |share: f64| values[((values.len() - 1) as f64 * share).round() as usize];
+            Some((at(0.25), at(0.75)))
+        })
+        .collect();
     // One pass finds every undrawn piece of an open class (the drawn ones are reached already).
-    let mut changed = 0;
     for start in 0..labels.len() {
         let class = labels[start];
         let Some(drawn_size) = open[class as usize].filter(|_| !reached[start]) else { continue };
@@ -101,14 +131,25 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         let nearest = (1..256usize)
             .filter(|&label| label != class as usize && medians[label].is_finite())
             .min_by(|&a, &b| distance(a).total_cmp(&distance(b)));
-        if let Some(label) = nearest.filter(|&label| distance(label) < distance(class as usize)) {
-            for &voxel in &piece {
-                labels[voxel] = label as u8;
-            }
-            changed += piece.len();
+        let nobody_drew = || {
+            piece.len() > NO_CLASS_RATIO * drawn_size
+                && middle_halves[class as usize].is_some_and(|(low, high)| !(low..=high).contains(&median))
+        };
+        let target = match nearest.filter(|&label| distance(label) < distance(class as usize)) {
+            Some(label) => label as u8,
+            None if nobody_drew() => 0,
+            None => continue,
+        };
+        for &voxel in &piece {
+            labels[voxel] = target;
+        }
+        if target == 0 {
+            settled.unlabelled += piece.len();
+        } else {
+            settled.relabelled += piece.len();
         }
     }
-    changed
+    settled
 }
 
 /// Reaches the 6-connected voxels of the label of `seeds` from them (`reached` marks them),

@@ -1,6 +1,8 @@
 //! Undrawn tissues: a large piece of the ventricle's class far from its loop, with the grey
-//! matter's intensity, goes to the class it is nearest; a second lung, cells of one class apart
-//! from the drawn one, and anything without loops stay.
+//! matter's intensity, goes to the class it is nearest, or to none when it is far larger than
+//! the drawn ventricle and no drawn class has its intensity; a second lung, the ventricle's
+//! class's own intensity far from the loop, cells of one class apart from the drawn one, and
+//! anything without loops stay.
 
 use super::*;
 use crate::segmentation::tests::scene;
@@ -15,11 +17,16 @@ fn at(x: usize, y: usize, z: usize) -> usize {
 /// 4x4x4 at x 4-7 drawn at its middle; a slab of grey matter (575) at x 12-27 that the classifier
 /// called `grey_label`; a scalp class (3, 650) at x 38-39, drawn.
 fn brain(grey_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
+    brain_with_slab(575.0, grey_label)
+}
+
+/// [`brain`] with the slab at x 12-27 (100 times the ventricle's 64 voxels) of `value`.
+fn brain_with_slab(value: f32, slab_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
     let (volume, labels) = scene(DIMS, |x, y, z| {
         if (4..8).contains(&x) && (8..12).contains(&y) && (8..12).contains(&z) {
             (300.0, 1)
         } else if (12..28).contains(&x) {
-            (575.0, grey_label)
+            (value, slab_label)
         } else if x >= 38 {
             (650.0, 3)
         } else {
@@ -34,8 +41,8 @@ fn brain(grey_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
 fn a_large_piece_apart_from_the_loops_with_another_class_s_intensity_goes_to_that_class() {
     let (volume, mut labels, lassoed) = brain(1);
     let grey: Vec<usize> = (0..labels.len()).filter(|&v| (12..28).contains(&(v % DIMS[0]))).collect();
-    let changed = settle_undrawn(&volume, &mut labels, &lassoed);
-    assert_eq!(changed, grey.len());
+    let settled = settle_undrawn(&volume, &mut labels, &lassoed);
+    assert_eq!(settled, Settled { relabelled: grey.len(), unlabelled: 0 });
     // 575 lies 75 from the scalp's 650, 185 from the white matter's 760, 275 from the ventricle's 300.
     assert!(grey.iter().all(|&v| labels[v] == 3));
     // The drawn ventricle keeps its class.
@@ -43,11 +50,36 @@ fn a_large_piece_apart_from_the_loops_with_another_class_s_intensity_goes_to_tha
     assert_eq!(labels.iter().filter(|&&label| label == 1).count(), 64);
 }
 
+/// The failure it prevents: a leaky loop round a ventricle, mostly white matter, gives the
+/// ventricle's class the partial volume's intensities, and the grey matter, nearer them than
+/// any other drawn class, became the ventricle everywhere in the brain.
+#[test]
+fn a_far_larger_piece_that_no_class_drew_the_intensity_of_gets_no_class() {
+    // 420 lies 120 from the ventricle's 300, 230 from the scalp's 650, 340 from the white's 760.
+    let (volume, mut labels, lassoed) = brain_with_slab(420.0, 1);
+    let slab: Vec<usize> = (0..labels.len()).filter(|&v| (12..28).contains(&(v % DIMS[0]))).collect();
+    assert!(slab.len() > NO_CLASS_RATIO * 64);
+    let settled = settle_undrawn(&volume, &mut labels, &lassoed);
+    assert_eq!(settled, Settled { relabelled: 0, unlabelled: slab.len() });
+    assert!(slab.iter().all(|&v| labels[v] == 0));
+    assert_eq!(labels.iter().filter(|&&label| label == 1).count(), 64);
+    assert_eq!(labels[at(35, 10, 10)], 2);
+}
+
+#[test]
+fn a_far_larger_piece_with_its_class_s_drawn_intensity_stays() {
+    // CSF far from the drawn ventricle (the brain's outer CSF): the ventricle's own value.
+    let (volume, mut labels, lassoed) = brain_with_slab(300.0, 1);
+    let before = labels.clone();
+    assert_eq!(settle_undrawn(&volume, &mut labels, &lassoed), Settled::default());
+    assert_eq!(labels, before);
+}
+
 #[test]
 fn without_loops_nothing_changes() {
     let (volume, mut labels, _) = brain(1);
     let before = labels.clone();
-    assert_eq!(settle_undrawn(&volume, &mut labels, &[]), 0);
+    assert_eq!(settle_undrawn(&volume, &mut labels, &[]), Settled::default());
     assert_eq!(labels, before);
 }
 
@@ -62,7 +94,7 @@ fn a_large_piece_whose_intensity_is_its_own_class_s_stays() {
     });
     let lassoed = vec![(at(5, 10, 10), 1), (at(0, 10, 10), 2)];
     let before = labels.clone();
-    assert_eq!(settle_undrawn(&volume, &mut labels, &lassoed), 0);
+    assert_eq!(settle_undrawn(&volume, &mut labels, &lassoed), Settled::default());
     assert_eq!(labels, before);
 }
 
@@ -76,6 +108,6 @@ fn cells_of_one_class_apart_from_the_drawn_one_stay() {
     });
     let lassoed = vec![(at(3, 9, 9), 2), (at(0, 0, 0), 1)];
     let before = labels.clone();
-    assert_eq!(settle_undrawn(&volume, &mut labels, &lassoed), 0);
+    assert_eq!(settle_undrawn(&volume, &mut labels, &lassoed), Settled::default());
     assert_eq!(labels, before);
 }
