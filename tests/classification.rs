@@ -275,7 +275,7 @@ fn scalp_loop() -> serde_json::Value {
 
 /// Classifies [`ventricle_head`] with `ventricle` (the ventricle's strokes), a loop in the white
 /// matter and [`scalp_loop`]; asserts that the ventricle's class is mostly CSF inside the brain,
-/// takes under a tenth of the grey matter and finds at least `found` of the ventricles.
+/// takes under a tenth of the grey matter and finds more than `found` of the ventricles.
 fn assert_the_ventricle_class_is_csf(ventricle: serde_json::Value, found: f64) {
     let (head, truth) = ventricle_head();
     let folder = tempfile::tempdir().unwrap();
@@ -318,7 +318,7 @@ fn assert_the_ventricle_class_is_csf(ventricle: serde_json::Value, found: f64) {
     );
     assert!(csf_share > 0.5, "the ventricle's class is {csf_share:.3} CSF");
     assert!(grey_share < 0.1, "the ventricle's class took {grey_share:.3} of the grey matter");
-    assert!(found_share >= found, "the ventricle's class found {found_share:.3} of the ventricles");
+    assert!(found_share > found, "the ventricle's class found {found_share:.3} of the ventricles");
 }
 
 #[test]

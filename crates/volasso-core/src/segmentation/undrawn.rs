@@ -17,7 +17,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
-use super::gate::MIN_CORE_VOXELS;
+use super::gate::{MIN_CORE_VOXELS, quartiles};
 use super::neighbours::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
@@ -99,16 +99,18 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         .iter_mut()
         .map(|values| if values.is_empty() { f64::NAN } else { median_in_place(values) })
         .collect();
-    // The drawn values' middle half, where enough of them stand for it.
+    // An open class's drawn values' middle half, where enough of them stand for it (only an
+    // open class has candidates, and a candidate is held against its own class's).
     let middle_halves: Vec<Option<(f64, f64)>> = drawn_values
         .iter_mut()
-        .map(|values| {
-            if values.len() < MIN_CORE_VOXELS {
+        .zip(&open)
+        .map(|(values, open)| {
+            if open.is_none() || values.len() < MIN_CORE_VOXELS {
                 return None;
             }
             values.sort_unstable_by(f64::total_cmp);
-            let at = |share: f64| values[((values.len() - 1) as f64 * share).round() as usize];
-            Some((at(0.25), at(0.75)))
+            let [low, _, high] = quartiles(values);
+            Some((low, high))
         })
         .collect();
     // One pass finds every undrawn piece of an open class (the drawn ones are reached already).

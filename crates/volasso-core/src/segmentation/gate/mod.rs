@@ -370,7 +370,7 @@ pub(super) fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
 }
 
 /// The 25, 50 and 75 % quantiles of `sorted` values (at least one).
-fn quartiles(sorted: &[f64]) -> [f64; 3] {
+pub(super) fn quartiles(sorted: &[f64]) -> [f64; 3] {
     [0.25, 0.5, 0.75].map(|q| sorted[((sorted.len() - 1) as f64 * q).round() as usize])
 }
 
