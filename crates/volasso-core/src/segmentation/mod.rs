@@ -26,7 +26,8 @@
 //! intensity, apart from its loops, is their blurred border; last the undrawn tissues
 //! ([`undrawn`]): a piece of a class apart from its loops, many times their size, whose
 //! intensity is another class's drawn pieces' more than its own, or no drawn piece's, is a
-//! tissue nobody drew: it goes to that class, or to none.
+//! tissue nobody drew: it goes to that class, or to none; where a tenth of such a piece lies
+//! outside the drawn range, those voxels go to none.
 //!
 //! Never: reads files, or knows about the UI (progress and cancellation are plain callbacks).
 

@@ -8,8 +8,10 @@
 //! another class's drawn pieces than its own class's, it goes to that class; when it holds more
 //! than [`NO_CLASS_RATIO`] times their voxels and its median lies outside the middle half of its
 //! own class's drawn values, no class drew it: it gets none (label 0), as the body's outside
-//! does, rather than a class whose loops hold other intensities
-//! (`docs/decisions/0021-undrawn-tissues.md`).
+//! does, rather than a class whose loops hold other intensities. When its median is its class's
+//! own but more than [`MIXED_SHARE`] of its voxels lie outside the drawn pieces' range, it is
+//! several tissues joined (the skull, the CSF round the brain and the cortex): those voxels get
+//! none (`docs/decisions/0021-undrawn-tissues.md`).
 //!
 //! Never: changes a piece a loop touches, background (label 0), a piece as small as its class's
 //! drawn ones (cells, lesions, calcifications: many pieces of one class, one of them drawn), one
@@ -17,7 +19,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
-use super::gate::{MIN_CORE_VOXELS, quartiles};
+use super::gate::{BAND_TRIM, MIN_CORE_VOXELS, quartiles};
 use super::neighbours::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
@@ -33,6 +35,12 @@ pub const SIZE_RATIO: usize = 2;
 /// took are 15 to 340 times their drawn pieces (5 gives the same tables).
 pub const NO_CLASS_RATIO: usize = 10;
 
+/// A piece far larger than its class's drawn ones ([`NO_CLASS_RATIO`]) whose median they drew
+/// loses its voxels outside their range (their values less [`BAND_TRIM`] at each end) when more
+/// than this share of it lies there: a piece of the drawn tissue alone has about twice
+/// [`BAND_TRIM`] of its voxels there, its noise's tails, and keeps them.
+pub const MIXED_SHARE: f64 = 0.1;
+
 /// Intensities kept per class for its drawn median, at most (every k-th voxel reached).
 const MEDIAN_SAMPLES: usize = 100_000;
 
@@ -46,7 +54,8 @@ pub struct Settled {
 }
 
 /// Gives every undrawn tissue's piece (see the module doc) the class whose drawn pieces' median
-/// is nearest its own, or no class; `lassoed`: the voxels the user drew with their class ids.
+/// is nearest its own, or no class, or no class to its voxels outside the drawn range;
+/// `lassoed`: the voxels the user drew with their class ids.
 ///
 /// The drawn pieces are found from the loops outwards and, for a class, only until they hold a
 /// share of it that leaves no room for a candidate (a third, with [`SIZE_RATIO`] 2; the median
@@ -99,9 +108,9 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         .iter_mut()
         .map(|values| if values.is_empty() { f64::NAN } else { median_in_place(values) })
         .collect();
-    // An open class's drawn values' middle half, where enough of them stand for it (only an
-    // open class has candidates, and a candidate is held against its own class's).
-    let middle_halves: Vec<Option<(f64, f64)>> = drawn_values
+    // An open class's drawn values' middle half and range, where enough of them stand for it
+    // (only an open class has candidates, and a candidate is held against its own class's).
+    let spreads: Vec<Option<DrawnSpread>> = drawn_values
         .iter_mut()
         .zip(&open)
         .map(|(values, open)| {
@@ -110,7 +119,8 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
             }
             values.sort_unstable_by(f64::total_cmp);
             let [low, _, high] = quartiles(values);
-            Some((low, high))
+            let at = |share: f64| values[((values.len() - 1) as f64 * share).round() as usize];
+            Some(DrawnSpread { middle_half: (low, high), range: (at(BAND_TRIM), at(1.0 - BAND_TRIM)) })
         })
         .collect();
     // One pass finds every undrawn piece of an open class (the drawn ones are reached already).
@@ -133,14 +143,18 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         let nearest = (1..256usize)
             .filter(|&label| label != class as usize && medians[label].is_finite())
             .min_by(|&a, &b| distance(a).total_cmp(&distance(b)));
-        let nobody_drew = || {
-            piece.len() > NO_CLASS_RATIO * drawn_size
-                && middle_halves[class as usize].is_some_and(|(low, high)| !(low..=high).contains(&median))
-        };
+        let far_larger = piece.len() > NO_CLASS_RATIO * drawn_size;
+        let spread = spreads[class as usize].filter(|_| far_larger);
         let target = match nearest.filter(|&label| distance(label) < distance(class as usize)) {
             Some(label) => label as u8,
-            None if nobody_drew() => 0,
-            None => continue,
+            None => match spread {
+                Some(DrawnSpread { middle_half: (low, high), .. }) if !(low..=high).contains(&median) => 0,
+                Some(DrawnSpread { range, .. }) => {
+                    settled.unlabelled += unlabel_undrawn_voxels(volume, labels, &piece, range);
+                    continue;
+                }
+                None => continue,
+            },
         };
         for &voxel in &piece {
             labels[voxel] = target;
@@ -152,6 +166,28 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
         }
     }
     settled
+}
+
+/// A class's drawn pieces' values: their middle half and their range (less [`BAND_TRIM`] at
+/// each end).
+#[derive(Clone, Copy, Debug)]
+struct DrawnSpread {
+    middle_half: (f64, f64),
+    range: (f64, f64),
+}
+
+/// Gives the voxels of `piece` outside `range` no class when they are more than [`MIXED_SHARE`]
+/// of it; returns how many it changed.
+fn unlabel_undrawn_voxels(volume: &Volume, labels: &mut [u8], piece: &[usize], (low, high): (f64, f64)) -> usize {
+    let undrawn: Vec<usize> =
+        piece.iter().copied().filter(|&voxel| !(low..=high).contains(&volume.value(voxel))).collect();
+    if (undrawn.len() as f64) <= MIXED_SHARE * piece.len() as f64 {
+        return 0;
+    }
+    for &voxel in &undrawn {
+        labels[voxel] = 0;
+    }
+    undrawn.len()
 }
 
 /// Reaches the 6-connected voxels of the label of `seeds` from them (`reached` marks them),
