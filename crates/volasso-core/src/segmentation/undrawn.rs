@@ -19,7 +19,7 @@
 //! preset draws none); nor reads the classifier.
 
 use super::background::median_in_place;
-use super::gate::{BAND_TRIM, MIN_CORE_VOXELS, quartiles};
+use super::gate::{BAND_TRIM, MIN_CORE_VOXELS, quantile, quartiles};
 use super::neighbours::faces_of;
 use crate::volume::Volume;
 use std::collections::VecDeque;
@@ -119,8 +119,8 @@ pub fn settle_undrawn(volume: &Volume, labels: &mut [u8], lassoed: &[(usize, u8)
             }
             values.sort_unstable_by(f64::total_cmp);
             let [low, _, high] = quartiles(values);
-            let at = |share: f64| values[((values.len() - 1) as f64 * share).round() as usize];
-            Some(DrawnSpread { middle_half: (low, high), range: (at(BAND_TRIM), at(1.0 - BAND_TRIM)) })
+            let range = (quantile(values, BAND_TRIM), quantile(values, 1.0 - BAND_TRIM));
+            Some(DrawnSpread { middle_half: (low, high), range })
         })
         .collect();
     // One pass finds every undrawn piece of an open class (the drawn ones are reached already).

@@ -371,7 +371,13 @@ pub(super) fn lasso_core(voxels: &[usize], dims: [usize; 3]) -> Vec<usize> {
 
 /// The 25, 50 and 75 % quantiles of `sorted` values (at least one).
 pub(super) fn quartiles(sorted: &[f64]) -> [f64; 3] {
-    [0.25, 0.5, 0.75].map(|q| sorted[((sorted.len() - 1) as f64 * q).round() as usize])
+    [0.25, 0.5, 0.75].map(|share| quantile(sorted, share))
+}
+
+/// The value of `sorted` values (at least one) with `share` (0 to 1) of them below it, the
+/// nearest rank.
+pub(super) fn quantile(sorted: &[f64], share: f64) -> f64 {
+    sorted[((sorted.len() - 1) as f64 * share).round() as usize]
 }
 
 /// The band of one class's values (sorted here); `None` without values.
@@ -380,10 +386,10 @@ fn band_of(values: &mut [f64]) -> Option<Band> {
         return None;
     }
     values.sort_by(f64::total_cmp);
-    let quantile = |q: f64| values[((values.len() - 1) as f64 * q).round() as usize];
-    let spread = (quantile(0.95) - quantile(0.05)) / 3.29;
+    let at = |share: f64| quantile(values, share);
+    let spread = (at(0.95) - at(0.05)) / 3.29;
     let margin = BAND_MARGIN * spread;
-    Some(Band { low: (quantile(BAND_TRIM) - margin) as f32, high: (quantile(1.0 - BAND_TRIM) + margin) as f32 })
+    Some(Band { low: (at(BAND_TRIM) - margin) as f32, high: (at(1.0 - BAND_TRIM) + margin) as f32 })
 }
 
 #[cfg(test)]
