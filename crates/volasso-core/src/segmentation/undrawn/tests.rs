@@ -23,11 +23,20 @@ fn brain(grey_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
 
 /// [`brain`] with the slab at x 12-27 (100 times the ventricle's 64 voxels) of `value`.
 fn brain_with_slab(value: f32, slab_label: u8) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
+    brain_scene(|_, _, _| 300.0, |_, _, _| (value, slab_label))
+}
+
+/// The scene of [`brain`]: the ventricle's values from `ventricle`, the slab's values and labels
+/// from `slab`, each given (x, y, z); the loops as [`brain`] draws them.
+fn brain_scene(
+    ventricle: impl Fn(usize, usize, usize) -> f32,
+    slab: impl Fn(usize, usize, usize) -> (f32, u8),
+) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
     let (volume, labels) = scene(DIMS, |x, y, z| {
         if (4..8).contains(&x) && (8..12).contains(&y) && (8..12).contains(&z) {
-            (300.0, 1)
+            (ventricle(x, y, z), 1)
         } else if (12..28).contains(&x) {
-            (value, slab_label)
+            slab(x, y, z)
         } else if x >= 38 {
             (650.0, 3)
         } else {
@@ -116,19 +125,10 @@ fn cells_of_one_class_apart_from_the_drawn_one_stay() {
 /// [`brain`] with the ventricle's values spread over 290, 300 and 310, and the slab at x 12-27
 /// of class 1 holding 300 where `undrawn_at(x, y, z)` is false and 520 where it is true.
 fn brain_with_mixed_slab(undrawn_at: impl Fn(usize, usize, usize) -> bool) -> (Volume, Vec<u8>, Vec<(usize, u8)>) {
-    let (volume, labels) = scene(DIMS, |x, y, z| {
-        if (4..8).contains(&x) && (8..12).contains(&y) && (8..12).contains(&z) {
-            (290.0 + 10.0 * ((x + y + z) % 3) as f32, 1)
-        } else if (12..28).contains(&x) {
-            (if undrawn_at(x, y, z) { 520.0 } else { 300.0 }, 1)
-        } else if x >= 38 {
-            (650.0, 3)
-        } else {
-            (760.0, 2)
-        }
-    });
-    let lassoed = vec![(at(5, 9, 9), 1), (at(6, 10, 10), 1), (at(35, 10, 10), 2), (at(39, 10, 10), 3)];
-    (volume, labels, lassoed)
+    brain_scene(
+        |x, y, z| 290.0 + 10.0 * ((x + y + z) % 3) as f32,
+        |x, y, z| (if undrawn_at(x, y, z) { 520.0 } else { 300.0 }, 1),
+    )
 }
 
 /// The failure it prevents: clean loops in a ventricle and on the scalp leave the skull, the CSF
