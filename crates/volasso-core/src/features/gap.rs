@@ -87,32 +87,44 @@ fn extreme_in_plane<F: Fn(f32, f32) -> f32 + Copy>(
     nx: usize,
     pick: F,
 ) {
-    for (row_in, row_out) in plane_in.chunks_exact(nx).zip(scratch.chunks_exact_mut(nx)) {
-        // Columns whose whole window lies in the row.
-        let interior = GAP_RADIUS.min(nx)..nx.saturating_sub(GAP_RADIUS).max(GAP_RADIUS.min(nx));
+    let ny = plane_in.len() / nx;
+    // Columns whose whole window lies in the row.
+    let interior = GAP_RADIUS.min(nx)..nx.saturating_sub(GAP_RADIUS).max(GAP_RADIUS.min(nx));
+    for y in 0..ny {
+        let row_in = &plane_in[y * nx..][..nx];
+        let row_out = &mut scratch[y * nx..][..nx];
         if !interior.is_empty() {
             let span = interior.len();
             row_out[interior.clone()].copy_from_slice(&row_in[interior.clone()]);
             for shift in 1..=GAP_RADIUS {
-                let below = &row_in[interior.start - shift..][..span];
-                let above = &row_in[interior.start + shift..][..span];
-                for ((out, &a), &b) in row_out[interior.clone()].iter_mut().zip(below).zip(above) {
-                    *out = pick(pick(*out, a), b);
-                }
+                pick_into(&mut row_out[interior.clone()], &row_in[interior.start - shift..][..span], pick);
+                pick_into(&mut row_out[interior.clone()], &row_in[interior.start + shift..][..span], pick);
             }
         }
         for x in (0..interior.start).chain(interior.end..nx) {
             row_out[x] = row_in[window(x, nx)].iter().copied().fold(row_in[x], pick);
         }
     }
-    let ny = plane_in.len() / nx;
-    for (y, row_out) in plane_out.chunks_exact_mut(nx).enumerate() {
+    for y in 0..ny {
+        let row_out = &mut plane_out[y * nx..][..nx];
         row_out.copy_from_slice(&scratch[y * nx..][..nx]);
         for w in window(y, ny) {
-            for (value, &other) in row_out.iter_mut().zip(&scratch[w * nx..][..nx]) {
-                *value = pick(*value, other);
-            }
+            pick_into(row_out, &scratch[w * nx..][..nx], pick);
         }
+    }
+}
+
+/// `values[i] = pick(values[i], other[i])` for every `i` (`other` as long as `values`), as a
+/// plain indexed loop always inlined into its caller: the tests' build (opt-level 1) does not
+/// inline iterator adapters, and a call per voxel made the gap depth there many times slower.
+#[inline(always)]
+fn pick_into<F: Fn(f32, f32) -> f32>(values: &mut [f32], other: &[f32], pick: F) {
+    let count = values.len().min(other.len());
+    let (values, other) = (&mut values[..count], &other[..count]);
+    let mut i = 0;
+    while i < count {
+        values[i] = pick(values[i], other[i]);
+        i += 1;
     }
 }
 
@@ -121,9 +133,7 @@ fn extreme_in_plane<F: Fn(f32, f32) -> f32 + Copy>(
 fn extreme_of_planes<F: Fn(f32, f32) -> f32>(planes: &[&[f32]], out: &mut [f32], pick: F) {
     out.copy_from_slice(planes[0]);
     for plane in &planes[1..] {
-        for (value, &other) in out.iter_mut().zip(plane.iter()) {
-            *value = pick(*value, other);
-        }
+        pick_into(out, plane, &pick);
     }
 }
 
