@@ -184,3 +184,18 @@ fn empty_classes_and_bad_labels() {
     let flat = ClipBox { lo: [5, 0, 0], hi: [4, 3, 3] };
     assert!(matches!(class_statistics(&volume, &labels, 3, flat), Err(TransferError::ClipBox { .. })));
 }
+
+#[test]
+fn a_label_out_of_range_in_the_last_voxel_of_a_volume_of_many_chunks_is_found() {
+    let phantom = demo_foot_with([64, 48, 32], 7).unwrap();
+    let mut labels = phantom.truth;
+    assert!(labels.len() > 1 << 16, "more than one chunk of the parallel check");
+    let last = labels.len() - 1;
+    labels[last] = 9;
+    assert!(matches!(
+        check_labels(&phantom.volume, &labels, 3),
+        Err(TransferError::LabelOutOfRange { voxel, label: 9, class_count: 3 }) if voxel == last
+    ));
+    labels[last] = 3;
+    assert!(check_labels(&phantom.volume, &labels, 3).is_ok());
+}
