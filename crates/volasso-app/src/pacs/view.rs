@@ -1,4 +1,4 @@
-//! The PACS screen and "Send to PACS" on screen: [`show`] writes the model (mod.rs) into
+//! The PACS screen and "Send to PACS" on screen: `show` writes the model (mod.rs) into
 //! Session.
 //!
 //! Never: decides anything (that is `PacsModel`'s).

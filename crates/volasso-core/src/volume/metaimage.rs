@@ -2,7 +2,7 @@
 //! names).
 //!
 //! The header is `Key = Value` lines ending with `ElementDataFile`; keys are compared without
-//! regard to case, and a key given twice with different values is refused ([`super::fields`]).
+//! regard to case, and a key given twice with different values is refused (`super::fields`).
 //! Booleans (`BinaryDataByteOrderMSB`, its synonym `ElementByteOrderMSB`, `CompressedData`)
 //! are `True`/`False` or `1`/`0` in any case; anything else is refused. Raw data is
 //! memory-mapped; `CompressedData = True` (zlib, or gzip as ITK also reads) is decompressed for

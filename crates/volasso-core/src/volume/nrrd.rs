@@ -3,10 +3,10 @@
 //!
 //! Follows the teem NRRD format specification (NRRD0001..NRRD0005). Raw-encoded data is
 //! memory-mapped in place; gzip data is decompressed (the caller caches it as a raw NRRD);
-//! ASCII data is parsed into memory, each value stored exactly or refused ([`ascii`]). Header
+//! ASCII data is parsed into memory, each value stored exactly or refused (`ascii`). Header
 //! parsing ([`parse_header`]) is a pure function over bytes, so it is property-tested and
 //! fuzzed without touching files. A field given twice with different values is refused
-//! ([`super::fields`]); the data must end its file (bytes after it are refused, as more
+//! (`super::fields`); the data must end its file (bytes after it are refused, as more
 //! decompressed or ASCII data is).
 //!
 //! Every size, offset and skip is checked before it is used (see [`super::limits`]): byte and
