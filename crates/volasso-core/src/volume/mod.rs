@@ -488,11 +488,11 @@ fn read_stored(bytes: &[u8], voxel_type: VoxelType, order: ByteOrder, index: usi
 /// and [`ForegroundRows`] (which must agree with it to the last bit).
 #[inline]
 fn convert_bytes(bytes: &[u8], scale: ValueScale, out: &mut [f32]) {
-    let pairs = out.iter_mut().zip(bytes);
+    let (slope, intercept) = (scale.slope, scale.intercept);
     if scale.is_identity() {
-        pairs.for_each(|(o, &b)| *o = f32::from(b));
+        each(bytes, out, |[byte]| f32::from(byte));
     } else {
-        pairs.for_each(|(o, &b)| *o = (f64::from(b) * scale.slope + scale.intercept) as f32);
+        each(bytes, out, |[byte]| (f64::from(byte) * slope + intercept) as f32);
     }
 }
 
